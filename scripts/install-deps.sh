@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Installs, with apt-get, the Debian 12 packages kanedyn needs to build and test.
+# Does nothing when everything is already present. Usage: scripts/install-deps.sh [--peers]
+#   --peers  also the peer engines for bench/peers (Simbody, MuJoCo, DART); never needed for tests.
+set -euo pipefail
+pkgs=(build-essential cmake g++ libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
+      libgtest-dev libgmock-dev libbenchmark-dev)
+if [[ "${1:-}" == "--peers" ]]; then
+  pkgs+=(libsimbody-dev libmujoco-dev libdart-dev)
+fi
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}" >&2
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
