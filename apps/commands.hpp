@@ -27,6 +27,6 @@ struct RegisterCommand {
 };
 
 #define KANEDYN_COMMAND(order, fn) \
-  static const ::kanedyn::cli::RegisterCommand kanedyn_command_registration_##fn{order, &fn}
+  static const ::kanedyn::cli::RegisterCommand kanedyn_command_registration_##fn { order, &fn }
 
 }  // namespace kanedyn::cli

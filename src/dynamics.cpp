@@ -32,8 +32,8 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
     data.a_G[i] = data.force[i] / b.mass;
     data.alpha_b[i] = model.inverse_inertia(k) * (data.moment_b[i] - w.cross(b.inertia * w));
     // Acceleration of O_K: a_G - d2/dt2([R_K]^T r').
-    data.a_O[i] = data.a_G[i] - data.R[i].transpose() *
-                                    (data.alpha_b[i].cross(b.com) + w.cross(w.cross(b.com)));
+    data.a_O[i] = data.a_G[i] -
+                  data.R[i].transpose() * (data.alpha_b[i].cross(b.com) + w.cross(w.cross(b.com)));
     data.ydot.segment<3>(3 * k) = data.alpha_b[i];  // Eq. (10)
   }
   // s''_K from a_O_K = a_O_J + [R_J]^T(s'' + 2 w'_J x s'dot + alpha'_J x (q'+s')
@@ -49,9 +49,8 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
     const auto jj = at(j);
     const Vector3 wj = state.angular_velocity(j);
     const Vector3& qs = data.qs_b[i];
-    sdd = data.R[jj] * (data.a_O[i] - data.a_O[jj]) -
-          2.0 * wj.cross(state.translation_rate(k)) - data.alpha_b[jj].cross(qs) -
-          wj.cross(wj.cross(qs));
+    sdd = data.R[jj] * (data.a_O[i] - data.a_O[jj]) - 2.0 * wj.cross(state.translation_rate(k)) -
+          data.alpha_b[jj].cross(qs) - wj.cross(wj.cross(qs));
   }
 }
 

@@ -55,8 +55,8 @@ void Bushing::apply(const Model& model, const State& state, Data& data) const {
   // Rotational part: M = -kr theta - cr (w_K - w_J), body-K components.
   Vector3 w_rel_b = state.angular_velocity(k);
   if (j != kGround) w_rel_b -= Rk * (data.R[at(j)].transpose() * state.angular_velocity(j));
-  const Vector3 m_b = -rotational_stiffness * rotation_vector(state, model) -
-                      rotational_damping * w_rel_b;
+  const Vector3 m_b =
+      -rotational_stiffness * rotation_vector(state, model) - rotational_damping * w_rel_b;
   data.moment_b[at(k)] += m_b;
   if (j != kGround) {
     const Matrix3& Rj = data.R[at(j)];

@@ -33,9 +33,9 @@ void compute_velocities(const Model& model, const State& state, Data& data) {
     } else {
       const auto jj = static_cast<size_t>(j);
       // Eq. (15)
-      data.v_O[i] = data.v_O[jj] + data.R[jj].transpose() *
-                                       (state.translation_rate(k) +
-                                        state.angular_velocity(j).cross(data.qs_b[i]));
+      data.v_O[i] = data.v_O[jj] +
+                    data.R[jj].transpose() *
+                        (state.translation_rate(k) + state.angular_velocity(j).cross(data.qs_b[i]));
     }
     // Eq. (17)
     data.v_G[i] =

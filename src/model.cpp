@@ -72,8 +72,7 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
     if (b.lower_body != kGround && (b.lower_body < 0 || b.lower_body >= k))
       fail(where, "parent must be 'ground' or an earlier body (L(K) < K), got index " +
                       std::to_string(b.lower_body + 1));
-    if (!std::isfinite(b.mass) || !(b.mass > 0.0))
-      fail(where, "mass must be a finite number > 0");
+    if (!std::isfinite(b.mass) || !(b.mass > 0.0)) fail(where, "mass must be a finite number > 0");
     if (const std::string e = check_inertia(b.inertia); !e.empty()) fail(where, e);
     if (!all_finite(b.com)) fail(where, "com has a non-finite component");
     if (!all_finite(b.joint)) fail(where, "joint has a non-finite component");

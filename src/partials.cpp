@@ -78,8 +78,7 @@ void compute_partial_rates(const Model& model, const State& state, Data& data) {
       //   - [R_J]^T([w~'_J]([q~'_K] + [s~'_K]) + [s'dot~_K])[w'_J,y] + [R_J]^T[w~'_J][J v'_O_K,y]
       const Matrix3 RjT = data.R[at(j)].transpose();
       const Matrix3 wj = skew(state.angular_velocity(j));
-      data.vO_w_dot[o + 1] -=
-          RjT * (wj * skew(data.qs_b[at(k)]) + skew(state.translation_rate(k)));
+      data.vO_w_dot[o + 1] -= RjT * (wj * skew(data.qs_b[at(k)]) + skew(state.translation_rate(k)));
       data.vO_w_dot[o].setZero();
       data.vO_s_dot[o] = RjT * wj;
     }
@@ -89,8 +88,8 @@ void compute_partial_rates(const Model& model, const State& state, Data& data) {
       data.vG_w_dot[o + at(r)] = data.vO_w_dot[o + at(r)];
       data.vG_s_dot[o + at(r)] = data.vO_s_dot[o + at(r)];
     }
-    data.vG_w_dot[o] -= data.R[at(k)].transpose() * skew(state.angular_velocity(k)) *
-                        skew(model.body(k).com);
+    data.vG_w_dot[o] -=
+        data.R[at(k)].transpose() * skew(state.angular_velocity(k)) * skew(model.body(k).com);
   }
 }
 

@@ -22,7 +22,7 @@ Matrix3 rotation_matrix(const Vector4& eps) {
 
 Matrix4 euler_matrix(const Vector4& eps) {
   const double e1 = eps[0], e2 = eps[1], e3 = eps[2], e4 = eps[3];
-  Matrix4 e;  // Eq. (5)
+  Matrix4 e;              // Eq. (5)
   e << e4, e3, -e2, -e1,  //
       -e3, e4, e1, -e2,   //
       e2, -e1, e4, -e3,   //
@@ -33,9 +33,9 @@ Matrix4 euler_matrix(const Vector4& eps) {
 Eigen::Matrix<double, 4, 3> euler_matrix_bar_transpose(const Vector4& eps) {
   const double e1 = eps[0], e2 = eps[1], e3 = eps[2], e4 = eps[3];
   Eigen::Matrix<double, 4, 3> m;  // Eq. (41)
-  m << e4, -e3, e2,  //
-      e3, e4, -e1,   //
-      -e2, e1, e4,   //
+  m << e4, -e3, e2,               //
+      e3, e4, -e1,                //
+      -e2, e1, e4,                //
       -e1, -e2, -e3;
   return m;
 }

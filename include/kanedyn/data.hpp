@@ -46,9 +46,9 @@ struct Data {
   // components, moment in body-K components (the {F_K} and {M'_K} of Eq. 31).
   std::vector<Vector3> force, moment_b;
 
-  VectorX F_y;  ///< generalized forces, Eq. (31), 6N
-  MatrixX A;    ///< generalized mass matrix, Eq. (37), 6N x 6N
-  VectorX f;    ///< right side, Eq. (38), 6N
+  VectorX F_y;                   ///< generalized forces, Eq. (31), 6N
+  MatrixX A;                     ///< generalized mass matrix, Eq. (37), 6N x 6N
+  VectorX f;                     ///< right side, Eq. (38), 6N
   Eigen::LLT<MatrixX> A_factor;  ///< Cholesky factor of A
 
   VectorX ydot;  ///< 6N, solution of Eq. (36)

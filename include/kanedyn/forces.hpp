@@ -23,8 +23,7 @@ class ForceElement {
   virtual void apply(const Model& model, const State& state, Data& data) const = 0;
   /// Potential energy stored in the element (0 for constant loads, which are not conservative
   /// in general and are left out of the energy).
-  virtual double potential_energy(const Model& model, const State& state,
-                                  const Data& data) const;
+  virtual double potential_energy(const Model& model, const State& state, const Data& data) const;
   /// Power removed from the system by the element's damping (>= 0).
   virtual double damping_power(const Model& model, const State& state, const Data& data) const;
 };
@@ -42,8 +41,7 @@ class Bushing final : public ForceElement {
   int body() const override { return body_; }
   std::string validate(const Model& model) const override;
   void apply(const Model& model, const State& state, Data& data) const override;
-  double potential_energy(const Model& model, const State& state,
-                          const Data& data) const override;
+  double potential_energy(const Model& model, const State& state, const Data& data) const override;
   double damping_power(const Model& model, const State& state, const Data& data) const override;
 
   /// {F'} in body-J components; theta of K relative to J.

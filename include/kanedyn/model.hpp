@@ -22,12 +22,12 @@ class ModelError : public std::runtime_error {
 
 /// What the user says about one body K (index k = K-1).
 struct BodySpec {
-  std::string name;            ///< unique, [A-Za-z0-9_-]+
-  int lower_body = kGround;    ///< L(K) as a 0-based index of an earlier body, or kGround
-  double mass = 0.0;           ///< m_K > 0
+  std::string name;                   ///< unique, [A-Za-z0-9_-]+
+  int lower_body = kGround;           ///< L(K) as a 0-based index of an earlier body, or kGround
+  double mass = 0.0;                  ///< m_K > 0
   Matrix3 inertia = Matrix3::Zero();  ///< [I'_GK] about G_K, body-K components
   Vector3 com = Vector3::Zero();      ///< {r'_K}: O_K to G_K, body-K components
-  Vector3 joint = Vector3::Zero();    ///< {q'_K}: O_J to Q_K, body-J components (inertial for roots)
+  Vector3 joint = Vector3::Zero();  ///< {q'_K}: O_J to Q_K, body-J components (inertial for roots)
 };
 
 /// An unconstrained tree (or forest) of N rigid bodies. Body indices are 0-based: index k is

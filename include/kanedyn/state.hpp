@@ -33,13 +33,13 @@ struct State {
   auto translation_rate(int k) const { return y.segment<3>(3 * num_bodies() + 3 * k); }
 
   // The partitions of Eq. (1).
-  auto x1() { return x.head(4 * num_bodies()); }              ///< {eps}
+  auto x1() { return x.head(4 * num_bodies()); }  ///< {eps}
   auto x1() const { return x.head(4 * num_bodies()); }
-  auto x2() { return x.tail(3 * num_bodies()); }              ///< {s'}
+  auto x2() { return x.tail(3 * num_bodies()); }  ///< {s'}
   auto x2() const { return x.tail(3 * num_bodies()); }
-  auto y1() { return y.head(3 * num_bodies()); }              ///< {w'}
+  auto y1() { return y.head(3 * num_bodies()); }  ///< {w'}
   auto y1() const { return y.head(3 * num_bodies()); }
-  auto y2() { return y.tail(3 * num_bodies()); }              ///< {s' dot}
+  auto y2() { return y.tail(3 * num_bodies()); }  ///< {s' dot}
   auto y2() const { return y.tail(3 * num_bodies()); }
 
   /// Rescales every eps_K to unit norm; returns the largest | |eps_K| - 1 | found before.

@@ -34,8 +34,8 @@ struct SimulationSection {
   std::optional<double> dt_out;
   std::optional<std::string> integrator;  ///< "dopri5" | "rk4"
   std::optional<double> rtol, atol;
-  std::optional<double> step;             ///< fixed step for rk4
-  std::optional<std::string> method;      ///< "recursive" | "kane"
+  std::optional<double> step;         ///< fixed step for rk4
+  std::optional<std::string> method;  ///< "recursive" | "kane"
 };
 
 /// What a model file holds.
