@@ -1,0 +1,690 @@
+// Model files (docs/model-format.md): the examples load, values round-trip, axis-angle input
+// gives the expected Euler parameters, and bad input is refused with a message naming the
+// file, line:col, key path and problem.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "kanedyn/forces.hpp"
+#include "kanedyn/io/model_file.hpp"
+
+namespace kanedyn::io {
+namespace {
+
+const std::string kExamples = std::string(KANEDYN_SOURCE_DIR) + "/examples/";
+
+// A small valid model; the bad inputs below are edits of it.
+const std::string kBase = R"(format: kanedyn-model/1
+name: two bodies
+gravity: [0, 0, -9.81]
+bodies:
+  - name: pelvis
+    parent: ground
+    mass: 2.0
+    inertia: [0.1, 0.2, 0.25]
+    initial:
+      euler_parameters: [0, 0, 0, 1]
+  - name: thigh
+    parent: pelvis
+    mass: 1.0
+    inertia: [0.01, 0.01, 0.015]
+    joint: [0, 0, -0.5]
+    initial:
+      rotation: {axis: [0, 1, 0], angle: 0.3}
+forces:
+  - type: bushing
+    body: thigh
+    stiffness: 100
+simulation:
+  t_end: 1
+  integrator: rk4
+)";
+
+/// `text` with the one occurrence of `from` replaced by `to`.
+std::string edit(const std::string& text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "'" << from << "' not in the text";
+  EXPECT_EQ(text.find(from, at + 1), std::string::npos) << "'" << from << "' not unique";
+  if (at == std::string::npos) return text;
+  return text.substr(0, at) + to + text.substr(at + from.size());
+}
+
+struct Location {
+  int line = 0, column = 0;  // 1-based
+};
+
+/// Where `needle` (with '^' marking the spot; the '^' is not part of the text) occurs in
+/// `text`, counted independently of the parser.
+Location locate(const std::string& text, const std::string& needle) {
+  const size_t caret = needle.find('^');
+  std::string plain = needle;
+  plain.erase(caret, 1);
+  const size_t at = text.find(plain);
+  EXPECT_NE(at, std::string::npos) << "'" << plain << "' not in the text";
+  EXPECT_EQ(text.find(plain, at + 1), std::string::npos) << "'" << plain << "' not unique";
+  const size_t pos = at + caret;
+  Location loc;
+  loc.line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + pos, '\n'));
+  const size_t line_start = text.rfind('\n', pos == 0 ? 0 : pos - 1);
+  loc.column = 1 + static_cast<int>(
+                       pos - (line_start == std::string::npos || pos == 0 ? 0 : line_start + 1));
+  return loc;
+}
+
+TEST(ModelFile, BaseTextIsValid) {
+  const ModelFile f = parse_model_file(kBase, "base.yaml");
+  EXPECT_EQ(f.model.num_bodies(), 2);
+  EXPECT_EQ(f.path, "base.yaml");
+}
+
+TEST(ModelFile, LocateCountsFromOne) {
+  // The helper itself: "b" of "a\nxb" is line 2, column 2.
+  const Location loc = locate("a\nxb", "x^b");
+  EXPECT_EQ(loc.line, 2);
+  EXPECT_EQ(loc.column, 2);
+  const Location first = locate("ab", "^a");
+  EXPECT_EQ(first.line, 1);
+  EXPECT_EQ(first.column, 1);
+}
+
+// ---- The examples -------------------------------------------------------------------------
+
+void expect_eight_body(const ModelFile& f) {
+  const Model& m = f.model;
+  ASSERT_EQ(m.num_bodies(), 8);
+  // L(K) = (0, 1, 2, 2, 1, 1, 1, 7), 1-based with 0 = ground; here 0-based with kGround.
+  const std::vector<int> lower = {kGround, 0, 1, 1, 0, 0, 0, 6};
+  const std::vector<int> depth = {0, 1, 2, 2, 1, 1, 1, 2};  // u_K of the notes
+  for (int k = 0; k < 8; ++k) {
+    EXPECT_EQ(m.lower_body(k), lower[static_cast<size_t>(k)]) << "body index " << k;
+    EXPECT_EQ(m.depth(k), depth[static_cast<size_t>(k)]) << "body index " << k;
+  }
+  const std::vector<std::string> names = {"torso", "pelvis",    "right_leg",      "left_leg",
+                                          "head",  "right_arm", "left_upper_arm", "left_forearm"};
+  for (int k = 0; k < 8; ++k) EXPECT_EQ(m.body(k).name, names[static_cast<size_t>(k)]);
+  EXPECT_EQ(m.gravity(), Vector3(0, 0, -9.81));
+  // A bushing on every body, the root's to the ground.
+  std::vector<int> bushings(8, 0);
+  for (const auto& e : m.forces())
+    if (e->type() == "bushing") ++bushings[static_cast<size_t>(e->body())];
+  for (int k = 0; k < 8; ++k) EXPECT_EQ(bushings[static_cast<size_t>(k)], 1) << names[k];
+  // A non-trivial initial state with unit Euler parameters (normalized: round-off only).
+  const State& s = f.initial;
+  ASSERT_EQ(s.num_bodies(), 8);
+  int rotated = 0;
+  for (int k = 0; k < 8; ++k) {
+    EXPECT_NEAR(s.euler_parameters(k).norm(), 1.0, 1e-15);
+    if (s.euler_parameters(k)[3] < 1.0 - 1e-6) ++rotated;
+  }
+  EXPECT_GE(rotated, 4);
+  EXPECT_GT(s.x2().norm(), 0.0);  // translations
+  EXPECT_GT(s.y1().norm(), 0.0);  // angular velocities
+  EXPECT_GT(s.y2().norm(), 0.0);  // translation rates
+  EXPECT_EQ(f.simulation.t_end, 10.0);
+  EXPECT_EQ(f.simulation.dt_out, 0.01);
+}
+
+TEST(ModelFile, LoadsEightBodyYaml) {
+  expect_eight_body(load_model_file(kExamples + "eight_body.yaml"));
+}
+
+TEST(ModelFile, LoadsEightBodyJson) {
+  expect_eight_body(load_model_file(kExamples + "eight_body.json"));
+}
+
+// Both files spell the same decimal numbers, which parse to the same doubles: exact equality.
+TEST(ModelFile, YamlAndJsonExamplesAreIdentical) {
+  const ModelFile a = load_model_file(kExamples + "eight_body.yaml");
+  const ModelFile b = load_model_file(kExamples + "eight_body.json");
+  ASSERT_EQ(a.model.num_bodies(), b.model.num_bodies());
+  EXPECT_EQ(a.model.name(), b.model.name());
+  EXPECT_EQ(a.model.gravity(), b.model.gravity());
+  for (int k = 0; k < a.model.num_bodies(); ++k) {
+    const BodySpec& p = a.model.body(k);
+    const BodySpec& q = b.model.body(k);
+    EXPECT_EQ(p.name, q.name);
+    EXPECT_EQ(p.lower_body, q.lower_body);
+    EXPECT_EQ(p.mass, q.mass);
+    EXPECT_EQ(p.inertia, q.inertia);
+    EXPECT_EQ(p.com, q.com);
+    EXPECT_EQ(p.joint, q.joint);
+  }
+  ASSERT_EQ(a.model.forces().size(), b.model.forces().size());
+  for (size_t i = 0; i < a.model.forces().size(); ++i) {
+    const auto* p = dynamic_cast<const Bushing*>(a.model.forces()[i].get());
+    const auto* q = dynamic_cast<const Bushing*>(b.model.forces()[i].get());
+    ASSERT_TRUE(p && q) << "forces[" << i << "]";
+    EXPECT_EQ(p->body(), q->body());
+    EXPECT_EQ(p->stiffness, q->stiffness);
+    EXPECT_EQ(p->damping, q->damping);
+    EXPECT_EQ(p->rotational_stiffness, q->rotational_stiffness);
+    EXPECT_EQ(p->rotational_damping, q->rotational_damping);
+  }
+  EXPECT_EQ(a.initial.x, b.initial.x);
+  EXPECT_EQ(a.initial.y, b.initial.y);
+  EXPECT_EQ(a.simulation.t_end, b.simulation.t_end);
+  EXPECT_EQ(a.simulation.dt_out, b.simulation.dt_out);
+  EXPECT_EQ(a.simulation.integrator, b.simulation.integrator);
+}
+
+// ---- Values round-trip --------------------------------------------------------------------
+
+// Every number below is compared with the same decimal literal compiled by C++: both are the
+// correctly rounded double, so equality is exact.
+TEST(ModelFile, ValuesRoundTrip) {
+  const std::string text = R"(format: kanedyn-model/1
+name: round trip
+gravity: [+0.5, -1.25, -9.81]
+bodies:
+  - name: base-1
+    parent: ground
+    mass: 3.5
+    inertia: [2.0, 3.0, 4.0, 0.1, -0.2, 0.3]
+    com: [0.01, 0.02, 0.03]
+    joint: [1, 2, 3]
+    initial:
+      euler_parameters: [0.5, 0.5, 0.5, 0.5]
+      translation: [0.4, 0.5, 0.6]
+      angular_velocity: [-1, 2, -3]
+      translation_rate: [7, 8, 9]
+  - name: arm_2
+    parent: base-1
+    mass: 1e-1
+    inertia: [1.5e-3, 2.5E-3, 3.5e-3]
+    com: [0, 0, -0.125]
+    joint: [-0.5, 0, .25]
+forces:
+  - type: bushing
+    body: arm_2
+    stiffness: [10, 20, 30]
+    damping: 0.75
+  - type: bushing
+    body: base-1
+    rotational_stiffness: 44
+    rotational_damping: 0.5
+  - type: force
+    body: arm_2
+    value: [1, -2, 3]
+  - type: torque
+    body: base-1
+    value: [0.25, 0.5, -0.75]
+simulation:
+  t_end: 2.5
+  dt_out: 0.05
+  integrator: rk4
+  rtol: 1e-9
+  atol: 1e-12
+  step: 0.001
+  method: kane
+)";
+  const ModelFile f = parse_model_file(text, "rt.yaml");
+  const Model& m = f.model;
+  EXPECT_EQ(m.name(), "round trip");
+  EXPECT_EQ(m.gravity(), Vector3(0.5, -1.25, -9.81));
+  ASSERT_EQ(m.num_bodies(), 2);
+
+  const BodySpec& b0 = m.body(0);
+  EXPECT_EQ(b0.name, "base-1");
+  EXPECT_EQ(b0.lower_body, kGround);
+  EXPECT_EQ(b0.mass, 3.5);
+  Matrix3 inertia;  // products are the off-diagonal entries of the tensor
+  inertia << 2.0, 0.1, -0.2, 0.1, 3.0, 0.3, -0.2, 0.3, 4.0;
+  EXPECT_EQ(b0.inertia, inertia);
+  EXPECT_EQ(b0.com, Vector3(0.01, 0.02, 0.03));
+  EXPECT_EQ(b0.joint, Vector3(1, 2, 3));
+
+  const BodySpec& b1 = m.body(1);
+  EXPECT_EQ(b1.name, "arm_2");
+  EXPECT_EQ(b1.lower_body, 0);
+  EXPECT_EQ(b1.mass, 1e-1);
+  EXPECT_EQ(b1.inertia, Vector3(1.5e-3, 2.5e-3, 3.5e-3).asDiagonal().toDenseMatrix());
+  EXPECT_EQ(b1.com, Vector3(0, 0, -0.125));
+  EXPECT_EQ(b1.joint, Vector3(-0.5, 0, 0.25));
+
+  const State& s = f.initial;
+  EXPECT_EQ(s.euler_parameters(0), Vector4(0.5, 0.5, 0.5, 0.5));  // unit already: exact
+  EXPECT_EQ(s.translation(0), Vector3(0.4, 0.5, 0.6));
+  EXPECT_EQ(s.angular_velocity(0), Vector3(-1, 2, -3));
+  EXPECT_EQ(s.translation_rate(0), Vector3(7, 8, 9));
+  // Body 2 has no `initial:`: identity, zero.
+  EXPECT_EQ(s.euler_parameters(1), Vector4(0, 0, 0, 1));
+  EXPECT_EQ(s.translation(1), Vector3::Zero());
+  EXPECT_EQ(s.angular_velocity(1), Vector3::Zero());
+  EXPECT_EQ(s.translation_rate(1), Vector3::Zero());
+
+  ASSERT_EQ(m.forces().size(), 4u);
+  const auto* k1 = dynamic_cast<const Bushing*>(m.forces()[0].get());
+  ASSERT_NE(k1, nullptr);
+  EXPECT_EQ(k1->body(), 1);
+  EXPECT_EQ(k1->stiffness, Vector3(10, 20, 30));
+  EXPECT_EQ(k1->damping, Vector3(0.75, 0.75, 0.75));  // a scalar means three equal
+  EXPECT_EQ(k1->rotational_stiffness, 0.0);           // missing parts are 0
+  EXPECT_EQ(k1->rotational_damping, 0.0);
+  const auto* k2 = dynamic_cast<const Bushing*>(m.forces()[1].get());
+  ASSERT_NE(k2, nullptr);
+  EXPECT_EQ(k2->body(), 0);
+  EXPECT_EQ(k2->stiffness, Vector3::Zero());
+  EXPECT_EQ(k2->damping, Vector3::Zero());
+  EXPECT_EQ(k2->rotational_stiffness, 44.0);
+  EXPECT_EQ(k2->rotational_damping, 0.5);
+  const auto* force = dynamic_cast<const ConstantForce*>(m.forces()[2].get());
+  ASSERT_NE(force, nullptr);
+  EXPECT_EQ(force->body(), 1);
+  EXPECT_EQ(force->value, Vector3(1, -2, 3));
+  const auto* torque = dynamic_cast<const ConstantTorque*>(m.forces()[3].get());
+  ASSERT_NE(torque, nullptr);
+  EXPECT_EQ(torque->body(), 0);
+  EXPECT_EQ(torque->value, Vector3(0.25, 0.5, -0.75));
+
+  const SimulationSection& sim = f.simulation;
+  EXPECT_EQ(sim.t_end, 2.5);
+  EXPECT_EQ(sim.dt_out, 0.05);
+  EXPECT_EQ(sim.integrator, "rk4");
+  EXPECT_EQ(sim.rtol, 1e-9);
+  EXPECT_EQ(sim.atol, 1e-12);
+  EXPECT_EQ(sim.step, 0.001);
+  EXPECT_EQ(sim.method, "kane");
+}
+
+TEST(ModelFile, DefaultsWhenOptionalKeysAreAbsent) {
+  const ModelFile f = parse_model_file(R"(format: kanedyn-model/1
+bodies:
+  - {name: a, parent: ground, mass: 1, inertia: [1, 1, 1]}
+)",
+                                       "min.yaml");
+  EXPECT_EQ(f.model.name(), "");
+  EXPECT_EQ(f.model.gravity(), Vector3::Zero());
+  EXPECT_EQ(f.model.body(0).com, Vector3::Zero());
+  EXPECT_EQ(f.model.body(0).joint, Vector3::Zero());
+  EXPECT_TRUE(f.model.forces().empty());
+  EXPECT_EQ(f.initial.x, State(1).x);
+  EXPECT_EQ(f.initial.y, State(1).y);
+  EXPECT_FALSE(f.simulation.t_end || f.simulation.dt_out || f.simulation.integrator ||
+               f.simulation.rtol || f.simulation.atol || f.simulation.step || f.simulation.method);
+}
+
+// ---- Rotations ----------------------------------------------------------------------------
+
+Vector4 initial_eps(const std::string& initial_block) {
+  const ModelFile f = parse_model_file(
+      "format: kanedyn-model/1\nbodies:\n  - name: a\n    parent: ground\n    mass: 1\n"
+      "    inertia: [1, 1, 1]\n    initial:\n      " +
+          initial_block + "\n",
+      "rot.yaml");
+  return f.initial.euler_parameters(0);
+}
+
+// Expected values from the definition eps = (sin(angle/2) axis/|axis|, cos(angle/2)); the
+// two sides differ by a few roundings of O(1) numbers, hence 1e-15.
+TEST(ModelFile, RotationAxisAngleGivesEulerParameters) {
+  const Vector4 eps = initial_eps("rotation: {axis: [1, 2, 2], angle: 0.8}");
+  const double s = std::sin(0.4), c = std::cos(0.4);
+  EXPECT_NEAR(eps[0], s * 1.0 / 3.0, 1e-15);
+  EXPECT_NEAR(eps[1], s * 2.0 / 3.0, 1e-15);
+  EXPECT_NEAR(eps[2], s * 2.0 / 3.0, 1e-15);
+  EXPECT_NEAR(eps[3], c, 1e-15);
+}
+
+TEST(ModelFile, RotationInDegrees) {
+  // 90 degrees about z (axis not unit): (0, 0, sin 45deg, cos 45deg) = (0, 0, 1/sqrt2, 1/sqrt2).
+  const Vector4 a = initial_eps("rotation: {axis: [0, 0, 2], angle_deg: 90}");
+  EXPECT_NEAR(a[0], 0.0, 1e-15);
+  EXPECT_NEAR(a[1], 0.0, 1e-15);
+  EXPECT_NEAR(a[2], std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(a[3], std::sqrt(0.5), 1e-15);
+  // 120 degrees about (1, 1, 1): sin 60deg / sqrt3 = 1/2 and cos 60deg = 1/2, exactly.
+  const Vector4 b = initial_eps("rotation: {axis: [1, 1, 1], angle_deg: 120}");
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(b[i], 0.5, 1e-15);
+  // A negative angle about -z is the same rotation as a positive one about +z.
+  const Vector4 c = initial_eps("rotation: {axis: [0, 0, -1], angle: -0.6}");
+  EXPECT_NEAR(c[2], std::sin(0.3), 1e-15);
+  EXPECT_NEAR(c[3], std::cos(0.3), 1e-15);
+}
+
+TEST(ModelFile, EulerParametersWithinToleranceAreNormalizedSilently) {
+  // |eps| - 1 = +4.8e-7 and -4.8e-7, both inside the 1e-6 tolerance.
+  for (const double e4 : {0.8000006, 0.7999994}) {
+    const Vector4 given(0.0, 0.6, 0.0, e4);
+    ASSERT_LT(std::abs(given.norm() - 1.0), 1e-6);
+    ASSERT_GT(std::abs(given.norm() - 1.0), 1e-7);
+    Vector4 eps;
+    ASSERT_NO_THROW(eps = initial_eps("euler_parameters: [0, 0.6, 0, " +
+                                      std::string(e4 > 0.8 ? "0.8000006" : "0.7999994") + "]"));
+    EXPECT_NEAR(eps.norm(), 1.0, 1e-15);
+    // Same direction as given: the normalized input.
+    const double n = std::sqrt(0.36 + e4 * e4);
+    EXPECT_NEAR(eps[1], 0.6 / n, 1e-15);
+    EXPECT_NEAR(eps[3], e4 / n, 1e-15);
+    EXPECT_NE(eps[3], e4);  // it did change
+  }
+}
+
+// ---- Bad input ----------------------------------------------------------------------------
+
+struct BadCase {
+  std::string label;
+  std::string text;
+  std::string at;        // where the error points ('^' marks the spot); "" for no location
+  std::string key_path;  // "" when the error concerns the whole file
+  std::vector<std::string> words;  // parts of the problem that must appear
+};
+
+std::vector<BadCase> bad_cases() {
+  const std::string& b = kBase;
+  return {
+      {"missing format",
+       edit(b, "format: kanedyn-model/1\n", ""),
+       "^name: two",
+       "format",
+       {"missing", "format"}},
+      {"wrong format",
+       edit(b, "kanedyn-model/1", "kanedyn-model/2"),
+       "format: ^kanedyn-model/2",
+       "format",
+       {"unsupported format", "kanedyn-model/1"}},
+      {"unknown top-level key",
+       edit(b, "gravity:", "gravty:"),
+       "^gravty",
+       "gravty",
+       {"unknown key 'gravty'", "did you mean 'gravity'", "allowed keys", "bodies"}},
+      {"unknown body key",
+       edit(b, "mass: 2.0", "masss: 2.0"),
+       "^masss",
+       "bodies[0].masss",
+       {"unknown key 'masss'", "did you mean 'mass'", "inertia"}},
+      {"parent is a later body",
+       edit(b, "parent: ground", "parent: thigh"),
+       "parent: ^thigh",
+       "bodies[0].parent",
+       {"later", "earlier"}},
+      {"parent unknown",
+       edit(b, "parent: pelvis", "parent: torso"),
+       "parent: ^torso",
+       "bodies[1].parent",
+       {"unknown parent 'torso'", "ground"}},
+      {"parent is itself",
+       edit(b, "parent: pelvis", "parent: thigh"),
+       "parent: ^thigh",
+       "bodies[1].parent",
+       {"own parent"}},
+      {"duplicate body name",
+       edit(b, "name: thigh", "name: pelvis"),
+       "^pelvis\n    parent: pelvis",
+       "bodies[1].name",
+       {"duplicate body name", "bodies[0]"}},
+      {"body named ground",
+       edit(b, "name: thigh", "name: ground"),
+       "name: ^ground",
+       "bodies[1].name",
+       {"reserved"}},
+      {"bad body name",
+       edit(b, "name: thigh", "name: left thigh"),
+       "^left thigh",
+       "bodies[1].name",
+       {"A-Za-z0-9_-"}},
+      {"mass zero", edit(b, "mass: 2.0", "mass: 0"), "mass: ^0", "bodies[0].mass", {"> 0"}},
+      {"mass negative",
+       edit(b, "mass: 1.0", "mass: -1.0"),
+       "mass: ^-1.0",
+       "bodies[1].mass",
+       {"> 0"}},
+      {"mass missing",
+       edit(b, "    mass: 1.0\n", ""),
+       "- ^name: thigh",
+       "bodies[1].mass",
+       {"missing required key 'mass'"}},
+      {"mass null",
+       edit(b, "mass: 2.0", "mass:"),
+       "^mass:\n",
+       "bodies[0].mass",
+       {"expected a number", "null"}},
+      {"inertia not positive definite",
+       edit(b, "inertia: [0.1, 0.2, 0.25]", "inertia: [1, 1, 1, 2, 0, 0]"),
+       "inertia: ^[1, 1, 1",
+       "bodies[0].inertia",
+       {"positive definite"}},
+      {"inertia violates the triangle inequality",
+       edit(b, "inertia: [0.1, 0.2, 0.25]", "inertia: [0.1, 0.2, 0.4]"),
+       "inertia: ^[0.1, 0.2, 0.4]",
+       "bodies[0].inertia",
+       {"triangle inequality"}},
+      {"inertia of wrong length",
+       edit(b, "inertia: [0.1, 0.2, 0.25]", "inertia: [0.1, 0.2]"),
+       "inertia: ^[0.1, 0.2]",
+       "bodies[0].inertia",
+       {"3 numbers", "6 numbers", "list of 2"}},
+      {"NaN", edit(b, "mass: 2.0", "mass: .nan"), "mass: ^.nan", "bodies[0].mass", {"non-finite"}},
+      {"overflow to infinity",
+       edit(b, "joint: [0, 0, -0.5]", "joint: [0, 0, 1e999]"),
+       "^1e999",
+       "bodies[1].joint[2]",
+       {"non-finite"}},
+      {"infinity",
+       edit(b, "gravity: [0, 0, -9.81]", "gravity: [0, -.inf, -9.81]"),
+       "^-.inf",
+       "gravity[1]",
+       {"non-finite"}},
+      {"Euler parameter norm off",
+       edit(b, "euler_parameters: [0, 0, 0, 1]", "euler_parameters: [0, 0, 0, 1.00001]"),
+       "euler_parameters: ^[0, 0, 0, 1.00001]",
+       "bodies[0].initial.euler_parameters",
+       {"norm", "1e-06"}},
+      {"Euler parameters and rotation",
+       edit(b, "      euler_parameters: [0, 0, 0, 1]\n",
+            "      euler_parameters: [0, 0, 0, 1]\n      rotation: {axis: [1, 0, 0], angle: 1}\n"),
+       "      ^rotation: {axis: [1, 0, 0]",
+       "bodies[0].initial",
+       {"not both"}},
+      {"unknown initial key",
+       edit(b, "euler_parameters:", "euler_parameter:"),
+       "^euler_parameter:",
+       "bodies[0].initial.euler_parameter",
+       {"unknown key", "did you mean 'euler_parameters'"}},
+      {"rotation axis zero",
+       edit(b, "axis: [0, 1, 0]", "axis: [0, 0, 0]"),
+       "axis: ^[0, 0, 0]",
+       "bodies[1].initial.rotation.axis",
+       {"zero"}},
+      {"rotation with angle and angle_deg",
+       edit(b, "angle: 0.3}", "angle: 0.3, angle_deg: 17}"),
+       "^angle_deg: 17",
+       "bodies[1].initial.rotation",
+       {"not both"}},
+      {"unknown rotation key",
+       edit(b, "angle: 0.3", "angel: 0.3"),
+       "^angel",
+       "bodies[1].initial.rotation.angel",
+       {"unknown key", "angle_deg"}},
+      {"string for a number",
+       edit(b, "mass: 2.0", "mass: heavy"),
+       "^heavy",
+       "bodies[0].mass",
+       {"expected a number", "heavy"}},
+      {"quoted number",
+       edit(b, "mass: 1.0", "mass: \"1.0\""),
+       "mass: ^\"1.0\"",
+       "bodies[1].mass",
+       {"expected a number", "string"}},
+      {"scalar for a list",
+       edit(b, "joint: [0, 0, -0.5]", "joint: 0.5"),
+       "joint: ^0.5",
+       "bodies[1].joint",
+       {"expected a list of 3 numbers"}},
+      {"mapping for a list",
+       edit(b, "joint: [0, 0, -0.5]", "joint: {x: 1}"),
+       "joint: ^{x: 1}",
+       "bodies[1].joint",
+       {"expected a list of 3 numbers", "mapping"}},
+      {"duplicate key",
+       edit(b, "    mass: 1.0\n", "    mass: 1.0\n    mass: 1.5\n"),
+       "^mass: 1.5",
+       "bodies[1].mass",
+       {"duplicate key 'mass'"}},
+      {"bad force type",
+       edit(b, "type: bushing", "type: spring"),
+       "^spring",
+       "forces[0].type",
+       {"unknown force type 'spring'", "bushing, force, torque"}},
+      {"force on an unknown body",
+       edit(b, "body: thigh", "body: shin"),
+       "body: ^shin",
+       "forces[0].body",
+       {"unknown body 'shin'", "pelvis"}},
+      {"unknown force key",
+       edit(b, "stiffness: 100", "stifness: 100"),
+       "^stifness",
+       "forces[0].stifness",
+       {"did you mean 'stiffness'", "rotational_damping"}},
+      {"negative stiffness",
+       edit(b, "stiffness: 100", "stiffness: [1, -100, 1]"),
+       "stiffness: ^[1, -100",
+       "forces[0].stiffness",
+       {">= 0"}},
+      {"bad simulation.integrator",
+       edit(b, "integrator: rk4", "integrator: euler"),
+       "integrator: ^euler",
+       "simulation.integrator",
+       {"unknown integrator 'euler'", "dopri5", "rk4"}},
+      {"non-positive simulation.t_end",
+       edit(b, "t_end: 1", "t_end: 0"),
+       "t_end: ^0",
+       "simulation.t_end",
+       {"> 0"}},
+      {"unknown simulation key",
+       edit(b, "t_end: 1\n", "t_end: 1\n  dt: 0.1\n"),
+       "^dt: 0.1",
+       "simulation.dt",
+       {"unknown key", "dt_out"}},
+      {"no bodies",
+       "format: kanedyn-model/1\nbodies: []\n",
+       "bodies: ^[]",
+       "bodies",
+       {"at least one body"}},
+      {"not a mapping", "- 1\n- 2\n", "^- 1", "", {"must be a mapping"}},
+      {"two documents",
+       b + "---\nformat: kanedyn-model/1\n",
+       "^---\nformat",
+       "",
+       {"more than one YAML document"}},
+      // yaml-cpp 0.7's LoadAll loops without end on this (jbeder/yaml-cpp#1040).
+      {"stray comma at the top level",
+       "# comment\n, 7\n" + b,
+       "^, 7",
+       "",
+       {"YAML syntax error", "','"}},
+      // A key with a control character: escaped, so the message stays on one line.
+      {"tab in a key",
+       edit(b, "gravity:", "\"gra\\tvity\":"),
+       "^\"gra\\tvity\"",
+       "gra\\tvity",
+       {"unknown key 'gra\\tvity'", "did you mean 'gravity'"}},
+      {"empty file", "", "", "", {"empty"}},
+      {"comments only", "# nothing here\n", "", "", {"empty"}},
+      {"JSON with a bad value",
+       R"({"format": "kanedyn-model/1",
+ "bodies": [{"name": "a", "parent": "ground", "mass": -1, "inertia": [1, 1, 1]}]})",
+       "\"mass\": ^-1",
+       "bodies[0].mass",
+       {"> 0"}},
+  };
+}
+
+TEST(ModelFile, BadInputsAreRefusedWithLocationKeyPathAndProblem) {
+  const std::vector<BadCase> cases = bad_cases();
+  ASSERT_GE(cases.size(), 15u);
+  for (const BadCase& c : cases) {
+    SCOPED_TRACE(c.label);
+    try {
+      parse_model_file(c.text, "bad.yaml");
+      ADD_FAILURE() << "accepted";
+    } catch (const ModelFileError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+      std::string prefix = "bad.yaml";
+      if (!c.at.empty()) {
+        const Location loc = locate(c.text, c.at);
+        prefix += ":" + std::to_string(loc.line) + ":" + std::to_string(loc.column);
+        EXPECT_EQ(e.line(), loc.line);
+        EXPECT_EQ(e.column(), loc.column);
+      } else {
+        EXPECT_EQ(e.line(), 0);
+        EXPECT_EQ(e.column(), 0);
+      }
+      prefix += ": ";
+      if (!c.key_path.empty()) prefix += c.key_path + ": ";
+      EXPECT_EQ(what.substr(0, prefix.size()), prefix) << what;
+      EXPECT_EQ(e.file(), "bad.yaml");
+      EXPECT_EQ(e.key_path(), c.key_path);
+      for (const std::string& w : c.words)
+        EXPECT_NE(e.problem().find(w), std::string::npos) << "'" << w << "' not in: " << what;
+    }
+  }
+}
+
+// yaml-cpp's own position is reported for syntax errors; check the line it names.
+TEST(ModelFile, YamlSyntaxErrorReportsLineAndColumn) {
+  const std::string text = edit(kBase, "    mass: 2.0\n", "\tmass: 2.0\n");  // tab indent
+  const int line = locate(text, "^\tmass").line;
+  try {
+    parse_model_file(text, "bad.yaml");
+    FAIL() << "accepted";
+  } catch (const ModelFileError& e) {
+    EXPECT_EQ(e.line(), line) << e.what();
+    EXPECT_GT(e.column(), 0);
+    const std::string prefix = "bad.yaml:" + std::to_string(line) + ":";
+    EXPECT_EQ(std::string(e.what()).substr(0, prefix.size()), prefix) << e.what();
+    EXPECT_NE(e.problem().find("syntax"), std::string::npos) << e.what();
+  }
+  // An unclosed flow list: the error is at or after the line where the list opens.
+  const std::string unclosed = edit(kBase, "gravity: [0, 0, -9.81]", "gravity: [0, 0, -9.81");
+  try {
+    parse_model_file(unclosed, "bad.yaml");
+    FAIL() << "accepted";
+  } catch (const ModelFileError& e) {
+    EXPECT_GE(e.line(), locate(unclosed, "^gravity").line) << e.what();
+    EXPECT_NE(e.problem().find("syntax"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ModelFile, MissingFileIsReportedWithItsPath) {
+  const std::string path = "/nonexistent-kanedyn-dir/model.yaml";
+  try {
+    load_model_file(path);
+    FAIL() << "accepted";
+  } catch (const ModelFileError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": cannot open: No such file or directory");
+    EXPECT_EQ(e.line(), 0);
+  }
+}
+
+TEST(ModelFile, ErrorsFromAFileNameThatFile) {
+  const std::string path = ::testing::TempDir() + "kanedyn_bad_model.yaml";
+  const std::string text = edit(kBase, "mass: 1.0", "mass: -3");
+  std::ofstream(path) << text;
+  try {
+    load_model_file(path);
+    FAIL() << "accepted";
+  } catch (const ModelFileError& e) {
+    const Location loc = locate(text, "mass: ^-3");
+    const std::string prefix = path + ":" + std::to_string(loc.line) + ":" +
+                               std::to_string(loc.column) + ": bodies[1].mass: ";
+    EXPECT_EQ(std::string(e.what()).substr(0, prefix.size()), prefix) << e.what();
+  }
+  std::remove(path.c_str());
+}
+
+TEST(ModelFile, ErrorMessageFormat) {
+  EXPECT_STREQ(ModelFileError("m.yaml", 3, 7, "bodies[2].mass", "must be > 0").what(),
+               "m.yaml:3:7: bodies[2].mass: must be > 0");
+  EXPECT_STREQ(ModelFileError("m.yaml", 0, 0, "", "cannot open: x").what(),
+               "m.yaml: cannot open: x");
+}
+
+}  // namespace
+}  // namespace kanedyn::io
