@@ -1,0 +1,228 @@
+// Eqs. (31)-(41): generalized forces, [A] and {f}, their solution, the two routes of forward
+// dynamics, and the equivalence of Kane's equations with Newton-Euler per body.
+// g++ 12 reports a false -Wmaybe-uninitialized inside Eigen's dynamic-size
+// SelfAdjointEigenSolver (its matrix-vector kernels); silence it for Eigen's headers only,
+// which must therefore come first.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#pragma GCC diagnostic pop
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <limits>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/forces.hpp"
+#include "kanedyn/kane.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "kanedyn/partials.hpp"
+#include "kanedyn/rotation.hpp"
+#include "test_support.hpp"
+
+namespace kanedyn {
+namespace {
+
+using test::angular_velocity_selection;
+
+// Random forests with every kind of load: gravity, bushings (with damping), constant forces
+// and torques; plus the eight-body system.
+std::vector<Model> loaded_models(unsigned seed, int count) {
+  std::vector<Model> models;
+  models.push_back(test::eight_body_model());
+  std::mt19937 rng(seed);
+  test::RandomTreeOptions opt;
+  opt.bushings = opt.forces = opt.torques = true;
+  for (int i = 0; i < count; ++i) models.push_back(test::random_tree(rng, opt));
+  return models;
+}
+
+double inf_norm(const MatrixX& m) { return test::max_abs(m); }
+
+TEST(Kane, MassMatrixSymmetricPositiveDefinite) {
+  std::mt19937 rng(31);
+  for (const Model& model : loaded_models(32, 50)) {
+    Data data(model);
+    const State state = test::random_state(model, rng);
+    kane_equations(model, state, data);
+    const double scale = inf_norm(data.A);
+    // Both triangles are the same products; 1e-14 relative is round-off.
+    EXPECT_LT(inf_norm(data.A - data.A.transpose()), 1e-14 * scale);
+    EXPECT_EQ(data.A_factor.info(), Eigen::Success);
+    EXPECT_EQ(Eigen::LLT<MatrixX>(data.A).info(), Eigen::Success);
+    const Eigen::SelfAdjointEigenSolver<MatrixX> eig(data.A, Eigen::EigenvaluesOnly);
+    // Smallest eigenvalue: positive, and well above the round-off of the eigensolver
+    // (6N eps |A| ~ 1e-13 |A|), so "positive" is not an accident of rounding.
+    EXPECT_GT(eig.eigenvalues().minCoeff(), 1e-10 * scale) << "N " << model.num_bodies();
+  }
+}
+
+TEST(Kane, SingleFreeBodyWithoutComOffset) {
+  // One free body, r' = 0: [A] = diag([I'_G], m [I]) whatever the orientation, since
+  // [v_G,y] = [0, I] and [w',y] = [I, 0].
+  std::mt19937 rng(33);
+  for (int i = 0; i < 10; ++i) {
+    BodySpec b;
+    b.name = "free";
+    b.mass = test::uniform(rng, 0.5, 5.0);
+    b.inertia = test::random_inertia(rng, b.mass);
+    b.joint = test::random_vector(rng, -1.0, 1.0);
+    const Model model({b}, Vector3(0, 0, -9.81));
+    const State state = test::random_state(model, rng);
+    Data data(model);
+    kane_equations(model, state, data);
+    MatrixX expected = MatrixX::Zero(6, 6);
+    expected.topLeftCorner<3, 3>() = b.inertia;
+    expected.bottomRightCorner<3, 3>() = b.mass * Matrix3::Identity();
+    EXPECT_LT(inf_norm(data.A - expected), 1e-14);
+  }
+}
+
+TEST(Kane, MassMatrixAndForceVectorEqualDenseEquations) {
+  // Eq. (37) and Eq. (38) written densely from the 3 x 6N views:
+  //   A = sum m V_G^T V_G + W^T I W,
+  //   f = sum V_G^T (F - m Vdot_G y) + W^T (M' - w~ I w).
+  // Same products summed in another order: round-off relative to the largest term
+  // (1e-12 leaves a margin of ~100 over 6N ulp for N <= 30).
+  std::mt19937 rng(34);
+  for (const Model& model : loaded_models(35, 50)) {
+    Data data(model);
+    const State state = test::random_state(model, rng);
+    kane_equations(model, state, data);
+    const int n = model.num_bodies();
+    MatrixX a = MatrixX::Zero(6 * n, 6 * n);
+    VectorX f = VectorX::Zero(6 * n);
+    VectorX fy = VectorX::Zero(6 * n);
+    double f_scale = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const auto i = static_cast<size_t>(k);
+      const BodySpec& b = model.body(k);
+      const MatrixX v = partial_velocity(model, data, k, Point::G);
+      const MatrixX vdot = partial_velocity_rate(model, data, k, Point::G);
+      const MatrixX w = angular_velocity_selection(n, k);
+      const Vector3 om = state.angular_velocity(k);
+      a += b.mass * v.transpose() * v + w.transpose() * b.inertia * w;
+      const Vector3 inertial = data.force[i] - b.mass * vdot * state.y;
+      const Vector3 gyro = data.moment_b[i] - om.cross(b.inertia * om);
+      f += v.transpose() * inertial + w.transpose() * gyro;
+      fy += v.transpose() * data.force[i] + w.transpose() * data.moment_b[i];  // Eq. (31)
+      f_scale = std::max({f_scale, test::max_abs(v) * inertial.norm(), gyro.norm()});
+    }
+    EXPECT_LT(inf_norm(data.A - a), 1e-12 * inf_norm(a)) << "N " << n;
+    EXPECT_LT(test::max_abs(data.f - f), 1e-12 * f_scale) << "N " << n;
+    EXPECT_LT(test::max_abs(data.F_y - fy), 1e-12 * f_scale) << "N " << n;
+  }
+}
+
+TEST(Kane, GeneralizedForcesPassThePowerCheck) {
+  // Eq. (31) is the statement that F_y . y is the power of the loads:
+  //   F_y . y = sum_K F_K . v_G_K + M'_K . w'_K  for every y.
+  // Loads and velocities are evaluated at the same random y (the damping terms depend on y,
+  // which does not matter for the identity). Round-off relative to the sum of |terms|.
+  std::mt19937 rng(36);
+  for (const Model& model : loaded_models(37, 50)) {
+    Data data(model);
+    for (int trial = 0; trial < 3; ++trial) {
+      const State state = test::random_state(model, rng, 0.3, 3.0, 2.0);
+      kane_equations(model, state, data);
+      double power = 0.0, scale = 0.0;
+      for (int k = 0; k < model.num_bodies(); ++k) {
+        const auto i = static_cast<size_t>(k);
+        const double pf = data.force[i].dot(data.v_G[i]);
+        const double pm = data.moment_b[i].dot(state.angular_velocity(k));
+        power += pf + pm;
+        scale += std::abs(pf) + std::abs(pm);
+      }
+      EXPECT_NEAR(data.F_y.dot(state.y), power, 1e-12 * scale) << "N " << model.num_bodies();
+    }
+  }
+}
+
+TEST(Kane, SolutionSatisfiesEquation36) {
+  // A block LDL^T (Cholesky) solve is backward stable: |A ydot - f| <= c 6N eps |A| |ydot|
+  // with c of order 1. Tolerance 4 * 6N * eps * (|A| |ydot| + |f|); measured residuals are
+  // ~50x below it.
+  std::mt19937 rng(38);
+  for (const Model& model : loaded_models(39, 50)) {
+    Data data(model);
+    const State state = test::random_state(model, rng);
+    kane_equations(model, state, data);
+    const VectorX r = data.A * data.ydot - data.f;
+    const double tol = 4.0 * model.num_speeds() * std::numeric_limits<double>::epsilon() *
+                       (inf_norm(data.A) * test::max_abs(data.ydot) + test::max_abs(data.f));
+    EXPECT_LT(test::max_abs(r), tol) << "N " << model.num_bodies();
+  }
+}
+
+TEST(Kane, KaneAndRecursiveRoutesAgree) {
+  // Two different algorithms (dense Cholesky of Eq. 36 vs the O(N) Newton-Euler pass) for the
+  // same ydot. Relative 1e-10 in the 2-norm: [A] of these random forests has condition
+  // numbers up to ~1e4 (measured), so each route carries <= ~1e-12 relative error (measured
+  // worst difference 1e-13).
+  std::mt19937 rng(40);
+  for (const Model& model : loaded_models(41, 100)) {
+    Data dk(model), dr(model);
+    const State state = test::random_state(model, rng);
+    forward_dynamics(model, state, dk, Method::kane);
+    forward_dynamics(model, state, dr, Method::recursive);
+    EXPECT_LE((dk.ydot - dr.ydot).norm(), 1e-10 * dr.ydot.norm()) << "N " << model.num_bodies();
+    EXPECT_EQ(dk.xdot, dr.xdot);
+  }
+}
+
+TEST(Kane, KinematicEquations) {
+  // Eqs. (39)-(41): eps_dot = euler_parameter_rates(eps, w') per body, s' dot = y2; exact.
+  std::mt19937 rng(42);
+  for (const Model& model : loaded_models(43, 10)) {
+    Data data(model);
+    const State state = test::random_state(model, rng);
+    forward_dynamics(model, state, data, Method::kane);
+    const int n = model.num_bodies();
+    ASSERT_EQ(data.xdot.size(), 7 * n);
+    for (int k = 0; k < n; ++k) {
+      const Vector4 e = state.euler_parameters(k);
+      const Vector3 w = state.angular_velocity(k);
+      EXPECT_EQ(Vector4(data.xdot.segment<4>(4 * k)), euler_parameter_rates(e, w));
+      // ...and 1/2 [Ebar']^T w' as Eq. (41) prints the matrix.
+      Eigen::Matrix<double, 4, 3> ebar_t;
+      ebar_t << e[3], -e[2], e[1], e[2], e[3], -e[0], -e[1], e[0], e[3], -e[0], -e[1], -e[2];
+      EXPECT_LT((data.xdot.segment<4>(4 * k) - 0.5 * ebar_t * w).norm(), 1e-15);
+    }
+    EXPECT_EQ(VectorX(data.xdot.tail(3 * n)), VectorX(state.y.tail(3 * n)));
+  }
+}
+
+TEST(Kane, KaneEquationsEqualNewtonEulerPerBody) {
+  // With the Kane ydot, the mass-centre accelerations a_G = [v_G,y] ydot + [v_G,y dot] y
+  // satisfy m a_G = F_K and the Euler equation I alpha + w x I w = M' holds for every body
+  // (every body is free, so the 6N generalized equations are equivalent to the 6N
+  // Newton-Euler ones). The Kane solution has <= ~1e-12 relative error (condition of [A]
+  // <= ~1e4; measured worst 3e-13); tolerance 1e-11 relative to the size of the terms.
+  std::mt19937 rng(44);
+  for (const Model& model : loaded_models(45, 50)) {
+    Data data(model);
+    const State state = test::random_state(model, rng);
+    kane_equations(model, state, data);
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      const auto i = static_cast<size_t>(k);
+      const BodySpec& b = model.body(k);
+      const Vector3 a_g = partial_velocity(model, data, k, Point::G) * data.ydot +
+                          partial_velocity_rate(model, data, k, Point::G) * state.y;
+      const Vector3 alpha = angular_velocity_partial(model, k) * data.ydot;  // Eq. (10)
+      EXPECT_EQ(alpha, angular_acceleration_b(data.ydot, k));
+      const Vector3 w = state.angular_velocity(k);
+      const double f_scale = data.force[i].norm() + b.mass * a_g.norm() + 1.0;
+      EXPECT_LT((b.mass * a_g - data.force[i]).norm(), 1e-11 * f_scale) << "body " << k;
+      const Vector3 euler = b.inertia * alpha + w.cross(b.inertia * w);
+      const double m_scale = data.moment_b[i].norm() + (b.inertia * alpha).norm() + 1.0;
+      EXPECT_LT((euler - data.moment_b[i]).norm(), 1e-11 * m_scale) << "body " << k;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace kanedyn
