@@ -1,0 +1,108 @@
+// `kanedyn eom MODEL [--json]`: the notes' equations of motion at the model's initial state:
+// [A] (Eq. 37), {f} (Eq. 38), {y dot} (Eq. 36) and {x dot} (Eqs. 39-40).
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "commands.hpp"
+#include "kanedyn/data.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/kane.hpp"
+#include "kanedyn/kinematic_equations.hpp"
+
+namespace kanedyn::cli {
+namespace {
+
+/// Label of speed i of {y}: w'_K components then s'_K dot components (Eq. 1).
+std::string speed_label(int n, int i) {
+  const int part = i / (3 * n), k = (i % (3 * n)) / 3, c = i % 3;
+  return (part == 0 ? "w" : "sd") + std::to_string(k + 1) + "." + std::to_string(c + 1);
+}
+
+/// Label of coordinate i of {x}: eps_K components then s'_K components.
+std::string coordinate_label(int n, int i) {
+  if (i < 4 * n) return "e" + std::to_string(i / 4 + 1) + "." + std::to_string(i % 4 + 1);
+  const int j = i - 4 * n;
+  return "s" + std::to_string(j / 3 + 1) + "." + std::to_string(j % 3 + 1);
+}
+
+void print_column(const char* title, const VectorX& v, std::string (*label)(int, int), int n) {
+  std::printf("\n%s\n", title);
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    std::printf("  %-7s % .10e\n", label(n, static_cast<int>(i)).c_str(), v[i]);
+}
+
+void print_tables(const io::ModelFile& file, const Data& data) {
+  const int n = file.model.num_bodies();
+  std::printf("equations of motion of %s at its initial state: [A]{ydot} = {f} (Eq. 36)\n",
+              file.path.c_str());
+  std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n",
+              n);
+  std::printf("\n[A] (Eq. 37), %d x %d\n%-7s", 6 * n, 6 * n, "");
+  for (int j = 0; j < 6 * n; ++j) std::printf(" %10s", speed_label(n, j).c_str());
+  std::printf("\n");
+  for (int i = 0; i < 6 * n; ++i) {
+    std::printf("%-7s", speed_label(n, i).c_str());
+    for (int j = 0; j < 6 * n; ++j) std::printf(" % 10.4g", data.A(i, j));
+    std::printf("\n");
+  }
+  print_column("{f} (Eq. 38)", data.f, speed_label, n);
+  print_column("{y dot} (Eq. 36)", data.ydot, speed_label, n);
+  print_column("{x dot} (Eqs. 39-40)", data.xdot, coordinate_label, n);
+}
+
+void print_json(const io::ModelFile& file, const Data& data) {
+  const Model& model = file.model;
+  const int n = model.num_bodies();
+  using Json = nlohmann::ordered_json;
+  Json out;
+  out["N"] = n;
+  out["L"] = Json::array();
+  out["u"] = Json::array();
+  for (int k = 0; k < n; ++k) {
+    out["L"].push_back(model.lower_body(k) + 1);
+    out["u"].push_back(model.depth(k));
+  }
+  auto vec = [](const VectorX& v) {
+    Json a = Json::array();
+    // nlohmann writes the shortest decimal that reads back as the same double: full precision.
+    for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+    return a;
+  };
+  Json a = Json::array();
+  for (Eigen::Index i = 0; i < data.A.rows(); ++i) a.push_back(vec(data.A.row(i).transpose()));
+  out["A"] = std::move(a);
+  out["f"] = vec(data.f);
+  out["ydot"] = vec(data.ydot);
+  out["xdot"] = vec(data.xdot);
+  std::cout << out.dump() << "\n";
+}
+
+void add_eom(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "eom", "Print A, f, ydot and xdot of Kane's equations at the model's initial state");
+  struct Options {
+    std::string path;
+    bool json = false;
+  };
+  auto opt = std::make_shared<Options>();
+  cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
+  cmd->add_flag("--json", opt->json, "print the JSON object of docs/model-format.md");
+  cmd->callback([opt] {
+    const io::ModelFile file = io::load_model_file(opt->path);
+    Data data(file.model);
+    kane_equations(file.model, file.initial, data);
+    compute_xdot(file.model, file.initial, data.xdot);
+    if (!data.ydot.allFinite())
+      throw std::runtime_error(opt->path + ": the equations of motion are not finite");
+    if (opt->json)
+      print_json(file, data);
+    else
+      print_tables(file, data);
+  });
+}
+
+}  // namespace
+KANEDYN_COMMAND(20, add_eom);
+}  // namespace kanedyn::cli

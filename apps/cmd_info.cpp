@@ -1,0 +1,55 @@
+// `kanedyn info MODEL`: the topology of the notes (N, L(K), u_K, chains) and the total mass.
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "commands.hpp"
+#include "kanedyn/io/model_file.hpp"
+
+namespace kanedyn::cli {
+namespace {
+
+std::string frame_label(const Model& model, int k) {
+  if (k == kGround) return "0 (inertial frame R)";
+  return std::to_string(k + 1) + " " + model.body(k).name;
+}
+
+void print_info(const io::ModelFile& file, std::ostream& out) {
+  const Model& model = file.model;
+  const int n = model.num_bodies();
+  out << "model: " << file.path;
+  if (!model.name().empty()) out << " (" << model.name() << ")";
+  out << "\nN = " << n << " bodies, " << model.num_coordinates() << " coordinates x, "
+      << model.num_speeds() << " speeds y\n";
+  out << "L(K) = (";
+  for (int k = 0; k < n; ++k) out << (k ? ", " : "") << model.lower_body(k) + 1;
+  out << ")\nu_K  = (";
+  for (int k = 0; k < n; ++k) out << (k ? ", " : "") << model.depth(k);
+  out << ")\n\n";
+  out << "  K  name                  mass  u_K  chain down to the inertial frame\n";
+  for (int k = 0; k < n; ++k) {
+    char head[96];
+    std::snprintf(head, sizeof head, "%3d  %-18s %8.4g  %3d  ", k + 1, model.body(k).name.c_str(),
+                  model.body(k).mass, model.depth(k));
+    out << head;
+    for (const int c : model.chain(k)) out << c + 1 << " -> ";
+    out << "0\n";
+  }
+  out << "\ntotal mass = " << model.total_mass() << "\n";
+  out << "roots (bodies attached to R):";
+  for (int k = 0; k < n; ++k)
+    if (model.lower_body(k) == kGround) out << " " << frame_label(model, k);
+  out << "\nforce elements: " << model.forces().size() << ", gravity = ["
+      << model.gravity().transpose() << "]\n";
+}
+
+void add_info(CLI::App& app) {
+  auto* cmd = app.add_subcommand("info", "Print N, L(K), u_K, each body's chain and the total mass");
+  auto path = std::make_shared<std::string>();
+  cmd->add_option("MODEL", *path, "model file (YAML or JSON)")->required();
+  cmd->callback([path] { print_info(io::load_model_file(*path), std::cout); });
+}
+
+}  // namespace
+KANEDYN_COMMAND(10, add_info);
+}  // namespace kanedyn::cli

@@ -1,0 +1,125 @@
+// The kanedyn tool as a user runs it: output, JSON form and exit codes of `info` and `eom`.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/kane.hpp"
+#include "kanedyn/kinematic_equations.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct ToolRun {
+  int exit_code;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+ToolRun run_tool(const std::string& args) {
+  static int counter = 0;
+  const fs::path dir = fs::temp_directory_path() / ("kanedyn_cli_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const fs::path out = dir / ("out" + std::to_string(counter));
+  const fs::path err = dir / ("err" + std::to_string(counter++));
+  const std::string cmd = std::string(KANEDYN_BINARY_DIR) + "/kanedyn " + args + " > " +
+                          out.string() + " 2> " + err.string() + " < /dev/null";
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+const std::string kEight = std::string(KANEDYN_SOURCE_DIR) + "/examples/eight_body.yaml";
+
+}  // namespace
+
+TEST(Cli, InfoPrintsTheNotesTopology) {
+  const ToolRun r = run_tool("info " + kEight);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("N = 8 bodies"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("L(K) = (0, 1, 2, 2, 1, 1, 1, 7)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("u_K  = (0, 1, 2, 2, 1, 1, 1, 2)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("8 -> 7 -> 1 -> 0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("3 -> 2 -> 1 -> 0"), std::string::npos) << r.out;
+  const auto file = kanedyn::io::load_model_file(kEight);
+  std::ostringstream mass;
+  mass << "total mass = " << file.model.total_mass();
+  EXPECT_NE(r.out.find(mass.str()), std::string::npos) << r.out;
+}
+
+TEST(Cli, EomJsonIsTheSpecifiedObjectAtFullPrecision) {
+  const ToolRun r = run_tool("eom --json " + kEight);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::ordered_json::parse(r.out);
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : j.items()) keys.push_back(key);
+  EXPECT_EQ(keys, (std::vector<std::string>{"N", "L", "u", "A", "f", "ydot", "xdot"}));
+  EXPECT_EQ(j["N"], 8);
+  EXPECT_EQ(j["L"], nlohmann::json::parse("[0,1,2,2,1,1,1,7]"));
+  EXPECT_EQ(j["u"], nlohmann::json::parse("[0,1,2,2,1,1,1,2]"));
+  ASSERT_EQ(j["A"].size(), 48u);
+  ASSERT_EQ(j["f"].size(), 48u);
+  ASSERT_EQ(j["ydot"].size(), 48u);
+  ASSERT_EQ(j["xdot"].size(), 56u);
+
+  // The printed numbers read back as exactly the library's doubles (full precision).
+  const auto file = kanedyn::io::load_model_file(kEight);
+  kanedyn::Data data(file.model);
+  kanedyn::kane_equations(file.model, file.initial, data);
+  kanedyn::compute_xdot(file.model, file.initial, data.xdot);
+  for (int i = 0; i < 48; ++i) {
+    ASSERT_EQ(j["A"][i].size(), 48u);
+    for (int k = 0; k < 48; ++k) EXPECT_EQ(j["A"][i][k].get<double>(), data.A(i, k));
+    EXPECT_EQ(j["f"][i].get<double>(), data.f[i]);
+    EXPECT_EQ(j["ydot"][i].get<double>(), data.ydot[i]);
+  }
+  for (int i = 0; i < 56; ++i) EXPECT_EQ(j["xdot"][i].get<double>(), data.xdot[i]);
+}
+
+TEST(Cli, EomTablesAreLabelled) {
+  const ToolRun r = run_tool("eom " + kEight);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* s : {"[A] (Eq. 37), 48 x 48", "{f} (Eq. 38)", "{y dot} (Eq. 36)",
+                        "{x dot} (Eqs. 39-40)", "w8.3", "sd1.1", "e8.4", "s8.3"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s;
+}
+
+TEST(Cli, BadModelGivesOneLineErrorAndExitCode1) {
+  const fs::path bad = fs::temp_directory_path() / "kanedyn_cli_bad.yaml";
+  std::ofstream(bad) << "format: kanedyn-model/1\nbodies:\n  - name: a\n    parent: ground\n"
+                        "    mass: -1\n    inertia: [1, 1, 1]\n";
+  for (const std::string cmd : {"info ", "eom ", "eom --json "}) {
+    const ToolRun r = run_tool(cmd + bad.string());
+    EXPECT_EQ(r.exit_code, 1) << cmd;
+    EXPECT_EQ(r.out, "") << cmd;
+    EXPECT_EQ(r.err.rfind("kanedyn: error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(bad.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("mass"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+}
+
+TEST(Cli, MissingFileAndUsageErrorsAreNonzero) {
+  const ToolRun missing = run_tool("info /nonexistent/model.yaml");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("/nonexistent/model.yaml"), std::string::npos) << missing.err;
+  EXPECT_NE(run_tool("info").exit_code, 0);
+  EXPECT_NE(run_tool("frobnicate").exit_code, 0);
+  EXPECT_NE(run_tool("").exit_code, 0);
+}
