@@ -15,3 +15,6 @@ build/kanedyn eom "$model" --json > eight_body_eom.json.partial
 mv eight_body_eom.json.partial eight_body_eom.json
 echo "A, f, ydot and xdot at the initial state went to eight_body_eom.json"
 echo "(readable tables: build/kanedyn eom $model)"
+echo
+echo "== build/kanedyn simulate $model"
+build/kanedyn simulate "$model"

@@ -7,10 +7,14 @@
 #include "kanedyn/kinematic_equations.hpp"
 #include "kanedyn/kinematics.hpp"
 
+#include "fused.hpp"
+
 namespace kanedyn {
 
 namespace {
+
 size_t at(int i) { return static_cast<size_t>(i); }
+
 }  // namespace
 
 std::string to_string(Method method) { return method == Method::kane ? "kane" : "recursive"; }
@@ -56,7 +60,12 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
 
 void forward_dynamics(const Model& model, const State& state, Data& data, Method method) {
   if (method == Method::kane) {
-    kane_equations(model, state, data);
+    compute_kinematics(model, state, data);
+    compute_resultants(model, state, data);
+    kane_accelerations(model, state, data);
+  } else if (data.fused_loads) {
+    fused::forward_dynamics(model, state, data);
+    return;  // the pass also evaluates Eqs. (39)-(41)
   } else {
     compute_kinematics(model, state, data);
     compute_resultants(model, state, data);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "kanedyn/detail/fast_rotation.hpp"
 #include "kanedyn/rotation.hpp"
 
 namespace kanedyn {
@@ -46,24 +47,35 @@ Vector3 Bushing::rotation_vector(const State& state, const Model& model) const {
 void Bushing::apply(const Model& model, const State& state, Data& data) const {
   const int k = body_;
   const int j = model.lower_body(k);
-  const Matrix3& Rk = data.R[at(k)];
+  const Vector3& com = model.body(k).com;
   // Translational part: {F'} in body-J components, on K at O_K, reversed on J at O_K.
   const Vector3 f_b = translational_force_b(state);
-  const Vector3 f = j == kGround ? f_b : Vector3(data.R[at(j)].transpose() * f_b);
-  data.force[at(k)] += f;
-  data.moment_b[at(k)] += (-model.body(k).com).cross(Rk * f);  // O_K relative to G_K
-  // Rotational part: M = -kr theta - cr (w_K - w_J), body-K components.
+  // Rotational part: M = -kr theta - cr (w_K - w_J), body-K components, -M on J.
   Vector3 w_rel_b = state.angular_velocity(k);
-  if (j != kGround) w_rel_b -= Rk * (data.R[at(j)].transpose() * state.angular_velocity(j));
-  const Vector3 m_b =
-      -rotational_stiffness * rotation_vector(state, model) - rotational_damping * w_rel_b;
-  data.moment_b[at(k)] += m_b;
-  if (j != kGround) {
-    const Matrix3& Rj = data.R[at(j)];
-    data.force[at(j)] -= f;
-    data.moment_b[at(j)] += Rj * (data.p_O[at(k)] - data.p_G[at(j)]).cross(-f);
-    data.moment_b[at(j)] -= Rj * (Rk.transpose() * m_b);
+  if (j == kGround) {
+    data.force[at(k)] += f_b;
+    data.moment_b[at(k)] += (data.R[at(k)] * f_b).cross(com);  // (O_K - G_K) x F
+    const Vector3 m_b = -rotational_stiffness * detail::rotation_vector(state.euler_parameters(k)) -
+                        rotational_damping * w_rel_b;
+    data.moment_b[at(k)] += m_b;
+    return;
   }
+  const Matrix3& Rj = data.R[at(j)];
+  const Matrix3 R_rel = data.R[at(k)] * Rj.transpose();  // body J -> body K components
+  const Vector3 f = Rj.transpose() * f_b;                // inertial
+  data.force[at(k)] += f;
+  data.moment_b[at(k)] += (R_rel * f_b).cross(com);
+  data.force[at(j)] -= f;
+  // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
+  const Vector3 arm = model.body(k).joint + state.translation(k) - model.body(j).com;
+  data.moment_b[at(j)] += f_b.cross(arm);
+  w_rel_b -= R_rel * state.angular_velocity(j);
+  const Vector4 rel =
+      detail::relative_euler_parameters(state.x.data() + 4 * j, state.x.data() + 4 * k);
+  const Vector3 m_b =
+      -rotational_stiffness * detail::rotation_vector(rel) - rotational_damping * w_rel_b;
+  data.moment_b[at(k)] += m_b;
+  data.moment_b[at(j)] -= R_rel.transpose() * m_b;
 }
 
 double Bushing::potential_energy(const Model& model, const State& state, const Data&) const {

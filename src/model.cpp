@@ -79,14 +79,28 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
   }
 
   depth_.resize(static_cast<size_t>(n));
+  root_.resize(static_cast<size_t>(n));
+  lower_.resize(static_cast<size_t>(n));
   children_.assign(static_cast<size_t>(n), {});
-  chain_offset_.assign(1, 0);
   for (int k = 0; k < n; ++k) {
+    const auto i = static_cast<size_t>(k);
     const int j = lower_body(k);
-    depth_[static_cast<size_t>(k)] = j == kGround ? 0 : depth_[static_cast<size_t>(j)] + 1;
+    lower_[i] = j;
+    depth_[i] = j == kGround ? 0 : depth_[static_cast<size_t>(j)] + 1;
+    root_[i] = j == kGround ? k : root_[static_cast<size_t>(j)];
     if (j != kGround) children_[static_cast<size_t>(j)].push_back(k);
-    for (int a = k; a != kGround; a = lower_body(a)) chain_flat_.push_back(a);
-    chain_offset_.push_back(static_cast<int>(chain_flat_.size()));
+    chain_entries_ += depth_[i] + 1;
+  }
+  // Flat chains cost sum (u_K + 1) ints: fine for the Kane route's models, not for a
+  // 100,000-body chain (5e9 entries); there chain(k) walks L instead.
+  if (chain_entries_ <= kMaxFlatChainEntries) {
+    chain_offset_.reserve(static_cast<size_t>(n) + 1);
+    chain_flat_.reserve(static_cast<size_t>(chain_entries_));
+    chain_offset_.push_back(0);
+    for (int k = 0; k < n; ++k) {
+      for (int a = k; a != kGround; a = lower_body(a)) chain_flat_.push_back(a);
+      chain_offset_.push_back(static_cast<int>(chain_flat_.size()));
+    }
   }
   inverse_inertia_.resize(static_cast<size_t>(n));
   for (int k = 0; k < n; ++k) {
@@ -111,8 +125,7 @@ int Model::body_index(const std::string& name) const {
 
 bool Model::on_chain(int a, int k) const {
   if (a < 0 || depth(a) > depth(k)) return false;
-  const Chain c = chain(k);
-  return c[depth(k) - depth(a)] == a;
+  return chain(k)[depth(k) - depth(a)] == a;
 }
 
 }  // namespace kanedyn

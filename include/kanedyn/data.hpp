@@ -2,21 +2,26 @@
 // notes lives here, allocated once per Model, so the evaluation path never touches the heap.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
-#include <Eigen/Cholesky>
-
 #include "kanedyn/model.hpp"
+#include "kanedyn/tree_ldlt.hpp"
 #include "kanedyn/types.hpp"
 
 namespace kanedyn {
 
-/// What a Data workspace allocates. The partial velocity blocks take
-/// sum over K of (u_K + 1) blocks each; the O(N) recursive route does not need them, and a
-/// 100,000-body chain should not pay for them.
+/// What a Data workspace allocates. The partial velocity blocks and the blocks of [A] take
+/// sum over K of (u_K + 1) blocks each (model.chain_entries()); the O(N) recursive route needs
+/// neither, and a 100,000-body chain should not pay for them: use DataOptions{false, false}.
 struct DataOptions {
-  bool partials = true;     ///< block-sparse partial velocity matrices (Eqs. 18-30)
-  bool mass_matrix = true;  ///< the dense 6N x 6N [A] of Eq. (37) and its factorization
+  bool partials = true;  ///< chain-layout partial velocity matrices (Eqs. 18-30): outputs, tests
+  /// The Kane route: the nonzero 6x6 blocks of [A] (Eq. 37) and their tree LDL^T; also the
+  /// dense 6N x 6N copy data.A unless dense_mass_matrix is false.
+  bool mass_matrix = true;
+  /// With mass_matrix: keep the dense [A] in data.A (filled by kane_equations, for `eom`,
+  /// teaching and tests). Costs 36 N^2 doubles; forward_dynamics does not fill it.
+  bool dense_mass_matrix = true;
 };
 
 /// Workspace for one Model. Frames: "inertial" columns are unprimed in the notes, "_b" are
@@ -26,6 +31,9 @@ struct DataOptions {
 /// y2 part). Every other block of the 3 x 6N matrix is zero.
 struct Data {
   explicit Data(const Model& model, DataOptions options = {});
+
+  /// Heap bytes held by the workspace (for memory tables; O(number of members)).
+  std::size_t memory_bytes() const;
 
   DataOptions options;
 
@@ -46,16 +54,39 @@ struct Data {
   // components, moment in body-K components (the {F_K} and {M'_K} of Eq. 31).
   std::vector<Vector3> force, moment_b;
 
-  VectorX F_y;                   ///< generalized forces, Eq. (31), 6N
-  MatrixX A;                     ///< generalized mass matrix, Eq. (37), 6N x 6N
-  VectorX f;                     ///< right side, Eq. (38), 6N
-  Eigen::LLT<MatrixX> A_factor;  ///< Cholesky factor of A
+  VectorX F_y;  ///< generalized forces, Eq. (31), 6N
+  /// Generalized mass matrix, Eq. (37), 6N x 6N, dense (DataOptions::dense_mass_matrix):
+  /// filled from A_blocks by kane_equations() or dense_mass_matrix().
+  MatrixX A;
+  VectorX f;  ///< right side, Eq. (38), 6N
+
+  /// The nonzero 6x6 blocks of [A] in chain layout (DataOptions::mass_matrix): entry
+  /// model.chain_offset(k) + r is the block of rows K, columns L^r(K), each in the order
+  /// (w'_K, s'_K dot) of that body's speeds; r = 0 is the diagonal block. The blocks above the
+  /// diagonal are their transposes; every other block of [A] is zero.
+  std::vector<Matrix6> A_blocks;
+  TreeLdlt A_factor;  ///< tree-ordered block LDL^T of A_blocks (no fill-in)
 
   VectorX ydot;  ///< 6N, solution of Eq. (36)
   VectorX xdot;  ///< 7N, Eqs. (39)-(40)
 
   // Scratch of the O(N) recursive route (body accelerations, inertial / body components).
   std::vector<Vector3> a_G, a_O, alpha_b;
+
+  // The fused O(N) route (forward_dynamics with Method::recursive, src/fused.cpp): per-body
+  // constants compiled from the Model, loads grouped per body, in a layout private to src/.
+  bool fused_loads = false;           ///< every force element is a known type (else staged)
+  std::vector<int> fused_lower;       ///< L(K) per body, padded to whole SIMD groups
+  std::vector<int> fused_ready;       ///< per group: the last group holding a child
+  std::vector<double> fused_params;   ///< constants, lane-interleaved per group of bodies
+  std::vector<double> fused_scratch;  ///< per-body loads and accelerations, same layout
+
+  // Scratch of the Kane route (src/kane.cpp): per body.
+  std::vector<Vector3> bias_O;    ///< velocity-dependent part of a_O_K, inertial
+  std::vector<Vector3> h_b;       ///< first mass moment of K's subtree about O_K, body K
+  std::vector<Vector3> load_sum;  ///< subtree sums of the loads, inertial
+  std::vector<double> subtree_mass;
+  std::vector<Matrix36> composite;  ///< S_K = sum over K's subtree of m [v_G,y] blocks at K
 };
 
 }  // namespace kanedyn

@@ -10,8 +10,8 @@
 namespace kanedyn {
 
 enum class Method {
-  kane,      ///< assemble [A] and {f} (Eqs. 37-38), solve Eq. (36) by Cholesky
-  recursive  ///< O(N): Newton-Euler per body, then one outward pass (docs/theory.md)
+  kane,      ///< assemble [A] and {f} (Eqs. 37-38) block-sparse, solve Eq. (36) by tree LDL^T
+  recursive  ///< O(N): Newton-Euler per body, then s'' from the relative motion (docs/theory.md)
 };
 
 /// "kane" / "recursive".
@@ -24,8 +24,14 @@ Method parse_method(const std::string& text);
 /// and compute_resultants().
 void recursive_accelerations(const Model& model, const State& state, Data& data);
 
-/// {y dot} and {x dot} into data.ydot, data.xdot. Method::kane needs a Data with partials
-/// and mass matrix (the default DataOptions).
+/// {y dot} and {x dot} into data.ydot, data.xdot. No heap allocation.
+/// Method::recursive works with any Data (DataOptions{false, false} is enough); when every
+/// force element is a Bushing, ConstantForce or ConstantTorque it runs one fused pass over the
+/// bodies (src/fused.cpp) that fills only ydot and xdot, otherwise it runs
+/// compute_kinematics, compute_resultants and recursive_accelerations. Method::kane needs
+/// DataOptions::mass_matrix (throws std::invalid_argument otherwise) and leaves the
+/// kinematics, resultants, A_blocks, A_factor and f in data (not the dense data.A).
+/// Both routes assume unit Euler parameters; they agree to round-off there.
 void forward_dynamics(const Model& model, const State& state, Data& data,
                       Method method = Method::recursive);
 

@@ -53,27 +53,62 @@ class Model {
   /// u_K: number of bodies below K in its own tree (0 for a body attached to R).
   int depth(int k) const { return depth_[static_cast<size_t>(k)]; }
   /// The root of k's tree: L^{u_K}(K).
-  int root(int k) const { return chain(k).back(); }
+  int root(int k) const { return root_[static_cast<size_t>(k)]; }
   const std::vector<int>& children(int k) const { return children_[static_cast<size_t>(k)]; }
 
   /// k's chain down to the inertial frame: (K, L(K), L^2(K), ..., root), length u_K + 1.
-  /// chain(k)[r] = L^r(K). Block-sparse partials are stored in this order.
-  struct Chain {
-    const int* first;
-    int size;
-    const int* begin() const { return first; }
-    const int* end() const { return first + size; }
-    int operator[](int r) const { return first[r]; }
-    int back() const { return first[size - 1]; }
+  /// chain(k)[r] = L^r(K). Block-sparse partials are stored in this order. Indexing is O(1)
+  /// when has_flat_chains(), otherwise it walks L (iteration is O(1) per step either way).
+  class Chain {
+   public:
+    class iterator {
+     public:
+      int operator*() const { return body_; }
+      iterator& operator++() {
+        if (++r_ < chain_->size) body_ = chain_->first ? chain_->first[r_] : chain_->lower[body_];
+        return *this;
+      }
+      bool operator==(const iterator& o) const { return r_ == o.r_; }
+      bool operator!=(const iterator& o) const { return r_ != o.r_; }
+
+     private:
+      friend class Chain;
+      iterator(const Chain* c, int r, int body) : chain_(c), r_(r), body_(body) {}
+      const Chain* chain_;
+      int r_, body_;
+    };
+    const int* first;  ///< the flat entries, or nullptr (walk `lower` instead)
+    const int* lower;  ///< L of every body
+    int start;         ///< the body K
+    int size;          ///< u_K + 1
+    int root;          ///< L^{u_K}(K)
+    iterator begin() const { return {this, 0, start}; }
+    iterator end() const { return {this, size, root}; }
+    int operator[](int r) const {
+      if (first) return first[r];
+      int a = start;
+      while (r-- > 0) a = lower[a];
+      return a;
+    }
+    int back() const { return root; }
   };
   Chain chain(int k) const {
     const auto i = static_cast<size_t>(k);
-    return {chain_flat_.data() + chain_offset_[i], chain_offset_[i + 1] - chain_offset_[i]};
+    const int* flat = chain_flat_.empty() ? nullptr : chain_flat_.data() + chain_offset_[i];
+    return {flat, lower_.data(), k, depth_[i] + 1, root_[i]};
   }
+  /// True when the chains are stored flat (chain_entries() <= kMaxFlatChainEntries). The
+  /// block-sparse partials and the Kane route's block-sparse [A] use the flat chain layout
+  /// (chain_offset), so they need it; the O(N) recursive route does not (a 100,000-body chain
+  /// has 5e9 chain entries).
+  bool has_flat_chains() const { return !chain_flat_.empty(); }
+  static constexpr long long kMaxFlatChainEntries = 1LL << 24;
   /// Offset of k's chain in flat per-chain arrays (e.g. Data's partial velocity blocks).
+  /// Only when has_flat_chains().
   int chain_offset(int k) const { return chain_offset_[static_cast<size_t>(k)]; }
-  /// Total number of chain entries, sum over K of (u_K + 1).
-  int chain_entries() const { return chain_offset_.back(); }
+  /// Total number of chain entries, sum over K of (u_K + 1) = N + the number of
+  /// (ancestor, descendant) pairs.
+  long long chain_entries() const { return chain_entries_; }
   /// True when a is k or one of k's ancestors.
   bool on_chain(int a, int k) const;
 
@@ -88,8 +123,9 @@ class Model {
   Vector3 gravity_;
   std::vector<std::shared_ptr<const ForceElement>> forces_;
   std::string name_;
-  std::vector<int> depth_;
+  std::vector<int> depth_, root_, lower_;
   std::vector<std::vector<int>> children_;
+  long long chain_entries_ = 0;
   std::vector<int> chain_offset_;
   std::vector<int> chain_flat_;
   std::vector<Matrix3> inverse_inertia_;

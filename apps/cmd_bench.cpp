@@ -1,0 +1,140 @@
+// `kanedyn bench MODEL [--method recursive|kane] [--reps R] [--json]`: how long one forward
+// dynamics evaluation ({y dot} and {x dot}) takes at the model's initial state, in the manner of
+// MuJoCo's testspeed. Evaluations are timed in batches long enough for the clock (about 50 us);
+// the median and the minimum of the per-batch averages are reported.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/io/model_file.hpp"
+
+namespace kanedyn::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct BenchResult {
+  Method method;
+  double median_ns = 0.0;  ///< median over batches of ns per evaluation
+  double min_ns = 0.0;     ///< minimum over batches
+  long reps = 0;           ///< evaluations timed
+  long batch = 0;          ///< evaluations per batch
+};
+
+double elapsed_ns(Clock::time_point since) {
+  return std::chrono::duration<double, std::nano>(Clock::now() - since).count();
+}
+
+/// Times forward_dynamics(method) at `state`. reps <= 0: about 2 s worth, at most 100,000.
+BenchResult time_method(const Model& model, const State& state, Method method, long reps) {
+  // Only what the route needs: the Kane route's block-sparse [A], no partials, no dense [A].
+  Data data(model,
+            method == Method::kane ? DataOptions{false, true, false} : DataOptions{false, false});
+  forward_dynamics(model, state, data, method);  // warm-up (first touch of the workspace)
+  if (!data.ydot.allFinite())
+    throw std::runtime_error("the equations of motion are not finite at the initial state");
+  // A first estimate of the time per evaluation, over at least 1 ms.
+  long count = 0;
+  const auto start = Clock::now();
+  do {
+    forward_dynamics(model, state, data, method);
+    ++count;
+  } while (elapsed_ns(start) < 1e6);
+  const double estimate = elapsed_ns(start) / static_cast<double>(count);
+  if (reps <= 0) reps = std::clamp(static_cast<long>(2e9 / estimate), 1L, 100000L);
+  // Batches of about 50 us; exactly `reps` evaluations, spread evenly over the batches.
+  const long target = std::clamp(static_cast<long>(std::ceil(5e4 / estimate)), 1L, reps);
+  const long batches = (reps + target - 1) / target;
+  std::vector<double> per_eval;
+  per_eval.reserve(static_cast<size_t>(batches));
+  for (long b = 0; b < batches; ++b) {
+    const long size = reps / batches + (b < reps % batches ? 1 : 0);
+    const auto t0 = Clock::now();
+    for (long i = 0; i < size; ++i) forward_dynamics(model, state, data, method);
+    per_eval.push_back(elapsed_ns(t0) / static_cast<double>(size));
+  }
+  std::sort(per_eval.begin(), per_eval.end());
+  const size_t m = per_eval.size();
+  BenchResult r;
+  r.method = method;
+  r.median_ns = m % 2 ? per_eval[m / 2] : 0.5 * (per_eval[m / 2 - 1] + per_eval[m / 2]);
+  r.min_ns = per_eval.front();
+  r.reps = reps;
+  r.batch = (reps + batches - 1) / batches;
+  return r;
+}
+
+void print_text(const io::ModelFile& file, const std::vector<BenchResult>& results) {
+  const int n = file.model.num_bodies();
+  std::printf("model: %s", file.path.c_str());
+  if (!file.model.name().empty()) std::printf(" (%s)", file.model.name().c_str());
+  std::printf(", N = %d\nforward dynamics (ydot and xdot) at the initial state\n\n", n);
+  std::printf("%-10s %11s %7s %15s %13s %15s %12s\n", "method", "evaluations", "batch",
+              "median ns/eval", "min ns/eval", "median ns/body", "min ns/body");
+  for (const BenchResult& r : results)
+    std::printf("%-10s %11ld %7ld %15.1f %13.1f %15.2f %12.2f\n", to_string(r.method).c_str(),
+                r.reps, r.batch, r.median_ns, r.min_ns, r.median_ns / n, r.min_ns / n);
+}
+
+void print_json(const io::ModelFile& file, const std::vector<BenchResult>& results) {
+  using Json = nlohmann::ordered_json;
+  Json out;
+  out["model"] = file.path;
+  out["N"] = file.model.num_bodies();
+  out["results"] = Json::array();
+  for (const BenchResult& r : results)
+    out["results"].push_back({{"method", to_string(r.method)},
+                              {"ns_per_eval_median", r.median_ns},
+                              {"ns_per_eval_min", r.min_ns},
+                              {"reps", r.reps}});
+  std::printf("%s\n", out.dump().c_str());
+}
+
+void add_bench(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "bench", "Time forward-dynamics evaluations at the model's initial state (ns per eval)");
+  struct Options {
+    std::string path;
+    std::vector<std::string> methods;
+    long reps = 0;
+    bool json = false;
+  };
+  auto opt = std::make_shared<Options>();
+  cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
+  cmd->add_option("--method", opt->methods, "recursive | kane (repeatable; default: both)")
+      ->check(CLI::IsMember({"recursive", "kane"}));
+  cmd->add_option("--reps", opt->reps,
+                  "evaluations to time per method (default: about 2 s worth, at most 100000)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_flag("--json", opt->json,
+                "print {\"model\", \"N\", \"results\": [{\"method\", \"ns_per_eval_median\", "
+                "\"ns_per_eval_min\", \"reps\"}]}");
+  cmd->callback([opt] {
+    const io::ModelFile file = io::load_model_file(opt->path);
+    std::vector<Method> methods;
+    for (const std::string& m : opt->methods) {
+      const Method method = parse_method(m);
+      if (std::find(methods.begin(), methods.end(), method) == methods.end())
+        methods.push_back(method);
+    }
+    if (methods.empty()) methods = {Method::recursive, Method::kane};
+    std::vector<BenchResult> results;
+    for (const Method method : methods)
+      results.push_back(time_method(file.model, file.initial, method, opt->reps));
+    if (opt->json)
+      print_json(file, results);
+    else
+      print_text(file, results);
+  });
+}
+
+}  // namespace
+KANEDYN_COMMAND(40, add_bench);
+}  // namespace kanedyn::cli

@@ -1,0 +1,296 @@
+// `kanedyn simulate MODEL`: integrate the model from its initial state and write the
+// trajectory CSV (docs/simulation.md). Rows stream to OUT.partial, renamed to OUT at the end;
+// an interrupted or failed run keeps OUT.partial and says so.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "commands.hpp"
+#include "kanedyn/energy.hpp"
+#include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/simulate.hpp"
+
+namespace kanedyn::cli {
+namespace {
+
+// Defaults where neither the command line nor the model file says otherwise.
+constexpr double kDefaultTEnd = 10.0;
+constexpr double kDefaultDtOut = 0.01;
+constexpr double kDefaultRk4Step = 1e-3;
+
+struct Options {
+  std::string model;
+  std::string out;
+  double t_end = kDefaultTEnd, dt_out = kDefaultDtOut;
+  std::string integrator = "dopri5", method = "recursive";
+  double rtol = 1e-8, atol = 1e-10, step = kDefaultRk4Step;
+  // Which flags were given (they win over the model file's `simulation:` section).
+  CLI::Option *t_end_opt = nullptr, *dt_out_opt = nullptr, *integrator_opt = nullptr,
+              *method_opt = nullptr, *rtol_opt = nullptr, *atol_opt = nullptr, *step_opt = nullptr;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Signals: the handler only sets a flag; the integration loop polls it after every step.
+
+volatile std::sig_atomic_t g_signal = 0;
+
+extern "C" void on_signal(int sig) {
+  if (g_signal != 0) {  // a second Ctrl-C: stop at once
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+    return;
+  }
+  g_signal = sig;
+}
+
+/// Installs the handlers for SIGINT and SIGTERM for its lifetime.
+class SignalGuard {
+ public:
+  SignalGuard() {
+    g_signal = 0;
+    struct sigaction action {};
+    action.sa_handler = on_signal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &old_int_);
+    sigaction(SIGTERM, &action, &old_term_);
+  }
+  ~SignalGuard() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  SignalGuard(const SignalGuard&) = delete;
+  SignalGuard& operator=(const SignalGuard&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : "SIGTERM"; }
+
+// ---------------------------------------------------------------------------------------------
+// Progress: a bar on stderr, only when stderr is a terminal and the run has lasted a second.
+
+class Progress {
+ public:
+  Progress(double t_start, double t_end)
+      : t_start_(t_start), t_end_(t_end), tty_(::isatty(STDERR_FILENO) == 1) {}
+  /// Returns true about once a second (the caller flushes the trajectory then).
+  bool update(double t) {
+    const auto now = Clock::now();
+    const double elapsed = seconds(now - start_);
+    if (tty_ && elapsed > 1.0 && seconds(now - last_draw_) >= 0.1) {
+      draw(t, elapsed);
+      last_draw_ = now;
+    }
+    if (seconds(now - last_tick_) >= 1.0) {
+      last_tick_ = now;
+      return true;
+    }
+    return false;
+  }
+  void clear() {
+    if (drawn_) std::fprintf(stderr, "\r\033[K");
+    std::fflush(stderr);
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  static double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+  void draw(double t, double elapsed) {
+    const double span = t_end_ - t_start_;
+    const double fraction = span > 0.0 ? std::clamp((t - t_start_) / span, 0.0, 1.0) : 1.0;
+    constexpr int kWidth = 30;
+    const int filled = static_cast<int>(fraction * kWidth);
+    char bar[kWidth + 1];
+    for (int i = 0; i < kWidth; ++i) bar[i] = i < filled ? '#' : '.';
+    bar[kWidth] = '\0';
+    const double eta = fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
+    std::fprintf(stderr, "\r[%s] %5.1f%%  t = %.4g of %.4g  elapsed %.1f s  left ~%.0f s ", bar,
+                 100.0 * fraction, t, t_end_, elapsed, eta);
+    std::fflush(stderr);
+    drawn_ = true;
+  }
+
+  double t_start_, t_end_;
+  bool tty_;
+  bool drawn_ = false;
+  Clock::time_point start_ = Clock::now(), last_draw_ = start_, last_tick_ = start_;
+};
+
+// ---------------------------------------------------------------------------------------------
+
+SimulationSettings settings_from(const Options& o, const io::SimulationSection& file) {
+  SimulationSettings s;
+  auto pick = [](CLI::Option* flag, double flag_value, const std::optional<double>& file_value,
+                 double fallback) {
+    if (flag && flag->count() > 0) return flag_value;
+    return file_value ? *file_value : fallback;
+  };
+  s.t_end = pick(o.t_end_opt, o.t_end, file.t_end, kDefaultTEnd);
+  s.dt_out = pick(o.dt_out_opt, o.dt_out, file.dt_out, kDefaultDtOut);
+  s.rtol = pick(o.rtol_opt, o.rtol, file.rtol, s.rtol);
+  s.atol = pick(o.atol_opt, o.atol, file.atol, s.atol);
+  s.step = pick(o.step_opt, o.step, file.step, kDefaultRk4Step);
+  const bool integrator_flag = o.integrator_opt->count() > 0;
+  s.integrator =
+      parse_integrator(integrator_flag ? o.integrator : file.integrator.value_or(o.integrator));
+  const bool method_flag = o.method_opt->count() > 0;
+  s.method = parse_method(method_flag ? o.method : file.method.value_or(o.method));
+  return s;
+}
+
+std::string default_output(const std::string& model_path) {
+  return std::filesystem::path(model_path).stem().string() + ".csv";
+}
+
+std::string format(const char* fmt, double value) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, value);
+  return buf;
+}
+
+void print_summary(const io::ModelFile& file, const SimulationSettings& s,
+                   const SimulationStats& st, const std::string& where, long rows, long columns) {
+  const Model& model = file.model;
+  const std::string name = model.name().empty() ? file.path : model.name();
+  std::printf("simulated %s: %d bodies, t = %s to %s (%s)\n", name.c_str(), model.num_bodies(),
+              format("%.6g", s.t_start).c_str(), format("%.6g", st.t_reached).c_str(),
+              to_string(st.status).c_str());
+  if (s.integrator == Integrator::dopri5)
+    std::printf("  integrator dopri5 (rtol %.3g, atol %.3g), method %s\n", s.rtol, s.atol,
+                to_string(s.method).c_str());
+  else
+    std::printf("  integrator rk4 (step <= %.3g), method %s\n", s.step,
+                to_string(s.method).c_str());
+  std::printf("  steps: %ld accepted, %ld rejected; %ld derivative evaluations; wall time %.3g s\n",
+              st.steps_accepted, st.steps_rejected, st.evaluations, st.wall_seconds);
+  std::printf("  energy: %.10g -> %.10g (%s change %.3g)\n", st.energy_initial, st.energy_final,
+              st.energy_initial != 0.0 ? "relative" : "absolute", st.relative_energy_change());
+  std::printf("  largest Euler-parameter drift before projection: %.3g\n", st.max_euler_drift);
+  std::printf("  trajectory: %s (%s%ld rows of %ld columns)\n", where.c_str(),
+              st.ok() ? "" : "incomplete: ", rows, columns);
+  std::fflush(stdout);
+}
+
+/// Runs the command; returns the exit code for an interrupted run (0 otherwise) and throws
+/// for a failed one.
+int run(const Options& o) {
+  const io::ModelFile file = io::load_model_file(o.model);
+  const SimulationSettings base = settings_from(o, file.simulation);
+  validate_settings(base);  // before the output file exists
+  const std::string out = o.out.empty() ? default_output(o.model) : o.out;
+  const Model& model = file.model;
+
+  // The handlers first: from the moment OUT.partial exists, a signal leaves it whole.
+  SignalGuard signals;
+  io::TrajectoryWriter writer(model, out);
+  Progress progress(base.t_start, base.t_end);
+  SimulationSettings settings = base;
+  settings.on_step = [&](double t) {
+    if (progress.update(t)) writer.flush();
+    return g_signal == 0;
+  };
+  const Observer observer = [&](double t, const State& state, Data& data) {
+    // total_energy computes this state's kinematics into data, p_G included.
+    const double energy = total_energy(model, state, data);
+    writer.write_row(t, state, data, energy);
+  };
+  SimulationStats stats;
+  try {
+    stats = simulate(model, file.initial, settings, observer);
+  } catch (const std::exception& e) {
+    progress.clear();
+    writer.close();
+    throw std::runtime_error(std::string(e.what()) + "; partial trajectory (" +
+                             std::to_string(writer.rows()) + " rows) kept in " +
+                             writer.partial_path());
+  }
+  progress.clear();
+  const long columns = 2 + 16L * model.num_bodies();
+  if (stats.ok()) {
+    writer.finish();
+    print_summary(file, settings, stats, writer.path(), writer.rows(), columns);
+    return 0;
+  }
+  writer.close();
+  print_summary(file, settings, stats, writer.partial_path(), writer.rows(), columns);
+  const std::string kept = "partial trajectory (" + std::to_string(writer.rows()) +
+                           " rows, up to t = " + format("%.10g", stats.t_reached) + ") kept in " +
+                           writer.partial_path();
+  if (stats.status == SimulationStatus::interrupted) {
+    const int sig = g_signal;
+    std::fprintf(stderr, "kanedyn: %s: %s; %s\n", signal_name(sig), stats.message.c_str(),
+                 kept.c_str());
+    return 128 + sig;
+  }
+  throw std::runtime_error(stats.message + "; " + kept);
+}
+
+/// A CLI11 check: a finite number > 0 (or >= 0), with a short message.
+CLI::Validator number_check(bool allow_zero) {
+  return CLI::Validator(
+      [allow_zero](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        const bool ok = end != text.c_str() && *end == '\0' && std::isfinite(v) &&
+                        (allow_zero ? v >= 0.0 : v > 0.0);
+        return ok ? ""
+                  : (allow_zero ? "must be a number >= 0, got '" : "must be a number > 0, got '") +
+                        text + "'";
+      },
+      allow_zero ? "NUMBER>=0" : "NUMBER>0");
+}
+
+void add_simulate(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "simulate", "Integrate the model from its initial state and write the trajectory CSV");
+  auto o = std::make_shared<Options>();
+  cmd->footer(
+      "Settings not given here come from the model file's `simulation:` section, else the "
+      "defaults above. The trajectory streams to OUT.partial, renamed to OUT when the run "
+      "completes; a summary goes to stdout. Exit codes: 0 completed; 1 error (the partial file "
+      "is kept); 130/143 interrupted by SIGINT/SIGTERM (kept too).");
+  cmd->add_option("MODEL", o->model, "model file (YAML or JSON)")->required();
+  o->t_end_opt =
+      cmd->add_option("--t-end", o->t_end, "end time (default 10)")->check(number_check(false));
+  o->dt_out_opt = cmd->add_option("--dt-out", o->dt_out, "time between output rows (default 0.01)")
+                      ->check(number_check(false));
+  o->integrator_opt = cmd->add_option("--integrator", o->integrator, "dopri5 (default) or rk4")
+                          ->check(CLI::IsMember({"dopri5", "rk4"}));
+  o->rtol_opt = cmd->add_option("--rtol", o->rtol, "dopri5 relative tolerance (default 1e-8)")
+                    ->check(number_check(true));
+  o->atol_opt = cmd->add_option("--atol", o->atol, "dopri5 absolute tolerance (default 1e-10)")
+                    ->check(number_check(true));
+  o->step_opt = cmd->add_option("--step", o->step,
+                                "rk4 step; output intervals are split evenly (default 1e-3)")
+                    ->check(number_check(false));
+  o->method_opt = cmd->add_option("--method", o->method,
+                                  "recursive (O(N), default) or kane (assemble and solve Eq. 36)")
+                      ->check(CLI::IsMember({"recursive", "kane"}));
+  cmd->add_option(
+      "--out,-o", o->out,
+      "trajectory CSV (default: the model file's name with .csv, in the current folder)");
+  cmd->callback([o] {
+    const int code = run(*o);
+    if (code != 0) {
+      std::fflush(nullptr);
+      std::exit(code);
+    }
+  });
+}
+
+}  // namespace
+KANEDYN_COMMAND(30, add_simulate);
+}  // namespace kanedyn::cli

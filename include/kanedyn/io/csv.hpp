@@ -1,0 +1,58 @@
+// Trajectory CSV (docs/model-format.md, "Trajectory output"), written safely: rows go to
+// PATH.partial as whole lines and the file is renamed to PATH only by finish(), so PATH never
+// holds an incomplete trajectory and PATH.partial always ends with a complete row.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/model.hpp"
+#include "kanedyn/state.hpp"
+
+namespace kanedyn::io {
+
+/// The header: t, then per body NAME.x NAME.y NAME.z NAME.e1..e4 NAME.s1..s3 NAME.w1..w3
+/// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns.
+std::vector<std::string> trajectory_columns(const Model& model);
+
+/// Streams a trajectory to PATH.partial.
+class TrajectoryWriter {
+ public:
+  /// Creates (truncates) PATH.partial and writes the header to it. Throws std::runtime_error
+  /// naming the file when it cannot be created.
+  TrajectoryWriter(const Model& model, std::string path);
+  /// Writes the buffered rows and closes the file; PATH.partial stays if finish() did not run.
+  ~TrajectoryWriter();
+  TrajectoryWriter(const TrajectoryWriter&) = delete;
+  TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
+
+  /// Appends one row: t, per body the mass centre G_K (data.p_G, inertial: needs
+  /// compute_kinematics at this state), eps_K, s'_K, w'_K, s'_K dot, then energy. Numbers
+  /// are written in the shortest form that reads back as the same double. Rows are
+  /// buffered and reach the file whole; throws std::runtime_error if writing fails.
+  void write_row(double t, const State& state, const Data& data, double energy);
+  /// Writes the buffered rows to the file (whole rows only).
+  void flush();
+  /// Flushes, closes and renames PATH.partial to PATH (replacing it). Throws on failure.
+  void finish();
+  /// Flushes and closes, leaving PATH.partial. Idempotent; the destructor does it too.
+  void close();
+
+  const std::string& path() const { return path_; }
+  std::string partial_path() const { return path_ + ".partial"; }
+  long rows() const { return rows_; }  ///< data rows written so far (header not counted)
+
+ private:
+  void append(double value);
+  void write_out(const char* bytes, size_t size);
+
+  const Model& model_;
+  std::string path_;
+  std::string buffer_;
+  int fd_ = -1;
+  size_t committed_ = 0;  ///< bytes of whole rows in the file
+  long rows_ = 0;
+};
+
+}  // namespace kanedyn::io

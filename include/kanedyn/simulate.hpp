@@ -1,0 +1,91 @@
+// Simulation: integrate the equations of motion of a Model from a State, calling an observer
+// at evenly spaced output times. The library never prints; progress and interruption go
+// through an optional callback. See docs/simulation.md.
+#pragma once
+
+#include <functional>
+#include <limits>
+#include <string>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/integrate.hpp"
+#include "kanedyn/model.hpp"
+#include "kanedyn/state.hpp"
+
+namespace kanedyn {
+
+/// How to simulate. Times in the model's time unit (s in the examples).
+struct SimulationSettings {
+  double t_start = 0.0;
+  double t_end = 10.0;
+  /// Output times are t_start + i dt_out up to t_end, and t_end itself.
+  double dt_out = 0.01;
+  Integrator integrator = Integrator::dopri5;
+  double rtol = 1e-8;   ///< dopri5: relative tolerance
+  double atol = 1e-10;  ///< dopri5: absolute tolerance
+  /// rk4: the largest step. Each output interval is split into equal steps no longer than
+  /// this, so every output time is reached by a step (no interpolation).
+  double step = 1e-3;
+  double max_step = std::numeric_limits<double>::infinity();  ///< dopri5: step cap
+  Method method = Method::recursive;  ///< how forward_dynamics solves for {y dot}
+  /// Rescale every eps_K to unit norm after each accepted step (and in every output state).
+  /// The initial state is normalized in any case.
+  bool project_euler_parameters = true;
+  /// Called after every accepted step with the time reached; return false to stop the run
+  /// (status interrupted). Keep it cheap: it runs once per step.
+  std::function<bool(double t)> on_step;
+};
+
+/// Called at each output time with the state there; data holds the kinematics of that state
+/// (R, p_O, p_G, v_O, v_G: compute_kinematics) and may be used as scratch (e.g. to call
+/// total_energy). Exceptions thrown by the observer leave simulate().
+using Observer = std::function<void(double t, const State& state, Data& data)>;
+
+enum class SimulationStatus {
+  completed,       ///< reached t_end
+  interrupted,     ///< on_step returned false
+  non_finite,      ///< the state or its derivative became non-finite
+  step_underflow,  ///< dopri5 could not meet the tolerances with any representable step
+};
+
+/// "completed", "interrupted", "non-finite state", "step size underflow".
+std::string to_string(SimulationStatus status);
+
+/// What happened in a run.
+struct SimulationStats {
+  SimulationStatus status = SimulationStatus::completed;
+  bool ok() const { return status == SimulationStatus::completed; }
+  double t_reached = 0.0;  ///< time of the last accepted state
+  long steps_accepted = 0, steps_rejected = 0;
+  long evaluations = 0;         ///< calls of forward_dynamics (the integrator's derivative)
+  long outputs = 0;             ///< observer calls
+  double energy_initial = 0.0;  ///< total_energy at t_start
+  double energy_final = 0.0;    ///< total_energy at t_reached
+  /// (energy_final - energy_initial) / |energy_initial|; the absolute change if that is 0.
+  double relative_energy_change() const;
+  /// Largest | |eps_K| - 1 | found before a projection, over all steps and bodies.
+  double max_euler_drift = 0.0;
+  double wall_seconds = 0.0;
+  int failed_body = -1;  ///< failures: the body at fault (index), -1 if none
+  /// failures: the time and the body ("non-finite state in the step from t = 1.2 to
+  /// t = 1.21: body 'link3' (w2) is not finite"); empty when completed.
+  std::string message;
+};
+
+/// Throws std::invalid_argument naming the first inconsistent setting (t_end < t_start,
+/// dt_out <= 0, a non-positive rk4 step, negative or all-zero tolerances, ...).
+void validate_settings(const SimulationSettings& settings);
+
+/// Integrates from `initial` (its Euler parameters are normalized first) over
+/// [t_start, t_end]. Calls observer (if set) at every output time, the first at t_start.
+/// Throws std::invalid_argument for inconsistent settings or a state of the wrong size;
+/// integration failures are reported in the returned stats, not thrown.
+SimulationStats simulate(const Model& model, const State& initial,
+                         const SimulationSettings& settings, const Observer& observer = {});
+
+/// "body 'NAME' (COLUMN)" for a component of the 13N vector z = ({x}; {y}): COLUMN is the
+/// trajectory column suffix (e1..e4, s1..s3, w1..w3, sd1..sd3). Sets body to its index.
+std::string describe_state_component(const Model& model, int component, int* body = nullptr);
+
+}  // namespace kanedyn

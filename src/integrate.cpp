@@ -1,0 +1,283 @@
+#include "kanedyn/integrate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+namespace kanedyn {
+
+std::string to_string(Integrator integrator) {
+  return integrator == Integrator::rk4 ? "rk4" : "dopri5";
+}
+
+Integrator parse_integrator(const std::string& text) {
+  if (text == "dopri5") return Integrator::dopri5;
+  if (text == "rk4") return Integrator::rk4;
+  throw std::invalid_argument("unknown integrator '" + text + "' (expected 'dopri5' or 'rk4')");
+}
+
+// ---------------------------------------------------------------------------------------------
+// RK4
+
+Rk4::Rk4(int size, OdeFunction f)
+    : f_(std::move(f)),
+      k1_(VectorX::Zero(size)),
+      k2_(VectorX::Zero(size)),
+      k3_(VectorX::Zero(size)),
+      k4_(VectorX::Zero(size)),
+      tmp_(VectorX::Zero(size)) {}
+
+void Rk4::step(double t, double h, VectorX& z) {
+  f_(t, z, k1_);
+  tmp_ = z + (0.5 * h) * k1_;
+  f_(t + 0.5 * h, tmp_, k2_);
+  tmp_ = z + (0.5 * h) * k2_;
+  f_(t + 0.5 * h, tmp_, k3_);
+  tmp_ = z + h * k3_;
+  f_(t + h, tmp_, k4_);
+  z += (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+  evaluations_ += 4;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Dormand-Prince 5(4): the tableau of Dormand & Prince (1980), as printed in Hairer, Norsett &
+// Wanner, Solving ODEs I, Table II.5.2.
+
+namespace dp {
+constexpr double c2 = 1.0 / 5, c3 = 3.0 / 10, c4 = 4.0 / 5, c5 = 8.0 / 9;
+constexpr double a21 = 1.0 / 5;
+constexpr double a31 = 3.0 / 40, a32 = 9.0 / 40;
+constexpr double a41 = 44.0 / 45, a42 = -56.0 / 15, a43 = 32.0 / 9;
+constexpr double a51 = 19372.0 / 6561, a52 = -25360.0 / 2187, a53 = 64448.0 / 6561,
+                 a54 = -212.0 / 729;
+constexpr double a61 = 9017.0 / 3168, a62 = -355.0 / 33, a63 = 46732.0 / 5247, a64 = 49.0 / 176,
+                 a65 = -5103.0 / 18656;
+// Fifth-order weights b_i (= the last row a_7i: FSAL); b_2 = b_7 = 0.
+constexpr double b1 = 35.0 / 384, b3 = 500.0 / 1113, b4 = 125.0 / 192, b5 = -2187.0 / 6784,
+                 b6 = 11.0 / 84;
+// e_i = b_i - bhat_i, bhat the embedded fourth-order weights
+// (5179/57600, 0, 7571/16695, 393/640, -92097/339200, 187/2100, 1/40).
+constexpr double e1 = 35.0 / 384 - 5179.0 / 57600, e3 = 500.0 / 1113 - 7571.0 / 16695,
+                 e4 = 125.0 / 192 - 393.0 / 640, e5 = -2187.0 / 6784 + 92097.0 / 339200,
+                 e6 = 11.0 / 84 - 187.0 / 2100, e7 = -1.0 / 40;
+
+/// Weights b_i(theta) of the continuous extension, Hairer et al. Eq. (II.6.12): the step's
+/// value at t + theta h is z + h sum_i b_i(theta) k_i (b_2(theta) = 0). Order 4 for every
+/// theta in [0, 1]; b_i(1) = b_i.
+struct DenseWeights {
+  double w1, w3, w4, w5, w6, w7;
+  explicit DenseWeights(double th) {
+    const double cubic = th * th * (3.0 - 2.0 * th);  // weight of b_i
+    const double q = th * th * (th - 1.0) * (th - 1.0);
+    w1 = cubic * b1 + th * (th - 1.0) * (th - 1.0) -
+         q * 5.0 * (2558722523.0 - 31403016.0 * th) / 11282082432.0;
+    w3 = cubic * b3 + q * 100.0 * (882725551.0 - 15701508.0 * th) / 32700410799.0;
+    w4 = cubic * b4 - q * 25.0 * (443332067.0 - 31403016.0 * th) / 1880347072.0;
+    w5 = cubic * b5 + q * 32805.0 * (23143187.0 - 3489224.0 * th) / 199316789632.0;
+    w6 = cubic * b6 - q * 55.0 * (29972135.0 - 7076736.0 * th) / 822651844.0;
+    w7 = th * th * (th - 1.0) + q * 10.0 * (7414447.0 - 829305.0 * th) / 29380423.0;
+  }
+};
+}  // namespace dp
+
+Dopri5::Dopri5(int size, OdeFunction f, Dopri5Options options) : f_(std::move(f)), opt_(options) {
+  if (!(opt_.rtol >= 0.0) || !(opt_.atol >= 0.0) || opt_.rtol + opt_.atol <= 0.0)
+    throw std::invalid_argument("dopri5: rtol and atol must be >= 0 and not both 0");
+  if (!(opt_.safety > 0.0 && opt_.safety <= 1.0) || !(opt_.min_factor > 0.0) ||
+      !(opt_.min_factor < 1.0) || !(opt_.max_factor > 1.0))
+    throw std::invalid_argument("dopri5: need 0 < safety <= 1, 0 < min_factor < 1 < max_factor");
+  if (!(opt_.max_step > 0.0) || !(opt_.initial_step >= 0.0))
+    throw std::invalid_argument("dopri5: max_step must be > 0 and initial_step >= 0");
+  for (VectorX* v : {&z_, &z_old_, &z_new_, &tmp_, &k1_, &k2_, &k3_, &k4_, &k5_, &k6_, &k7_})
+    v->setZero(size);
+}
+
+void Dopri5::eval(double t, const VectorX& z, VectorX& dz) {
+  f_(t, z, dz);
+  ++evaluations_;
+}
+
+double Dopri5::min_step() const {
+  return 16.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t_), span_);
+}
+
+StepStatus Dopri5::start(double t0, const VectorX& z0, double t_end) {
+  if (z0.size() != z_.size()) throw std::invalid_argument("dopri5: state has the wrong size");
+  if (!(t_end >= t0)) throw std::invalid_argument("dopri5: t_end must be >= t0");
+  t_ = t_old_ = t0;
+  t_end_ = t_end;
+  span_ = t_end - t0;
+  z_ = z0;
+  z_old_ = z0;
+  accepted_ = rejected_ = evaluations_ = 0;
+  failed_component_ = -1;
+  fsal_pending_ = false;
+  h_last_ = 0.0;
+  for (Eigen::Index i = 0; i < z_.size(); ++i)
+    if (!std::isfinite(z_[i])) {
+      failed_component_ = static_cast<int>(i);
+      return StepStatus::non_finite;
+    }
+  eval(t_, z_, k1_);
+  for (Eigen::Index i = 0; i < k1_.size(); ++i)
+    if (!std::isfinite(k1_[i])) {
+      failed_component_ = static_cast<int>(i);
+      return StepStatus::non_finite;
+    }
+  h_ = opt_.initial_step > 0.0 ? opt_.initial_step : initial_step(t_end);
+  h_ = std::min(h_, opt_.max_step);
+  return StepStatus::ok;
+}
+
+// Hairer et al., Sec. II.4 "Automatic Step Size Control", starting step size: a guess from
+// |z|/|f|, refined by an explicit Euler step's estimate of the second derivative.
+double Dopri5::initial_step(double t_end) {
+  if (span_ <= 0.0) return 0.0;
+  auto norm = [this](const VectorX& v) {
+    double sum = 0.0;
+    for (Eigen::Index i = 0; i < v.size(); ++i) {
+      const double sc = opt_.atol + opt_.rtol * std::abs(z_[i]);
+      sum += (v[i] / sc) * (v[i] / sc);
+    }
+    return std::sqrt(sum / static_cast<double>(std::max<Eigen::Index>(v.size(), 1)));
+  };
+  // The norms may overflow for tiny tolerances; the guess then falls back to 1e-6.
+  const double d0 = norm(z_), d1 = norm(k1_);
+  const bool usable = d0 >= 1e-5 && d1 >= 1e-5 && std::isfinite(d0) && std::isfinite(d1);
+  double h0 = usable ? 0.01 * d0 / d1 : 1e-6;
+  h0 = std::min({h0, opt_.max_step, t_end - t_});
+  tmp_ = z_ + h0 * k1_;
+  eval(t_ + h0, tmp_, k2_);
+  k2_ -= k1_;
+  const double d2 = norm(k2_) / h0;
+  const double dmax = std::max(d1, d2);
+  const double h1 = dmax <= 1e-15 ? std::max(1e-6, h0 * 1e-3) : std::pow(0.01 / dmax, 1.0 / 5.0);
+  const double h = std::min(100.0 * h0, h1);
+  return std::isfinite(h) && h > 0.0 ? std::min(h, t_end - t_) : h0;
+}
+
+double Dopri5::attempt(double h) {
+  using namespace dp;
+  const double t = t_;
+  tmp_ = z_ + h * (a21 * k1_);
+  eval(t + c2 * h, tmp_, k2_);
+  tmp_ = z_ + h * (a31 * k1_ + a32 * k2_);
+  eval(t + c3 * h, tmp_, k3_);
+  tmp_ = z_ + h * (a41 * k1_ + a42 * k2_ + a43 * k3_);
+  eval(t + c4 * h, tmp_, k4_);
+  tmp_ = z_ + h * (a51 * k1_ + a52 * k2_ + a53 * k3_ + a54 * k4_);
+  eval(t + c5 * h, tmp_, k5_);
+  tmp_ = z_ + h * (a61 * k1_ + a62 * k2_ + a63 * k3_ + a64 * k4_ + a65 * k5_);
+  eval(t + h, tmp_, k6_);
+  z_new_ = z_ + h * (b1 * k1_ + b3 * k3_ + b4 * k4_ + b5 * k5_ + b6 * k6_);
+  eval(t + h, z_new_, k7_);
+  err_ = error_norm(h);
+  return err_;
+}
+
+double Dopri5::error_norm(double h) {
+  using namespace dp;
+  // e = h sum (b_i - bhat_i) k_i, into tmp_.
+  tmp_ = h * (e1 * k1_ + e3 * k3_ + e4 * k4_ + e5 * k5_ + e6 * k6_ + e7 * k7_);
+  double sum = 0.0, worst = -1.0;
+  failed_component_ = -1;
+  trial_non_finite_ = false;
+  for (Eigen::Index i = 0; i < tmp_.size(); ++i) {
+    if (!std::isfinite(z_new_[i]) || !std::isfinite(k7_[i]) || !std::isfinite(tmp_[i])) {
+      failed_component_ = static_cast<int>(i);
+      trial_non_finite_ = true;
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    const double sc = opt_.atol + opt_.rtol * std::max(std::abs(z_[i]), std::abs(z_new_[i]));
+    const double r = (tmp_[i] / sc) * (tmp_[i] / sc);
+    sum += r;
+    if (r > worst) {
+      worst = r;
+      failed_component_ = static_cast<int>(i);
+    }
+  }
+  // +inf when a ratio overflows (tolerances far below the error): a plain rejection.
+  return std::sqrt(sum / static_cast<double>(std::max<Eigen::Index>(tmp_.size(), 1)));
+}
+
+void Dopri5::accept(double h, double t_new) {
+  // The step's start value and stages stay for dense output until the next step; k7 = f at
+  // the new state becomes k1 of the next step (FSAL) when that begins.
+  z_old_.swap(z_);
+  z_.swap(z_new_);
+  t_old_ = t_;
+  t_ = t_new;
+  h_last_ = h;
+  fsal_pending_ = true;
+  ++accepted_;
+}
+
+StepStatus Dopri5::step() {
+  if (t_ >= t_end_) return StepStatus::ok;
+  if (fsal_pending_) {
+    k1_.swap(k7_);
+    fsal_pending_ = false;
+  }
+  bool rejected_before = false;
+  for (;;) {
+    double h = std::min(h_, opt_.max_step);
+    // Land on t_end exactly; stretch a little rather than leave a sliver of a step.
+    const double remaining = t_end_ - t_;
+    const bool last = h >= remaining || remaining - h < 1e-3 * h;
+    if (last) h = remaining;
+    if (!(h >= min_step()) && h < remaining) {
+      // failed_component_ still names the culprit of the last attempt.
+      return StepStatus::step_underflow;
+    }
+    const double err = attempt(h);
+    if (trial_non_finite_) {
+      ++rejected_;
+      rejected_before = true;
+      const int culprit = failed_component_;
+      h_ = h * opt_.min_factor;
+      if (h_ < min_step()) {
+        failed_component_ = culprit;
+        return StepStatus::non_finite;
+      }
+      continue;
+    }
+    if (err <= 1.0) {
+      double factor = err == 0.0 ? opt_.max_factor : opt_.safety * std::pow(err, -1.0 / 5.0);
+      factor = std::clamp(factor, opt_.min_factor, opt_.max_factor);
+      if (rejected_before) factor = std::min(factor, 1.0);
+      accept(h, last ? t_end_ : t_ + h);
+      h_ = std::min(h * factor, opt_.max_step);
+      return StepStatus::ok;
+    }
+    ++rejected_;
+    rejected_before = true;
+    const double factor = std::clamp(opt_.safety * std::pow(err, -1.0 / 5.0), opt_.min_factor, 1.0);
+    h_ = h * factor;
+    if (!(h_ >= min_step()) && h_ < remaining) return StepStatus::step_underflow;
+  }
+}
+
+StepStatus Dopri5::fixed_step(double h) {
+  if (fsal_pending_) {
+    k1_.swap(k7_);
+    fsal_pending_ = false;
+  }
+  attempt(h);
+  if (trial_non_finite_) return StepStatus::non_finite;
+  accept(h, t_ + h);
+  return StepStatus::ok;
+}
+
+void Dopri5::dense_output(double t, VectorX& out) const {
+  const double h = h_last_;
+  if (h == 0.0) {
+    out = z_;
+    return;
+  }
+  const double th = std::clamp((t - t_old_) / h, 0.0, 1.0);
+  const dp::DenseWeights w(th);
+  out = z_old_ + h * (w.w1 * k1_ + w.w3 * k3_ + w.w4 * k4_ + w.w5 * k5_ + w.w6 * k6_ + w.w7 * k7_);
+}
+
+}  // namespace kanedyn

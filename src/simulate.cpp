@@ -1,0 +1,315 @@
+#include "kanedyn/simulate.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "kanedyn/energy.hpp"
+#include "kanedyn/kinematics.hpp"
+
+namespace kanedyn {
+
+std::string to_string(SimulationStatus status) {
+  switch (status) {
+    case SimulationStatus::completed:
+      return "completed";
+    case SimulationStatus::interrupted:
+      return "interrupted";
+    case SimulationStatus::non_finite:
+      return "non-finite state";
+    case SimulationStatus::step_underflow:
+      return "step size underflow";
+  }
+  return "unknown";
+}
+
+double SimulationStats::relative_energy_change() const {
+  const double change = energy_final - energy_initial;
+  return energy_initial != 0.0 ? change / std::abs(energy_initial) : change;
+}
+
+std::string describe_state_component(const Model& model, int component, int* body) {
+  const int n = model.num_bodies();
+  // Parts of z = ({x}; {y}) in order: eps (4 per body), s', w', s' dot (3 per body).
+  static const char* const kColumns[4][4] = {
+      {"e1", "e2", "e3", "e4"}, {"s1", "s2", "s3"}, {"w1", "w2", "w3"}, {"sd1", "sd2", "sd3"}};
+  const int offsets[5] = {0, 4 * n, 7 * n, 10 * n, 13 * n};
+  int k = -1;
+  const char* column = "";
+  for (int part = 0; part < 4; ++part)
+    if (component >= offsets[part] && component < offsets[part + 1]) {
+      const int width = part == 0 ? 4 : 3;
+      k = (component - offsets[part]) / width;
+      column = kColumns[part][(component - offsets[part]) % width];
+    }
+  if (body) *body = k;
+  if (k < 0) return "no body";
+  std::string text = "body '";
+  text.append(model.body(k).name).append("' (").append(column).append(")");
+  return text;
+}
+
+namespace {
+
+std::string format_time(double t) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", t);
+  return buf;
+}
+
+}  // namespace
+
+void validate_settings(const SimulationSettings& s) {
+  if (!std::isfinite(s.t_start) || !std::isfinite(s.t_end) || s.t_end < s.t_start)
+    throw std::invalid_argument("simulate: need finite t_start <= t_end");
+  if (!std::isfinite(s.dt_out) || s.dt_out <= 0.0)
+    throw std::invalid_argument("simulate: dt_out must be > 0");
+  if (s.integrator == Integrator::rk4 && !(std::isfinite(s.step) && s.step > 0.0))
+    throw std::invalid_argument("simulate: the rk4 step must be > 0");
+  if (s.integrator == Integrator::dopri5 &&
+      (!(s.rtol >= 0.0) || !(s.atol >= 0.0) || s.rtol + s.atol <= 0.0 || !std::isfinite(s.rtol) ||
+       !std::isfinite(s.atol)))
+    throw std::invalid_argument("simulate: rtol and atol must be >= 0 and not both 0");
+  if (!(s.max_step > 0.0)) throw std::invalid_argument("simulate: max_step must be > 0");
+}
+
+namespace {
+
+/// Everything one run needs, allocated once.
+class Run {
+ public:
+  Run(const Model& model, const State& initial, const SimulationSettings& settings,
+      const Observer& observer)
+      : model_(model),
+        s_(settings),
+        observer_(observer),
+        n_(model.num_bodies()),
+        data_(model, settings.method == Method::kane ? DataOptions{} : DataOptions{false, false}),
+        work_(model),
+        out_state_(model),
+        z_(VectorX::Zero(13 * n_)),
+        z_out_(VectorX::Zero(13 * n_)),
+        z_prev_(VectorX::Zero(13 * n_)) {
+    State start = initial;
+    start.normalize_euler_parameters();
+    z_ << start.x, start.y;
+    if (start.x.allFinite() && start.y.allFinite())
+      stats_.energy_initial = total_energy(model_, start, data_);
+    else
+      stats_.energy_initial = std::numeric_limits<double>::quiet_NaN();
+    stats_.t_reached = settings.t_start;
+  }
+
+  SimulationStats run() {
+    const auto clock_start = std::chrono::steady_clock::now();
+    if (s_.integrator == Integrator::rk4)
+      run_rk4();
+    else
+      run_dopri5();
+    final_energy();
+    stats_.wall_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+    return stats_;
+  }
+
+ private:
+  /// dz/dt at z: the Eq. (1) state from z, forward_dynamics, ({x dot}; {y dot}).
+  /// The stages of a step lie slightly off |eps_K| = 1; the equations are evaluated at the
+  /// normalized eps_K, so [R_K] is always a rotation and both routes of forward_dynamics see
+  /// the same state. {eps dot} = 1/2 [Ebar'(eps/|eps|)]^T {w'} is orthogonal to eps, so this
+  /// field keeps |eps_K| constant just as Eq. (39) does, and equals it on the constraint.
+  void derivative(const VectorX& z, VectorX& dz) {
+    work_.x = z.head(7 * n_);
+    work_.y = z.tail(6 * n_);
+    for (int k = 0; k < n_; ++k) work_.euler_parameters(k).normalize();
+    forward_dynamics(model_, work_, data_, s_.method);
+    dz.head(7 * n_) = data_.xdot;
+    dz.tail(6 * n_) = data_.ydot;
+  }
+  OdeFunction ode() {
+    return [this](double, const VectorX& z, VectorX& dz) { derivative(z, dz); };
+  }
+
+  double project(VectorX& z) {
+    if (!s_.project_euler_parameters) {
+      double drift = 0.0;
+      for (int k = 0; k < n_; ++k)
+        drift = std::max(drift, std::abs(z.segment<4>(4 * k).norm() - 1.0));
+      return drift;
+    }
+    double drift = 0.0;
+    for (int k = 0; k < n_; ++k) {
+      auto e = z.segment<4>(4 * k);
+      const double norm = e.norm();
+      drift = std::max(drift, std::abs(norm - 1.0));
+      e /= norm;
+    }
+    return drift;
+  }
+
+  /// Output time i: t_start + i dt_out, snapped to t_end at the end.
+  double output_time(long i) const {
+    const double t = s_.t_start + static_cast<double>(i) * s_.dt_out;
+    return t > s_.t_end - 1e-9 * s_.dt_out ? s_.t_end : t;
+  }
+  bool outputs_done() const { return done_outputs_; }
+
+  void emit(double t, const VectorX& z) {
+    out_state_.x = z.head(7 * n_);
+    out_state_.y = z.tail(6 * n_);
+    if (s_.project_euler_parameters) out_state_.normalize_euler_parameters();
+    if (observer_) {
+      compute_kinematics(model_, out_state_, data_);
+      observer_(t, out_state_, data_);
+    }
+    ++stats_.outputs;
+    if (t >= s_.t_end) done_outputs_ = true;
+    ++next_output_;
+  }
+
+  void step_done(double t, double drift) {
+    ++stats_.steps_accepted;
+    stats_.t_reached = t;
+    stats_.max_euler_drift = std::max(stats_.max_euler_drift, drift);
+  }
+  bool keep_going(double t) { return !s_.on_step || s_.on_step(t); }
+
+  /// Records a failure; the message is before + the body at fault + after.
+  void fail(SimulationStatus status, int component, const std::string& before,
+            const std::string& after) {
+    stats_.status = status;
+    const std::string who = describe_state_component(model_, component, &stats_.failed_body);
+    stats_.message = before + (component >= 0 ? ": " + who + after : "");
+  }
+
+  void run_rk4() {
+    Rk4 rk4(13 * n_, ode());
+    double t = s_.t_start;
+    if (!check_finite("non-finite initial state at t = " + format_time(t))) return;
+    emit(t, z_);
+    while (!outputs_done()) {
+      const double t_next = output_time(next_output_);
+      const double span = t_next - t;
+      const long substeps = std::max(1L, static_cast<long>(std::ceil(span / s_.step - 1e-9)));
+      const double h = span / static_cast<double>(substeps);
+      for (long i = 0; i < substeps; ++i) {
+        const double t_new = i + 1 == substeps ? t_next : t + h;
+        z_prev_ = z_;
+        rk4.step(t, h, z_);
+        stats_.evaluations = rk4.evaluations();
+        if (!z_.allFinite()) {
+          check_finite("non-finite state in the step from t = " + format_time(t) +
+                       " to t = " + format_time(t_new));
+          z_ = z_prev_;  // the last finite state, for the final energy
+          return;
+        }
+        step_done(t_new, project(z_));
+        t = t_new;
+        if (!keep_going(t) && !(outputs_done() || (t == s_.t_end))) {
+          stats_.status = SimulationStatus::interrupted;
+          stats_.message = "interrupted at t = " + format_time(t);
+          return;
+        }
+      }
+      emit(t, z_);
+    }
+  }
+
+  /// True when z_ is finite; otherwise records the failure.
+  bool check_finite(const std::string& what) {
+    for (Eigen::Index i = 0; i < z_.size(); ++i)
+      if (!std::isfinite(z_[i])) {
+        fail(SimulationStatus::non_finite, static_cast<int>(i), what, " is not finite");
+        return false;
+      }
+    return true;
+  }
+
+  void run_dopri5() {
+    Dopri5Options opt;
+    opt.rtol = s_.rtol;
+    opt.atol = s_.atol;
+    opt.max_step = s_.max_step;
+    Dopri5 dp(13 * n_, ode(), opt);
+    const StepStatus started = dp.start(s_.t_start, z_, s_.t_end);
+    stats_.evaluations = dp.evaluations();
+    if (started != StepStatus::ok) {
+      fail(SimulationStatus::non_finite, dp.failed_component(),
+           "non-finite initial state or derivative at t = " + format_time(s_.t_start),
+           " is not finite");
+      return;
+    }
+    emit(s_.t_start, z_);
+    while (!outputs_done()) {
+      const double t_old = dp.time();
+      const StepStatus status = dp.step();
+      stats_.evaluations = dp.evaluations();
+      stats_.steps_rejected = dp.steps_rejected();
+      if (status == StepStatus::non_finite) {
+        fail(SimulationStatus::non_finite, dp.failed_component(),
+             "non-finite state after t = " + format_time(t_old),
+             " is not finite (steps down to the smallest allowed failed too)");
+        return;
+      }
+      if (status == StepStatus::step_underflow) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.3g", dp.min_step());
+        fail(SimulationStatus::step_underflow, dp.failed_component(),
+             "step size underflow at t = " + format_time(t_old) + " (no step above " + buf +
+                 " meets the tolerances)",
+             " has the largest error");
+        return;
+      }
+      const double t = dp.time();
+      step_done(t, project(dp.mutable_state()));
+      z_ = dp.state();
+      while (!outputs_done() && output_time(next_output_) <= t) {
+        const double t_out = output_time(next_output_);
+        if (t_out == t) {
+          emit(t_out, z_);
+        } else {
+          dp.dense_output(t_out, z_out_);
+          emit(t_out, z_out_);
+        }
+      }
+      if (!keep_going(t) && !outputs_done()) {
+        stats_.status = SimulationStatus::interrupted;
+        stats_.message = "interrupted at t = " + format_time(t);
+        return;
+      }
+    }
+  }
+
+  void final_energy() {
+    work_.x = z_.head(7 * n_);
+    work_.y = z_.tail(6 * n_);
+    stats_.energy_final = work_.x.allFinite() && work_.y.allFinite()
+                              ? total_energy(model_, work_, data_)
+                              : std::numeric_limits<double>::quiet_NaN();
+  }
+
+  const Model& model_;
+  const SimulationSettings& s_;
+  const Observer& observer_;
+  int n_;
+  Data data_;
+  State work_, out_state_;
+  VectorX z_, z_out_, z_prev_;
+  long next_output_ = 0;
+  bool done_outputs_ = false;
+  SimulationStats stats_;
+};
+
+}  // namespace
+
+SimulationStats simulate(const Model& model, const State& initial,
+                         const SimulationSettings& settings, const Observer& observer) {
+  if (initial.x.size() != model.num_coordinates() || initial.y.size() != model.num_speeds())
+    throw std::invalid_argument("simulate: the state does not have the model's size (7N + 6N)");
+  validate_settings(settings);
+  Run run(model, initial, settings, observer);
+  return run.run();
+}
+
+}  // namespace kanedyn

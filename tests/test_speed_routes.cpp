@@ -1,0 +1,471 @@
+// The fast routes of issue 4 against their oracles: block-sparse [A] and {f} against the dense
+// Eqs. (37)-(38), the tree LDL^T against a dense Cholesky, the fused O(N) pass against the
+// staged recursive route and against the Kane route, and the inline rotation vector against
+// the atan2 one.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/detail/fast_rotation.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/forces.hpp"
+#include "kanedyn/kane.hpp"
+#include "kanedyn/kinematic_equations.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "kanedyn/partials.hpp"
+#include "kanedyn/rotation.hpp"
+#include "kanedyn/tree_ldlt.hpp"
+
+namespace kanedyn {
+namespace {
+
+double uniform(std::mt19937& rng, double lo, double hi) {
+  return std::uniform_real_distribution<double>(lo, hi)(rng);
+}
+
+Vector3 random_vector(std::mt19937& rng, double lo, double hi) {
+  return {uniform(rng, lo, hi), uniform(rng, lo, hi), uniform(rng, lo, hi)};
+}
+
+Vector4 random_unit_quaternion(std::mt19937& rng) {
+  std::normal_distribution<double> normal;
+  Vector4 e;
+  do e = {normal(rng), normal(rng), normal(rng), normal(rng)};
+  while (e.norm() < 1e-3);
+  return e.normalized();
+}
+
+enum class Shape { tree, chain };
+
+// A random forest (or a chain) of n bodies: full inertias with products (moments from positive
+// second moments, so the triangle inequalities hold), com and joint offsets, gravity, and
+// loads of every kind: bushings (some bodies two, some none), constant forces and torques.
+Model random_model(std::mt19937& rng, int n, Shape shape) {
+  std::vector<BodySpec> bodies(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    BodySpec& b = bodies[static_cast<size_t>(k)];
+    b.name = "b" + std::to_string(k + 1);
+    if (shape == Shape::chain)
+      b.lower_body = k - 1;
+    else
+      b.lower_body = std::uniform_int_distribution<int>(0, k)(rng) - 1;
+    b.mass = uniform(rng, 0.5, 4.0);
+    const Vector3 second = b.mass * random_vector(rng, 0.01, 0.2);
+    const Vector3 moments(second[1] + second[2], second[0] + second[2], second[0] + second[1]);
+    const Matrix3 q = rotation_matrix(random_unit_quaternion(rng));
+    b.inertia = q * moments.asDiagonal() * q.transpose();
+    b.inertia = 0.5 * (b.inertia + b.inertia.transpose()).eval();
+    b.com = random_vector(rng, -0.3, 0.3);
+    b.joint = random_vector(rng, -0.5, 0.5);
+  }
+  std::vector<std::shared_ptr<const ForceElement>> forces;
+  for (int k = 0; k < n; ++k) {
+    const int count = std::uniform_int_distribution<int>(0, 5)(rng);  // 0, 1 or 2 bushings
+    for (int i = 0; i < (count + 1) / 3 + (count == 5); ++i)
+      forces.push_back(std::make_shared<Bushing>(k, random_vector(rng, 0.0, 2e3),
+                                                 random_vector(rng, 0.0, 20.0),
+                                                 uniform(rng, 0.0, 50.0), uniform(rng, 0.0, 1.0)));
+    if (uniform(rng, 0.0, 1.0) < 0.2)
+      forces.push_back(std::make_shared<ConstantForce>(k, random_vector(rng, -5.0, 5.0)));
+    if (uniform(rng, 0.0, 1.0) < 0.2)
+      forces.push_back(std::make_shared<ConstantTorque>(k, random_vector(rng, -1.0, 1.0)));
+  }
+  return Model(std::move(bodies), random_vector(rng, -10.0, 10.0), std::move(forces));
+}
+
+// Unit Euler parameters (absolute, independent per body: relative rotations of any angle, so
+// every sector of the rotation vector occurs), s' within 5 cm, speeds of order 1.
+State random_state(std::mt19937& rng, const Model& model) {
+  State state(model);
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    state.euler_parameters(k) = random_unit_quaternion(rng);
+    state.translation(k) = random_vector(rng, -0.05, 0.05);
+    state.angular_velocity(k) = random_vector(rng, -2.0, 2.0);
+    state.translation_rate(k) = random_vector(rng, -0.5, 0.5);
+  }
+  return state;
+}
+
+// The eight-body system of the notes, L(K) = (0, 1, 2, 2, 1, 1, 1, 7), with random mass
+// properties and a bushing on every body.
+Model eight_body(std::mt19937& rng) {
+  const int lower[8] = {kGround, 0, 1, 1, 0, 0, 0, 6};
+  Model random = random_model(rng, 8, Shape::tree);
+  std::vector<BodySpec> bodies = random.bodies();
+  std::vector<std::shared_ptr<const ForceElement>> forces;
+  for (int k = 0; k < 8; ++k) {
+    bodies[static_cast<size_t>(k)].lower_body = lower[k];
+    forces.push_back(
+        std::make_shared<Bushing>(k, Vector3(3e3, 2e3, 1e3), Vector3(5, 6, 7), 40.0 + k, 0.5));
+  }
+  return Model(std::move(bodies), Vector3(0, 0, -9.81), std::move(forces));
+}
+
+std::vector<Model> test_models(std::mt19937& rng) {
+  std::vector<Model> models;
+  models.push_back(eight_body(rng));
+  for (int n : {1, 2, 3, 5, 8, 13, 30, 60}) models.push_back(random_model(rng, n, Shape::tree));
+  for (int n : {2, 7, 25}) models.push_back(random_model(rng, n, Shape::chain));
+  return models;
+}
+
+double max_abs(const MatrixX& m) { return m.cwiseAbs().maxCoeff(); }
+
+TEST(SpeedRoutes, FastRotationVectorIsCorrectToRoundOff) {
+  // The inline rotation vector (sector reduction and a series, no atan2) against the same
+  // formula, 2 atan2(|e|, e4) e / |e|, in long double from the same double inputs. Its
+  // roundings (t, the reduced argument, the table angle, the series, phi / |e|, the product
+  // with e) add to a few ulp; cancellation in atan(c_k) + atan(r) at the low end of a sector
+  // costs up to 2 ulp more. 8e-16 relative is 4 ulp of the norm; the atan2 form of
+  // rotation.hpp itself is off by up to ~2 ulp.
+  std::mt19937 rng(1);
+  std::vector<double> angles = {0.0, 1e-300, 1e-12, 1e-8, 1e-3, 0.1, 3.14159, M_PI};
+  for (int i = 0; i < 8; ++i)  // sector boundaries of the half angle, (2i+1) pi/24, +- 1e-9
+    for (double d : {-1e-9, 0.0, 1e-9}) angles.push_back((2 * i + 1) * M_PI / 12 + d);
+  for (int i = 0; i < 20000; ++i) angles.push_back(uniform(rng, 0.0, M_PI));
+  for (int i = 0; i < 2000; ++i) angles.push_back(uniform(rng, 0.0, 0.3));
+  for (const double angle : angles) {
+    for (const double sign : {1.0, -1.0}) {
+      const Vector3 axis = random_vector(rng, -1.0, 1.0);
+      const Vector4 eps = sign * euler_parameters_from_axis_angle(axis, angle);
+      long double v[3] = {eps[0], eps[1], eps[2]}, s = eps[3];
+      if (s < 0) {
+        for (long double& c : v) c = -c;
+        s = -s;
+      }
+      const long double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+      const long double scale = n == 0 ? 2.0L / s : 2.0L * std::atan2(n, s) / n;
+      const Vector3 expected(static_cast<double>(scale * v[0]), static_cast<double>(scale * v[1]),
+                             static_cast<double>(scale * v[2]));
+      const Vector3 fast = detail::rotation_vector(eps);
+      EXPECT_LE((fast - expected).norm(), 8e-16 * expected.norm())
+          << "angle " << angle << " sign " << sign;
+      EXPECT_LE((fast - rotation_vector(eps)).norm(), 1.2e-15 * expected.norm());
+    }
+  }
+}
+
+TEST(SpeedRoutes, InlineRotationHelpersMatchRotationHpp) {
+  // Same formulas written out: equal to round-off (a few ulp of quantities of order 1).
+  std::mt19937 rng(2);
+  for (int i = 0; i < 200; ++i) {
+    const Vector4 a = random_unit_quaternion(rng), b = random_unit_quaternion(rng);
+    const Vector3 v = random_vector(rng, -1.0, 1.0);
+    EXPECT_LT((detail::rotation_matrix(a) - rotation_matrix(a)).cwiseAbs().maxCoeff(), 1e-15);
+    EXPECT_LT((detail::rotate(a.data(), v) - rotation_matrix(a) * v).norm(), 1e-15);
+    EXPECT_LT(
+        (detail::relative_euler_parameters(a.data(), b.data()) - relative_euler_parameters(a, b))
+            .norm(),
+        1e-15);
+  }
+}
+
+TEST(SpeedRoutes, BlockMassMatrixEqualsDenseOracle) {
+  // Eq. (37) two ways: the dense sum over the pairs of partial blocks of every chain, and the
+  // block-sparse assembly from subtree sums. The sums are the same products in another order
+  // and the fast route uses [R][R]^T = [I] (true to 1e-16): round-off relative to max |A|;
+  // 1e-12 leaves a margin of ~100 over the ~N ulp of sums of N terms.
+  std::mt19937 rng(3);
+  for (const Model& model : test_models(rng)) {
+    const State state = random_state(rng, model);
+    Data data(model);
+    compute_kinematics(model, state, data);
+    compute_partials_recursive(model, state, data);
+    compute_mass_matrix_dense(model, data);
+    const MatrixX oracle = data.A;
+    compute_mass_matrix(model, data);
+    dense_mass_matrix(model, data);
+    EXPECT_LT(max_abs(data.A - oracle), 1e-12 * max_abs(oracle)) << "N " << model.num_bodies();
+    // Blocks outside the chains are exactly zero in both.
+    for (int a = 0; a < model.num_bodies(); ++a)
+      for (int b = 0; b < model.num_bodies(); ++b) {
+        if (model.on_chain(a, b) || model.on_chain(b, a)) continue;
+        for (int p = 0; p < 2; ++p)
+          for (int q = 0; q < 2; ++q) {
+            const int n = model.num_bodies();
+            const Matrix3 block = data.A.block<3, 3>(3 * n * p + 3 * a, 3 * n * q + 3 * b);
+            EXPECT_TRUE(block.isZero(0.0));
+          }
+      }
+    EXPECT_EQ(data.A, data.A.transpose());
+  }
+}
+
+TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
+  // Eq. (38) and Eq. (31) by subtree sums against the chain-layout forms (sums over every
+  // body's chain of [v_G,y]^T blocks). Round-off relative to the size of the largest load
+  // term (the entries themselves can cancel).
+  std::mt19937 rng(4);
+  for (const Model& model : test_models(rng)) {
+    const State state = random_state(rng, model);
+    Data data(model);
+    compute_kinematics(model, state, data);
+    compute_partials_recursive(model, state, data);
+    compute_partial_rates(model, state, data);
+    compute_resultants(model, state, data);
+    compute_force_vector_dense(model, state, data);
+    const VectorX f_oracle = data.f;
+    compute_generalized_forces(model, data);
+    const VectorX fy_oracle = data.F_y;
+    double scale = 0.0;
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      const BodySpec& b = model.body(k);
+      const Vector3 w = state.angular_velocity(k);
+      const MatrixX v = partial_velocity(model, data, k, Point::G);
+      const MatrixX vdot = partial_velocity_rate(model, data, k, Point::G);
+      const double lever = max_abs(v);
+      scale =
+          std::max({scale, lever * data.force[static_cast<size_t>(k)].norm(),
+                    lever * b.mass * (vdot * state.y).norm(),
+                    data.moment_b[static_cast<size_t>(k)].norm(), w.cross(b.inertia * w).norm()});
+    }
+    compute_force_vector(model, state, data);
+    compute_generalized_forces_tree(model, data);
+    EXPECT_LT((data.f - f_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
+        << "N " << model.num_bodies();
+    EXPECT_LT((data.F_y - fy_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
+        << "N " << model.num_bodies();
+  }
+}
+
+TEST(SpeedRoutes, TreeLdltRecoversAKnownFactorAndSolvesLikeCholesky) {
+  // Build A = L^T D L from random unit block-lower L with the tree's sparsity and random SPD
+  // D blocks: the factorization must return exactly these L and D (to round-off, relative to
+  // the condition of the blocks, 1e-9), and the solution must equal a dense Cholesky solve.
+  std::mt19937 rng(5);
+  for (const Model& model : test_models(rng)) {
+    const int n = model.num_bodies();
+    MatrixX l = MatrixX::Identity(6 * n, 6 * n), d = MatrixX::Zero(6 * n, 6 * n);
+    // Body-blocked index of speed i of body k in the layout of Eq. (1).
+    const auto idx = [n](int k, int i) { return i < 3 ? 3 * k + i : 3 * n + 3 * k + i - 3; };
+    std::vector<Matrix6> l_blocks(static_cast<size_t>(model.chain_entries()));
+    for (int k = 0; k < n; ++k) {
+      const Model::Chain chain = model.chain(k);
+      const auto o = static_cast<size_t>(model.chain_offset(k));
+      const Matrix6 g = Matrix6::Random();
+      const Matrix6 dk = g * g.transpose() + Matrix6::Identity();
+      for (int r = 0; r < chain.size; ++r) {
+        const Matrix6 block = r == 0 ? dk : Matrix6(0.5 * Matrix6::Random());
+        l_blocks[o + static_cast<size_t>(r)] = block;
+        for (int p = 0; p < 6; ++p)
+          for (int q = 0; q < 6; ++q) (r == 0 ? d : l)(idx(k, p), idx(chain[r], q)) = block(p, q);
+      }
+    }
+    const MatrixX a = l.transpose() * d * l;
+    std::vector<Matrix6> a_blocks(static_cast<size_t>(model.chain_entries()));
+    for (int k = 0; k < n; ++k) {
+      const Model::Chain chain = model.chain(k);
+      for (int r = 0; r < chain.size; ++r)
+        for (int p = 0; p < 6; ++p)
+          for (int q = 0; q < 6; ++q)
+            a_blocks[static_cast<size_t>(model.chain_offset(k) + r)](p, q) =
+                a(idx(k, p), idx(chain[r], q));
+    }
+    TreeLdlt ldlt(model);
+    ldlt.compute(model, a_blocks);
+    ASSERT_EQ(ldlt.info(), Eigen::Success);
+    for (int k = 0; k < n; ++k)
+      for (int r = 1; r < model.chain(k).size; ++r) {
+        const auto e = static_cast<size_t>(model.chain_offset(k) + r);
+        EXPECT_LT((ldlt.factor()[e] - l_blocks[e]).cwiseAbs().maxCoeff(), 1e-9) << k << " " << r;
+      }
+    const VectorX b = VectorX::Random(6 * n);
+    VectorX x = b;
+    ldlt.solve_in_place(model, x);
+    const VectorX expected = Eigen::LLT<MatrixX>(a).solve(b);
+    EXPECT_LT((x - expected).norm(), 1e-9 * expected.norm()) << "N " << n;
+    EXPECT_LT((a * x - b).norm(), 1e-12 * (max_abs(a) * x.norm() + b.norm())) << "N " << n;
+  }
+}
+
+TEST(SpeedRoutes, TreeLdltReportsAnIndefiniteMatrix) {
+  std::mt19937 rng(6);
+  const Model model = random_model(rng, 4, Shape::tree);
+  std::vector<Matrix6> blocks(static_cast<size_t>(model.chain_entries()), Matrix6::Zero());
+  for (int k = 0; k < 4; ++k)
+    blocks[static_cast<size_t>(model.chain_offset(k))] = Matrix6::Identity();
+  TreeLdlt ldlt(model);
+  ldlt.compute(model, blocks);
+  EXPECT_EQ(ldlt.info(), Eigen::Success);
+  blocks[static_cast<size_t>(model.chain_offset(2))](4, 4) = -1.0;
+  ldlt.compute(model, blocks);
+  EXPECT_EQ(ldlt.info(), Eigen::NumericalIssue);
+}
+
+TEST(SpeedRoutes, KaneEquationsFillTheDenseMatrixAndSolveEquation36) {
+  std::mt19937 rng(7);
+  for (const Model& model : test_models(rng)) {
+    const State state = random_state(rng, model);
+    Data data(model);
+    kane_equations(model, state, data);
+    compute_mass_matrix_dense(model, data);  // needs the partials kane_equations computed
+    const MatrixX oracle = data.A;
+    kane_equations(model, state, data);
+    EXPECT_LT(max_abs(data.A - oracle), 1e-12 * max_abs(oracle));
+    const VectorX residual = data.A * data.ydot - data.f;
+    // Backward stable elimination: |A ydot - f| ~ 6N eps (|A| |ydot| + |f|).
+    EXPECT_LT(residual.cwiseAbs().maxCoeff(),
+              1e-14 * model.num_speeds() *
+                  (max_abs(data.A) * data.ydot.cwiseAbs().maxCoeff() + max_abs(data.f)));
+    Data lean(model, DataOptions{false, true, false});
+    kane_equations(model, state, lean);
+    EXPECT_EQ(lean.A.size(), 0);
+    EXPECT_EQ(lean.ydot, data.ydot);  // the same operations without the extras
+  }
+}
+
+// Same algorithm (body-frame Newton-Euler, then s'') in two codings: the fused pass with
+// relative Euler parameters vs the staged one in inertial components. Round-off of chains
+// of transformations: 1e-12 relative to |ydot|.
+void expect_fused_equals_staged(const Model& model, const State& state) {
+  Data fused(model, DataOptions{false, false});
+  ASSERT_TRUE(fused.fused_loads);
+  forward_dynamics(model, state, fused, Method::recursive);
+  Data staged(model, DataOptions{false, false});
+  compute_kinematics(model, state, staged);
+  compute_resultants(model, state, staged);
+  recursive_accelerations(model, state, staged);
+  compute_xdot(model, state, staged.xdot);
+  EXPECT_LE((fused.ydot - staged.ydot).norm(), 1e-12 * staged.ydot.norm())
+      << "N " << model.num_bodies();
+  EXPECT_EQ(fused.xdot, staged.xdot);  // the same expressions, exactly
+}
+
+TEST(SpeedRoutes, FusedPassEqualsStagedRecursiveRoute) {
+  std::mt19937 rng(8);
+  for (const Model& model : test_models(rng))
+    for (int trial = 0; trial < 3; ++trial)
+      expect_fused_equals_staged(model, random_state(rng, model));
+}
+
+TEST(SpeedRoutes, RecursiveAndKaneRoutesAgreeOnLargeTreesAndDeepChains) {
+  // Two algorithms for Eq. (36) (issue 4: 1e-10 relative). The Kane route's error is the
+  // condition of [A] times round-off; for these models cond(A) stays below ~1e5.
+  std::mt19937 rng(9);
+  std::vector<Model> models = test_models(rng);
+  for (int n : {100, 200}) models.push_back(random_model(rng, n, Shape::tree));
+  for (int n : {50, 100, 200}) models.push_back(random_model(rng, n, Shape::chain));
+  for (const Model& model : models) {
+    const State state = random_state(rng, model);
+    Data kane(model, DataOptions{false, true, false}), rec(model, DataOptions{false, false});
+    forward_dynamics(model, state, kane, Method::kane);
+    forward_dynamics(model, state, rec, Method::recursive);
+    EXPECT_LE((kane.ydot - rec.ydot).norm(), 1e-10 * rec.ydot.norm()) << "N " << model.num_bodies();
+    EXPECT_EQ(kane.xdot, rec.xdot);
+  }
+}
+
+// A force element the fused pass does not know: it must take the staged route.
+class Spring final : public ForceElement {
+ public:
+  explicit Spring(int body) : body_(body) {}
+  std::string type() const override { return "test-spring"; }
+  int body() const override { return body_; }
+  void apply(const Model&, const State&, Data& data) const override {
+    data.force[static_cast<size_t>(body_)] -= 100.0 * data.p_G[static_cast<size_t>(body_)];
+  }
+
+ private:
+  int body_;
+};
+
+TEST(SpeedRoutes, UnknownForceElementTakesTheStagedRoute) {
+  std::mt19937 rng(10);
+  const Model base = random_model(rng, 6, Shape::tree);
+  std::vector<std::shared_ptr<const ForceElement>> forces = base.forces();
+  forces.push_back(std::make_shared<Spring>(3));
+  const Model model(base.bodies(), base.gravity(), forces);
+  const State state = random_state(rng, model);
+  Data rec(model, DataOptions{false, false}), kane(model);
+  EXPECT_FALSE(rec.fused_loads);
+  forward_dynamics(model, state, rec, Method::recursive);
+  forward_dynamics(model, state, kane, Method::kane);
+  EXPECT_LE((kane.ydot - rec.ydot).norm(), 1e-10 * rec.ydot.norm());
+  // ...and the spring does act: without it the accelerations differ.
+  Data plain(base, DataOptions{false, false});
+  forward_dynamics(base, state, plain, Method::recursive);
+  EXPECT_GT((plain.ydot - rec.ydot).norm(), 1e-3 * rec.ydot.norm());
+}
+
+TEST(SpeedRoutes, KaneRouteNeedsTheMassMatrixOption) {
+  std::mt19937 rng(11);
+  const Model model = random_model(rng, 3, Shape::tree);
+  const State state = random_state(rng, model);
+  Data data(model, DataOptions{false, false});
+  EXPECT_THROW(forward_dynamics(model, state, data, Method::kane), std::invalid_argument);
+  EXPECT_NO_THROW(forward_dynamics(model, state, data, Method::recursive));
+}
+
+TEST(SpeedRoutes, DeepChainWithoutFlatChainStorage) {
+  // 6000 bodies: 18,003,000 chain entries > Model::kMaxFlatChainEntries. Chains walk L, the
+  // Kane route and the partials refuse with a message, the recursive route runs.
+  std::mt19937 rng(12);
+  const int n = 6000;
+  std::vector<BodySpec> bodies(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    BodySpec& b = bodies[static_cast<size_t>(k)];
+    b.name = "link" + std::to_string(k);
+    b.lower_body = k - 1;
+    b.mass = 1.0;
+    b.inertia = Vector3(0.02, 0.02, 0.001).asDiagonal();
+    b.com = Vector3(0, 0, -0.25);
+    b.joint = k == 0 ? Vector3::Zero() : Vector3(0, 0, -0.5);
+  }
+  std::vector<std::shared_ptr<const ForceElement>> forces;
+  for (int k = 0; k < n; ++k)
+    forces.push_back(
+        std::make_shared<Bushing>(k, Vector3::Constant(1e4), Vector3::Constant(10), 100.0, 0.1));
+  const Model model(std::move(bodies), Vector3(0, 0, -9.81), std::move(forces));
+  ASSERT_GT(model.chain_entries(), Model::kMaxFlatChainEntries);
+  EXPECT_FALSE(model.has_flat_chains());
+  EXPECT_EQ(model.chain_entries(), static_cast<long long>(n) * (n + 1) / 2);
+  for (const int k : {0, 1, 2500, n - 1}) {
+    const Model::Chain chain = model.chain(k);
+    EXPECT_EQ(chain.size, k + 1);
+    EXPECT_EQ(chain.back(), 0);
+    EXPECT_EQ(model.root(k), 0);
+    int r = 0;
+    for (const int c : chain) {
+      EXPECT_EQ(c, k - r);
+      EXPECT_EQ(chain[r], k - r);
+      ++r;
+    }
+    EXPECT_EQ(r, k + 1);
+    EXPECT_TRUE(model.on_chain(k / 2, k));
+    EXPECT_FALSE(model.on_chain(k + 1 < n ? k + 1 : 0, k) && k + 1 < n);
+  }
+  EXPECT_THROW(Data data(model), ModelError);
+  State state(model);
+  for (int k = 0; k < n; ++k) {
+    const Vector4 e = random_unit_quaternion(rng);
+    state.euler_parameters(k) = e;  // large relative angles along the chain
+    state.angular_velocity(k) = random_vector(rng, -1.0, 1.0);
+  }
+  expect_fused_equals_staged(model, state);
+}
+
+TEST(SpeedRoutes, FlatAndWalkedChainsAgree) {
+  std::mt19937 rng(13);
+  const Model model = random_model(rng, 40, Shape::tree);
+  ASSERT_TRUE(model.has_flat_chains());
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const Model::Chain flat = model.chain(k);
+    Model::Chain walked = flat;
+    walked.first = nullptr;
+    int r = 0;
+    for (const int c : walked) EXPECT_EQ(c, flat[r++]);
+    EXPECT_EQ(r, flat.size);
+    for (int i = 0; i < flat.size; ++i) EXPECT_EQ(walked[i], flat[i]);
+    EXPECT_EQ(flat.back(), model.root(k));
+    EXPECT_EQ(model.root(k), flat[flat.size - 1]);
+  }
+}
+
+}  // namespace
+}  // namespace kanedyn
