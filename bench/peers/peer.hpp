@@ -1,0 +1,102 @@
+// The peer comparison's common language: a model and state described in plain numbers (no
+// kanedyn or Eigen types, so that each engine's translation unit can be compiled with the
+// flags its library needs, e.g. Simbody's without NDEBUG), and the interface every engine
+// implements.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace peers {
+
+using Vec3 = std::array<double, 3>;
+using Quat = std::array<double, 4>;  ///< (w, x, y, z), Hamilton convention, w scalar
+using Mat3 = std::array<double, 9>;  ///< row-major
+
+/// One body K of the notes (0-based index k = K-1).
+struct Body {
+  std::string name;
+  int parent = -1;  ///< L(K) as a 0-based index, -1 for the ground
+  double mass = 0;  ///< m_K
+  Mat3 inertia{};   ///< about G_K, body-K axes
+  Vec3 com{};       ///< r'_K, O_K to G_K, body-K axes
+  Vec3 joint{};     ///< q'_K, O_J to Q_K, body-J axes (inertial for a root)
+  Vec3 k{}, c{};    ///< summed bushing stiffness / damping on s'_K (J axes); 0 if none
+  double kr = 0;    ///< summed rotational bushing stiffness
+  double cr = 0;    ///< summed rotational bushing damping
+  Vec3 force{};     ///< summed constant force at G_K, inertial
+  Vec3 torque_b{};  ///< summed constant moment, body-K axes
+};
+
+/// The state of body K relative to its lower body J (the ground for a root), in the forms
+/// the engines' joint coordinates take.
+struct BodyState {
+  Quat q_rel{};    ///< rotation taking J's axes into K's: R(q_rel) maps K components to J's
+  Vec3 s{};        ///< s'_K, J axes
+  Vec3 s_dot{};    ///< s'_K dot, J axes
+  Vec3 w_rel_k{};  ///< w_K - w_J, K axes
+  Vec3 w_rel_j{};  ///< w_K - w_J, J axes
+};
+
+/// Per-body inertial quantities an engine reports (and kanedyn's, for reference).
+struct BodyMotion {
+  Vec3 p_G{}, v_G{};  ///< mass-centre position and velocity, inertial
+  Vec3 w{};           ///< angular velocity, inertial
+  Vec3 a_G{};         ///< mass-centre acceleration, inertial
+  Vec3 alpha{};       ///< angular acceleration, inertial
+};
+
+/// Rates of a body's joint speeds: d/dt of s'_K dot (J axes) and d/dt of the components of
+/// w_rel_k (the speeds of a ball joint in child axes).
+struct JointAcceleration {
+  Vec3 s_ddot{};
+  Vec3 w_rel_dot_k{};
+};
+
+struct System {
+  std::string name;
+  std::vector<Body> bodies;
+  Vec3 gravity{};
+  std::vector<BodyState> state;
+  bool has_constant_loads = false;
+};
+
+/// One engine holding one System at its state.
+class Engine {
+ public:
+  virtual ~Engine() = default;
+  /// One forward-dynamics evaluation at the state, as a user of the engine would write it
+  /// (the timed call).
+  virtual void evaluate() = 0;
+  /// Body motion after evaluate(), in kanedyn's body order.
+  virtual std::vector<BodyMotion> motion() = 0;
+  /// For engines that solve M qacc = f in joint coordinates: the componentwise backward error
+  /// max_i |M qacc - f|_i / (|M| |qacc| + |f|)_i of the engine's own qacc and of the given
+  /// joint accelerations (kanedyn's), after evaluate(). Empty if not implemented.
+  virtual std::vector<double> backward_errors(const std::vector<JointAcceleration>&) { return {}; }
+};
+
+/// What an engine needs to be able to skip cases it cannot run here.
+struct EngineInfo {
+  std::string name;
+  std::string version;
+  /// Bytes the engine allocates for this system, roughly (dense caches dominate).
+  double (*bytes)(const System&);
+  /// A number proportional to one evaluation's cost, to extrapolate from measured cases.
+  double (*cost)(const System&);
+  std::unique_ptr<Engine> (*make)(const System&);
+};
+
+EngineInfo simbody_engine();
+EngineInfo mujoco_engine();
+#ifdef KANEDYN_PEERS_HAVE_DART
+EngineInfo dart_engine();
+#endif
+
+/// Sum over bodies of (number of degrees of freedom from the body down to the ground) and
+/// of its square: the sizes of dense-fill mass-matrix factorizations in joint coordinates.
+double ancestor_dofs(const System& system, int power);
+
+}  // namespace peers

@@ -1,0 +1,570 @@
+// kanedyn_peers: one forward-dynamics evaluation of the same model at the same state in
+// kanedyn (recursive and Kane routes), Simbody, MuJoCo and DART; median time per evaluation,
+// ratios to kanedyn, and agreement of the body accelerations. See docs/performance.md.
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/forces.hpp"
+#include "kanedyn/generate.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/rotation.hpp"
+#include "peer.hpp"
+
+namespace peers {
+
+double ancestor_dofs(const System& system, int power) {
+  std::vector<double> dofs(system.bodies.size());
+  double sum = 0;
+  for (size_t k = 0; k < dofs.size(); ++k) {
+    const int j = system.bodies[k].parent;
+    dofs[k] = 6.0 + (j < 0 ? 0.0 : dofs[static_cast<size_t>(j)]);
+    sum += 6.0 * std::pow(dofs[k], power);  // six dofs per body, each with that many ancestors
+  }
+  return sum;
+}
+
+}  // namespace peers
+
+namespace {
+
+using kanedyn::Matrix3;
+using kanedyn::Vector3;
+using kanedyn::Vector4;
+using Clock = std::chrono::steady_clock;
+
+struct Options {
+  std::vector<std::string> models;
+  std::vector<int> sizes{8, 64, 512, 4096};
+  std::vector<std::string> engines{"recursive", "kane", "simbody", "mujoco", "dart"};
+  std::string eight_body = KANEDYN_SOURCE_DIR "/examples/eight_body.yaml";
+  unsigned seed = 1;
+  int reps = 1000;
+  double max_seconds = 2.0;      // timing budget per engine and model
+  double max_eval_seconds = 60;  // skip when one evaluation is predicted to take longer
+  double max_memory_gb = 0;      // 0: half of MemAvailable
+  double tolerance = 1e-8;
+  double backward_tolerance = 1e-10;
+};
+
+struct Case {
+  std::string name;
+  kanedyn::Model model;
+  kanedyn::State state;
+};
+
+peers::Vec3 arr(const Vector3& v) { return {v.x(), v.y(), v.z()}; }
+Vector3 vec(const peers::Vec3& a) { return {a[0], a[1], a[2]}; }
+
+// kanedyn's Model and State in the engine-neutral description.
+peers::System describe(const Case& c) {
+  const kanedyn::Model& m = c.model;
+  const kanedyn::State& s = c.state;
+  peers::System sys;
+  sys.name = c.name;
+  sys.gravity = arr(m.gravity());
+  for (int k = 0; k < m.num_bodies(); ++k) {
+    const kanedyn::BodySpec& b = m.body(k);
+    peers::Body body;
+    body.name = b.name;
+    body.parent = b.lower_body;
+    body.mass = b.mass;
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col)
+        body.inertia[static_cast<size_t>(3 * r + col)] = b.inertia(r, col);
+    body.com = arr(b.com);
+    body.joint = arr(b.joint);
+    sys.bodies.push_back(body);
+  }
+  for (const auto& f : m.forces()) {
+    peers::Body& b = sys.bodies[static_cast<size_t>(f->body())];
+    if (const auto* bushing = dynamic_cast<const kanedyn::Bushing*>(f.get())) {
+      for (int i = 0; i < 3; ++i) {
+        b.k[static_cast<size_t>(i)] += bushing->stiffness[i];
+        b.c[static_cast<size_t>(i)] += bushing->damping[i];
+      }
+      b.kr += bushing->rotational_stiffness;
+      b.cr += bushing->rotational_damping;
+    } else if (const auto* force = dynamic_cast<const kanedyn::ConstantForce*>(f.get())) {
+      b.force = arr(vec(b.force) + force->value);
+      sys.has_constant_loads = true;
+    } else if (const auto* torque = dynamic_cast<const kanedyn::ConstantTorque*>(f.get())) {
+      b.torque_b = arr(vec(b.torque_b) + torque->value);
+      sys.has_constant_loads = true;
+    } else {
+      throw std::runtime_error("kanedyn_peers: no peer translation for force type " + f->type());
+    }
+  }
+  for (int k = 0; k < m.num_bodies(); ++k) {
+    const int j = m.lower_body(k);
+    const Vector4 eps_k = s.euler_parameters(k);
+    const Vector4 rel = j == kanedyn::kGround
+                            ? eps_k
+                            : kanedyn::relative_euler_parameters(s.euler_parameters(j), eps_k);
+    const Matrix3 R_rel = kanedyn::rotation_matrix(rel);  // J components -> K components
+    Vector3 w_rel_k = s.angular_velocity(k);
+    if (j != kanedyn::kGround)
+      w_rel_k -=
+          kanedyn::rotation_matrix(eps_k) *
+          (kanedyn::rotation_matrix(s.euler_parameters(j)).transpose() * s.angular_velocity(j));
+    peers::BodyState st;
+    // kanedyn's [R] is the transpose of the Hamilton rotation of (e4; e1, e2, e3), so the
+    // Hamilton quaternion that maps K components to J components has the same numbers.
+    st.q_rel = {rel[3], rel[0], rel[1], rel[2]};
+    st.s = arr(s.translation(k));
+    st.s_dot = arr(s.translation_rate(k));
+    st.w_rel_k = arr(w_rel_k);
+    st.w_rel_j = arr(R_rel.transpose() * w_rel_k);
+    sys.state.push_back(st);
+  }
+  return sys;
+}
+
+// Inertial body motion from kanedyn's {y dot}, by an outward pass written here from the
+// notes' kinematics (Eqs. 12-17 differentiated once more), independent of the library's
+// internal workspace.
+std::vector<peers::BodyMotion> kanedyn_motion(const kanedyn::Model& m, const kanedyn::State& s,
+                                              const kanedyn::VectorX& ydot) {
+  const int n = m.num_bodies();
+  std::vector<Matrix3> R(static_cast<size_t>(n));
+  std::vector<Vector3> p_O(R.size()), v_O(R.size()), a_O(R.size());
+  std::vector<peers::BodyMotion> out(R.size());
+  for (int k = 0; k < n; ++k) {
+    const auto i = static_cast<size_t>(k);
+    R[i] = kanedyn::rotation_matrix(s.euler_parameters(k));
+    const Vector3 qs = m.body(k).joint + s.translation(k);
+    const Vector3 sd = s.translation_rate(k);
+    const Vector3 sdd = ydot.segment<3>(3 * n + 3 * k);
+    const int j = m.lower_body(k);
+    if (j == kanedyn::kGround) {
+      p_O[i] = qs;
+      v_O[i] = sd;
+      a_O[i] = sdd;
+    } else {
+      const auto jj = static_cast<size_t>(j);
+      const Vector3 wj = s.angular_velocity(j);
+      const Vector3 alj = ydot.segment<3>(3 * j);
+      p_O[i] = p_O[jj] + R[jj].transpose() * qs;
+      v_O[i] = v_O[jj] + R[jj].transpose() * (sd + wj.cross(qs));
+      a_O[i] = a_O[jj] + R[jj].transpose() *
+                             (sdd + 2.0 * wj.cross(sd) + alj.cross(qs) + wj.cross(wj.cross(qs)));
+    }
+    const Vector3 w = s.angular_velocity(k), al = ydot.segment<3>(3 * k), r = m.body(k).com;
+    out[i].p_G = arr(p_O[i] + R[i].transpose() * r);
+    out[i].v_G = arr(v_O[i] + R[i].transpose() * w.cross(r));
+    out[i].w = arr(R[i].transpose() * w);
+    out[i].a_G = arr(a_O[i] + R[i].transpose() * (al.cross(r) + w.cross(w.cross(r))));
+    out[i].alpha = arr(R[i].transpose() * al);
+  }
+  return out;
+}
+
+// kanedyn's {y dot} as rates of the joint speeds of the other engines' joint coordinates:
+// s'_K double-dot, and d/dt of w_rel = w'_K - [R_rel] w'_J (K axes, [R_rel] = [R_K][R_J]^T),
+// which is alpha'_K - [R_rel] alpha'_J + w'_K x ([R_rel] w'_J).
+std::vector<peers::JointAcceleration> kanedyn_joint_accelerations(const kanedyn::Model& m,
+                                                                  const kanedyn::State& s,
+                                                                  const kanedyn::VectorX& ydot) {
+  const int n = m.num_bodies();
+  std::vector<peers::JointAcceleration> out(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    auto& o = out[static_cast<size_t>(k)];
+    o.s_ddot = arr(ydot.segment<3>(3 * n + 3 * k));
+    Vector3 rate = ydot.segment<3>(3 * k);
+    const int j = m.lower_body(k);
+    if (j != kanedyn::kGround) {
+      const Matrix3 R_rel = kanedyn::rotation_matrix(s.euler_parameters(k)) *
+                            kanedyn::rotation_matrix(s.euler_parameters(j)).transpose();
+      const Vector3 wj_in_k = R_rel * s.angular_velocity(j);
+      rate += -R_rel * ydot.segment<3>(3 * j) + s.angular_velocity(k).cross(wj_in_k);
+    }
+    o.w_rel_dot_k = arr(rate);
+  }
+  return out;
+}
+
+// max_k |x_k - ref_k| / max_k |ref_k| for one per-body 3-vector quantity.
+double relative_difference(const std::vector<peers::BodyMotion>& x,
+                           const std::vector<peers::BodyMotion>& ref,
+                           peers::Vec3 peers::BodyMotion::*field) {
+  double diff = 0, scale = 0;
+  for (size_t k = 0; k < ref.size(); ++k) {
+    diff = std::max(diff, (vec(x[k].*field) - vec(ref[k].*field)).norm());
+    scale = std::max(scale, vec(ref[k].*field).norm());
+  }
+  return scale > 0 ? diff / scale : diff;
+}
+
+struct Agreement {
+  double state = 0;         // worst of p_G, v_G, w: did the engine get the same state?
+  double acceleration = 0;  // worst of a_G, alpha
+};
+
+Agreement compare(const std::vector<peers::BodyMotion>& x,
+                  const std::vector<peers::BodyMotion>& ref) {
+  using M = peers::BodyMotion;
+  return {std::max({relative_difference(x, ref, &M::p_G), relative_difference(x, ref, &M::v_G),
+                    relative_difference(x, ref, &M::w)}),
+          std::max(relative_difference(x, ref, &M::a_G), relative_difference(x, ref, &M::alpha))};
+}
+
+struct Timing {
+  double median_ns = 0, min_ns = 0;
+  long evals = 0;
+};
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Median over batches of the time per evaluation; a batch lasts about 50 us so that the
+// clock's own cost does not count. Stops after opt.reps batches or opt.max_seconds.
+template <class F>
+Timing time_evaluations(F&& evaluate, double first_eval_seconds, const Options& opt) {
+  const long batch = std::max(1L, std::lround(50e-6 / std::max(first_eval_seconds, 1e-9)));
+  const double warm_up = std::min(0.05, 0.1 * opt.max_seconds);
+  for (const auto t0 = Clock::now(); first_eval_seconds < warm_up && seconds_since(t0) < warm_up;)
+    evaluate();
+  std::vector<double> per_eval;
+  const auto start = Clock::now();
+  while (static_cast<int>(per_eval.size()) < opt.reps) {
+    const auto t0 = Clock::now();
+    for (long b = 0; b < batch; ++b) evaluate();
+    per_eval.push_back(seconds_since(t0) * 1e9 / static_cast<double>(batch));
+    if (seconds_since(start) > opt.max_seconds) break;
+  }
+  Timing t;
+  t.evals = batch * static_cast<long>(per_eval.size());
+  t.min_ns = *std::min_element(per_eval.begin(), per_eval.end());
+  std::nth_element(per_eval.begin(), per_eval.begin() + static_cast<long>(per_eval.size() / 2),
+                   per_eval.end());
+  t.median_ns = per_eval[per_eval.size() / 2];
+  return t;
+}
+
+struct Cell {
+  std::optional<Timing> timing;
+  Agreement agreement;
+  std::vector<double> backward;  // engine's and kanedyn's backward errors, if the engine has them
+  std::string note;              // why it was skipped
+};
+
+std::string format_ns(double ns) {
+  std::ostringstream s;
+  if (ns >= 1e9) {
+    s << std::setprecision(3) << ns * 1e-9 << "e9";
+    return s.str();
+  }
+  const auto v = static_cast<long long>(std::llround(ns));
+  std::string digits = std::to_string(v), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+std::string format_sci(double x) {
+  std::ostringstream s;
+  s << std::scientific << std::setprecision(1) << x;
+  return s.str();
+}
+
+std::string format_ratio(double r) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(r < 10 ? 2 : (r < 100 ? 1 : 0)) << r;
+  return s.str();
+}
+
+double mem_available_bytes() {
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  double kb = 0;
+  std::string unit;
+  while (in >> key >> kb >> unit)
+    if (key == "MemAvailable:") return kb * 1024.0;
+  return 8e9;
+}
+
+std::vector<Case> make_cases(const Options& opt) {
+  std::vector<Case> cases;
+  auto wanted = [&](const std::string& name) {
+    return opt.models.empty() ||
+           std::find(opt.models.begin(), opt.models.end(), name) != opt.models.end();
+  };
+  if (wanted("eight-body")) {
+    if (std::filesystem::exists(opt.eight_body)) {
+      kanedyn::io::ModelFile f = kanedyn::io::load_model_file(opt.eight_body);
+      cases.push_back({"eight-body", std::move(f.model), std::move(f.initial)});
+    } else {
+      std::cerr << "kanedyn_peers: " << opt.eight_body << " not found; eight-body skipped\n";
+    }
+  }
+  for (const char* family : {"chain", "tree"})
+    for (int n : opt.sizes) {
+      const std::string name = std::string(family) + "-" + std::to_string(n);
+      if (!wanted(name)) continue;
+      kanedyn::GeneratedSystem g = std::string(family) == "chain"
+                                       ? kanedyn::chain_model(n, opt.seed)
+                                       : kanedyn::random_tree_model(n, opt.seed);
+      cases.push_back({name, std::move(g.model), std::move(g.initial)});
+    }
+  return cases;
+}
+
+struct EngineColumn {
+  std::string key, title;
+  std::optional<peers::EngineInfo> info;   // empty for kanedyn's own routes
+  double last_cost = 0, last_seconds = 0;  // the last measured case, for extrapolation
+};
+
+std::string machine_model() {
+  std::ifstream in("/proc/cpuinfo");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  return "unknown CPU";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  CLI::App app{"Forward dynamics of the same models in kanedyn, Simbody, MuJoCo and DART"};
+  app.add_option("--models", opt.models,
+                 "Models to run: eight-body, chain-N, tree-N (default: all)")
+      ->delimiter(',');
+  app.add_option("--sizes", opt.sizes, "N of the chains and random trees")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--engines", opt.engines, "recursive, kane, simbody, mujoco, dart")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--eight-body", opt.eight_body, "Model file of the eight-body example")
+      ->capture_default_str();
+  app.add_option("--seed", opt.seed, "Seed of the generated models")->capture_default_str();
+  app.add_option("--reps", opt.reps, "Timed batches per engine and model (at most)")
+      ->capture_default_str();
+  app.add_option("--max-seconds", opt.max_seconds,
+                 "Timing budget per engine and model, s (at least one batch is timed)")
+      ->capture_default_str();
+  app.add_option("--max-eval-seconds", opt.max_eval_seconds,
+                 "Skip a case when one evaluation is predicted (from the engine's smaller "
+                 "measured cases) to take longer, s")
+      ->capture_default_str();
+  app.add_option("--max-memory-gb", opt.max_memory_gb,
+                 "Skip a case when the engine's estimated memory exceeds this (0: half of "
+                 "MemAvailable)")
+      ->capture_default_str();
+  app.add_option("--tolerance", opt.tolerance,
+                 "Largest accepted relative difference of body accelerations")
+      ->capture_default_str();
+  app.add_option("--backward-tolerance", opt.backward_tolerance,
+                 "Accept a larger difference when kanedyn's accelerations satisfy the engine's "
+                 "own M qacc = f to this componentwise backward error (ill-conditioned M)")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
+
+  std::vector<EngineColumn> columns;
+  for (const std::string& e : opt.engines) {
+    if (e == "recursive")
+      columns.push_back({e, "kanedyn recursive", std::nullopt});
+    else if (e == "kane")
+      columns.push_back({e, "kanedyn kane", std::nullopt});
+    else if (e == "simbody")
+      columns.push_back({e, "", peers::simbody_engine()});
+    else if (e == "mujoco")
+      columns.push_back({e, "", peers::mujoco_engine()});
+#ifdef KANEDYN_PEERS_HAVE_DART
+    else if (e == "dart")
+      columns.push_back({e, "", peers::dart_engine()});
+#else
+    else if (e == "dart")
+      std::cerr << "kanedyn_peers: built without DART; dart skipped\n";
+#endif
+    else {
+      std::cerr << "kanedyn_peers: unknown engine '" << e << "'\n";
+      return 1;
+    }
+    if (columns.back().info)
+      columns.back().title = columns.back().info->name + " " + columns.back().info->version;
+  }
+  const bool have_recursive =
+      std::find(opt.engines.begin(), opt.engines.end(), "recursive") != opt.engines.end();
+
+  {
+    const std::time_t now = std::time(nullptr);
+    char date[32];
+    std::strftime(date, sizeof date, "%Y-%m-%d %H:%M", std::localtime(&now));
+    std::cout << "# kanedyn_peers, " << date << ", " << machine_model() << "\n"
+              << "# median ns per forward-dynamics evaluation at the model's initial state; "
+              << "budget " << opt.max_seconds << " s per cell, skip above " << opt.max_eval_seconds
+              << " s/eval or " << std::setprecision(3) << opt.max_memory_gb << " GB\n"
+              << std::flush;
+  }
+
+  const std::vector<Case> cases = make_cases(opt);
+  std::vector<std::vector<Cell>> table(cases.size(), std::vector<Cell>(columns.size()));
+  bool all_agree = true;
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    const Case& c = cases[ci];
+    const int n = c.model.num_bodies();
+    const peers::System sys = describe(c);
+    // The reference: kanedyn's recursive route (the Kane route is checked against it too).
+    const kanedyn::DataOptions recursive_options{.partials = false, .mass_matrix = false};
+    kanedyn::DataOptions kane_options;  // blocks of [A] and their LDL^T, no dense copy
+    kane_options.dense_mass_matrix = false;
+    kanedyn::Data ref_data(c.model, recursive_options);
+    kanedyn::forward_dynamics(c.model, c.state, ref_data, kanedyn::Method::recursive);
+    const std::vector<peers::BodyMotion> reference =
+        kanedyn_motion(c.model, c.state, ref_data.ydot);
+
+    for (size_t ei = 0; ei < columns.size(); ++ei) {
+      EngineColumn& col = columns[ei];
+      Cell& cell = table[ci][ei];
+      const double cost =
+          col.info ? col.info->cost(sys) : (col.key == "kane" ? peers::ancestor_dofs(sys, 2) : n);
+      // kanedyn's Kane route keeps partial velocity blocks and blocks of [A] per chain entry.
+      const double bytes = col.info ? col.info->bytes(sys)
+                                    : (col.key == "kane" ? 1200.0 * c.model.chain_entries() : 0.0);
+      const double predicted = col.last_cost > 0 ? col.last_seconds * cost / col.last_cost : 0;
+      if (predicted > opt.max_eval_seconds) {
+        cell.note = "predicted " + format_sci(predicted) + " s/eval";
+      } else if (bytes > opt.max_memory_gb * 1e9) {
+        cell.note = "needs ~" + format_ratio(bytes / 1e9) + " GB";
+      }
+      if (!cell.note.empty()) {
+        std::cout << "# " << c.name << " " << col.title << ": skipped, " << cell.note << "\n"
+                  << std::flush;
+        continue;
+      }
+      Timing t;
+      std::vector<peers::BodyMotion> motion;
+      double first = 0, setup = 0;
+      if (!col.info) {
+        const kanedyn::Method method =
+            col.key == "kane" ? kanedyn::Method::kane : kanedyn::Method::recursive;
+        kanedyn::Data data(c.model,
+                           method == kanedyn::Method::kane ? kane_options : recursive_options);
+        auto evaluate = [&] { kanedyn::forward_dynamics(c.model, c.state, data, method); };
+        const auto t0 = Clock::now();
+        evaluate();
+        first = seconds_since(t0);
+        motion = kanedyn_motion(c.model, c.state, data.ydot);
+        t = time_evaluations(evaluate, first, opt);
+      } else {
+        const auto t_setup = Clock::now();
+        std::unique_ptr<peers::Engine> engine = col.info->make(sys);
+        setup = seconds_since(t_setup);
+        const auto t0 = Clock::now();
+        engine->evaluate();
+        first = seconds_since(t0);
+        motion = engine->motion();
+        cell.backward =
+            engine->backward_errors(kanedyn_joint_accelerations(c.model, c.state, ref_data.ydot));
+        t = time_evaluations([&] { engine->evaluate(); }, first, opt);
+      }
+      cell.timing = t;
+      cell.agreement = compare(motion, reference);
+      col.last_cost = cost;
+      col.last_seconds = t.median_ns * 1e-9;
+      // The same accelerations, or (ill-conditioned joint-space M) kanedyn's accelerations
+      // solve the engine's own equations to round-off.
+      const bool by_backward_error =
+          cell.backward.size() == 2 && cell.backward[1] <= opt.backward_tolerance;
+      const bool agrees = cell.agreement.state <= opt.tolerance &&
+                          (cell.agreement.acceleration <= opt.tolerance || by_backward_error);
+      all_agree = all_agree && agrees;
+      std::cout << "# " << c.name << " " << col.title << ": median " << format_ns(t.median_ns)
+                << " ns, min " << format_ns(t.min_ns) << " ns, " << t.evals
+                << " evals; rel. diff. state " << format_sci(cell.agreement.state)
+                << ", accelerations " << format_sci(cell.agreement.acceleration)
+                << (agrees ? "" : "  <-- DISAGREES");
+      if (cell.backward.size() == 2)
+        std::cout << "; backward error of M qacc = f: own " << format_sci(cell.backward[0])
+                  << ", kanedyn's " << format_sci(cell.backward[1]);
+      if (col.info) std::cout << "; setup " << format_sci(setup) << " s";
+      std::cout << "\n" << std::flush;
+    }
+  }
+
+  // Tables (markdown).
+  auto header = [&] {
+    std::cout << "\n| model | N |";
+    for (const auto& col : columns) std::cout << ' ' << col.title << " |";
+    std::cout << "\n|---|---:|";
+    for (size_t i = 0; i < columns.size(); ++i) std::cout << "---:|";
+    std::cout << "\n";
+  };
+  std::cout << "\nMedian ns per evaluation:\n";
+  header();
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    std::cout << "| " << cases[ci].name << " | " << cases[ci].model.num_bodies() << " |";
+    for (const Cell& cell : table[ci])
+      std::cout << ' ' << (cell.timing ? format_ns(cell.timing->median_ns) : "(" + cell.note + ")")
+                << " |";
+    std::cout << "\n";
+  }
+  if (have_recursive) {
+    std::cout << "\nTime relative to kanedyn recursive (x slower):\n";
+    header();
+    const auto rec = static_cast<size_t>(
+        std::find_if(columns.begin(), columns.end(),
+                     [](const EngineColumn& c) { return c.key == "recursive"; }) -
+        columns.begin());
+    for (size_t ci = 0; ci < cases.size(); ++ci) {
+      std::cout << "| " << cases[ci].name << " | " << cases[ci].model.num_bodies() << " |";
+      const Cell& base = table[ci][rec];
+      for (const Cell& cell : table[ci])
+        std::cout << ' '
+                  << (cell.timing && base.timing
+                          ? format_ratio(cell.timing->median_ns / base.timing->median_ns)
+                          : "-")
+                  << " |";
+      std::cout << "\n";
+    }
+  }
+  std::cout << "\nLargest relative difference of body accelerations (a_G, alpha; inertial) from "
+               "kanedyn recursive:\n";
+  header();
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    std::cout << "| " << cases[ci].name << " | " << cases[ci].model.num_bodies() << " |";
+    for (size_t ei = 0; ei < columns.size(); ++ei) {
+      const Cell& cell = table[ci][ei];
+      std::cout << ' ';
+      if (columns[ei].key == "recursive")
+        std::cout << "reference";
+      else if (!cell.timing)
+        std::cout << "-";
+      else
+        std::cout << format_sci(cell.agreement.acceleration);
+      if (cell.timing && cell.backward.size() == 2 && cell.agreement.acceleration > opt.tolerance)
+        std::cout << " (bwd " << format_sci(cell.backward[1]) << ")";
+      std::cout << " |";
+    }
+    std::cout << "\n";
+  }
+  std::cout << "\n(bwd: componentwise backward error of kanedyn's accelerations in the engine's "
+               "own M qacc = f, shown where the forward difference exceeds --tolerance)\n";
+  if (!all_agree) {
+    std::cout << "\nSome engine disagrees with kanedyn beyond --tolerance " << opt.tolerance
+              << " (marked DISAGREES above).\n";
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,193 @@
+// Scale (issue 4): chains of N = 64 .. 100,000 bodies built in C++ (generate.hpp); forward
+// dynamics by the O(N) route timed at the initial state, and a few RK4 steps (a plain loop
+// here, independent of integrate.hpp). Prints N, ns per body (median and minimum over batches),
+// the workspace's bytes per body, the process's peak RSS, and the RK4 step time per body.
+// Then one chain goes through a model file and back (io::load_model_file).
+//   build/bench/kanedyn_scale [--quick] [--file-bodies N]   (default N = 4096)
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/forces.hpp"
+#include "kanedyn/generate.hpp"
+#include "kanedyn/io/model_file.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace kanedyn;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+double peak_rss_mb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+// Median and minimum ns per evaluation over batches of about 2 ms (at least one evaluation).
+std::pair<double, double> time_evaluations(const Model& model, const State& state, Data& data) {
+  forward_dynamics(model, state, data, Method::recursive);
+  auto t0 = Clock::now();
+  forward_dynamics(model, state, data, Method::recursive);
+  const double once = seconds_since(t0);
+  const int batch = std::max(1, static_cast<int>(2e-3 / once));
+  const int batches = std::clamp(static_cast<int>(1.0 / (once * batch)), 15, 200);
+  std::vector<double> ns;
+  for (int b = 0; b < batches; ++b) {
+    t0 = Clock::now();
+    for (int i = 0; i < batch; ++i) forward_dynamics(model, state, data, Method::recursive);
+    ns.push_back(seconds_since(t0) * 1e9 / batch);
+  }
+  std::sort(ns.begin(), ns.end());
+  return {ns[ns.size() / 2], ns.front()};
+}
+
+// Classical RK4 on z = (x, y), Euler parameters left as integrated. Returns seconds per step.
+double rk4_steps(const Model& model, const State& initial, Data& data, int steps, double h,
+                 State& state) {
+  state = initial;
+  State stage = initial;
+  VectorX kx[4], ky[4];
+  for (int i = 0; i < 4; ++i) {
+    kx[i] = VectorX::Zero(initial.x.size());
+    ky[i] = VectorX::Zero(initial.y.size());
+  }
+  const double c[4] = {0.0, 0.5, 0.5, 1.0};
+  const auto t0 = Clock::now();
+  for (int step = 0; step < steps; ++step) {
+    for (int i = 0; i < 4; ++i) {
+      if (i == 0) {
+        stage.x = state.x;
+        stage.y = state.y;
+      } else {
+        stage.x = state.x + (c[i] * h) * kx[i - 1];
+        stage.y = state.y + (c[i] * h) * ky[i - 1];
+      }
+      forward_dynamics(model, stage, data, Method::recursive);
+      kx[i] = data.xdot;
+      ky[i] = data.ydot;
+    }
+    state.x += (h / 6.0) * (kx[0] + 2.0 * kx[1] + 2.0 * kx[2] + kx[3]);
+    state.y += (h / 6.0) * (ky[0] + 2.0 * ky[1] + 2.0 * ky[2] + ky[3]);
+  }
+  return seconds_since(t0) / steps;
+}
+
+// The model file of a generated chain (docs/model-format.md), with its initial state.
+void write_model_file(const GeneratedSystem& g, const std::string& path) {
+  using Json = nlohmann::ordered_json;
+  const Model& m = g.model;
+  const auto vec = [](const auto& v) {
+    Json a = Json::array();
+    for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+    return a;
+  };
+  Json file;
+  file["format"] = "kanedyn-model/1";
+  file["name"] = m.name();
+  file["gravity"] = vec(m.gravity());
+  Json bodies = Json::array();
+  for (int k = 0; k < m.num_bodies(); ++k) {
+    const BodySpec& b = m.body(k);
+    const Matrix3& I = b.inertia;
+    bodies.push_back({{"name", b.name},
+                      {"parent", b.lower_body == kGround ? "ground" : m.body(b.lower_body).name},
+                      {"mass", b.mass},
+                      {"inertia", {I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)}},
+                      {"com", vec(b.com)},
+                      {"joint", vec(b.joint)},
+                      {"initial",
+                       {{"euler_parameters", vec(g.initial.euler_parameters(k))},
+                        {"translation", vec(g.initial.translation(k))},
+                        {"angular_velocity", vec(g.initial.angular_velocity(k))},
+                        {"translation_rate", vec(g.initial.translation_rate(k))}}}});
+  }
+  file["bodies"] = bodies;
+  Json forces = Json::array();
+  for (const auto& element : m.forces()) {
+    const auto* b = dynamic_cast<const Bushing*>(element.get());
+    if (!b) throw std::runtime_error("write_model_file: only bushings are written");
+    forces.push_back({{"type", "bushing"},
+                      {"body", m.body(b->body()).name},
+                      {"stiffness", vec(b->stiffness)},
+                      {"damping", vec(b->damping)},
+                      {"rotational_stiffness", b->rotational_stiffness},
+                      {"rotational_damping", b->rotational_damping}});
+  }
+  file["forces"] = forces;
+  std::ofstream(path) << file.dump() << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool quick = false;
+  int file_n = 4096;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0) {
+      quick = true;
+    } else if (std::strcmp(argv[i], "--file-bodies") == 0 && i + 1 < argc) {
+      file_n = std::atoi(argv[++i]);
+    } else {
+      std::fprintf(stderr, "usage: %s [--quick] [--file-bodies N]\n", argv[0]);
+      return 2;
+    }
+  }
+  std::vector<int> sizes = {64, 256, 1024, 4096, 16384, 65536, 100000};
+  if (quick) sizes = {64, 1024, 16384};
+  std::printf(
+      "chains, O(N) route (forward_dynamics, Method::recursive, DataOptions{false, false})"
+      "\n\n");
+  std::printf("%8s %10s %12s %12s %14s %13s %14s %s\n", "N", "build ms", "median ns/b", "min ns/b",
+              "Data bytes/b", "peak RSS MB", "RK4 ns/step/b", "RK4 check");
+  for (const int n : sizes) {
+    auto t0 = Clock::now();
+    const GeneratedSystem g = chain_model(n);
+    const double build_ms = seconds_since(t0) * 1e3;
+    Data data(g.model, DataOptions{false, false});
+    const auto [median, min] = time_evaluations(g.model, g.initial, data);
+    State end;
+    double step = 1e300;  // the fastest of 3 runs of 5 steps
+    for (int run = 0; run < 3; ++run)
+      step = std::min(step, rk4_steps(g.model, g.initial, data, 5, 1e-4, end));
+    // The chain hangs on stiff bushings: after 5 steps of 0.1 ms nothing may blow up, and the
+    // state must have moved.
+    const bool finite = end.x.allFinite() && end.y.allFinite();
+    const bool moved = (end.y - g.initial.y).norm() > 0.0;
+    std::printf("%8d %10.1f %12.1f %12.1f %14.0f %13.1f %14.1f %s\n", n, build_ms, median / n,
+                min / n, static_cast<double>(data.memory_bytes()) / n, peak_rss_mb(),
+                step * 1e9 / n, finite && moved ? "finite, moved" : "FAILED");
+  }
+
+  // Loading: the same chain through a model file.
+  const std::string path = "/tmp/kanedyn_scale_chain_" + std::to_string(file_n) + ".json";
+  const GeneratedSystem g = chain_model(file_n);
+  write_model_file(g, path);
+  const auto t0 = Clock::now();
+  const io::ModelFile file = io::load_model_file(path);
+  const double load_s = seconds_since(t0);
+  Data data(file.model, DataOptions{false, false});
+  forward_dynamics(file.model, file.initial, data, Method::recursive);
+  Data reference(g.model, DataOptions{false, false});
+  forward_dynamics(g.model, g.initial, reference, Method::recursive);
+  const double difference = (data.ydot - reference.ydot).norm() / reference.ydot.norm();
+  std::printf(
+      "\nmodel file %s: N = %d loaded in %.2f s; ydot equals the generated chain's to "
+      "%.1e relative; peak RSS %.1f MB\n",
+      path.c_str(), file.model.num_bodies(), load_s, difference, peak_rss_mb());
+  std::remove(path.c_str());
+  return 0;
+}
