@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
+#include "alloc_counter.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/integrate.hpp"
@@ -17,33 +18,13 @@
 #include "kanedyn/simulate.hpp"
 #include "test_support.hpp"
 
-// ---------------------------------------------------------------------------------------------
-// Allocation counting: this test binary's malloc forwards to glibc's and counts calls while
-// g_count_allocations is set (operator new and Eigen's aligned_malloc both end in malloc).
-// Not with the sanitizers, which bring their own malloc.
+// Allocation counting: the binary's shared counter (alloc_counter.hpp).
 #if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
 #define KANEDYN_COUNT_ALLOCATIONS 1
 namespace {
-std::atomic<bool> g_count_allocations{false};
-std::atomic<long> g_allocations{0};
+std::atomic<bool>& g_count_allocations = alloc_counter::counting;
+std::atomic<long>& g_allocations = alloc_counter::count;
 }  // namespace
-extern "C" {
-void* __libc_malloc(size_t size);
-void* __libc_calloc(size_t count, size_t size);
-void* __libc_realloc(void* p, size_t size);
-void* malloc(size_t size) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) ++g_allocations;
-  return __libc_malloc(size);
-}
-void* calloc(size_t count, size_t size) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) ++g_allocations;
-  return __libc_calloc(count, size);
-}
-void* realloc(void* p, size_t size) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) ++g_allocations;
-  return __libc_realloc(p, size);
-}
-}
 #endif
 
 namespace {

@@ -1,11 +1,7 @@
-// Issue 4: no heap allocation on the evaluation path. The global allocation functions of this
-// test binary count the allocations made while `counting` is set (the binary is shared by
-// every test, so only inside the measured region). operator new is replaced. Eigen allocates
-// its dynamic-size matrices with std::malloc, so on glibc malloc is interposed too (forwarding
-// to glibc's own __libc_* functions) - as weak definitions, because another test file of this
-// binary (test_integrate.cpp) interposes malloc for its own count and a strong definition wins.
-// Whether this file's malloc is the one in use is checked at run time; under AddressSanitizer,
-// which owns malloc, only operator new is counted.
+// Issue 4: no heap allocation on the evaluation path. The test binary's shared counter
+// (alloc_counter.hpp) interposes glibc's malloc family, which Eigen's dynamic-size matrices
+// use; operator new is replaced here as well so that it is counted even under the sanitizers,
+// which own malloc (there only operator new is seen).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -14,87 +10,21 @@
 #include <new>
 #include <vector>
 
+#include "alloc_counter.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/generate.hpp"
 #include "kanedyn/kane.hpp"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define KANEDYN_COUNT_MALLOC 0
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define KANEDYN_COUNT_MALLOC 0
-#endif
-#endif
-#if !defined(KANEDYN_COUNT_MALLOC)
-#if defined(__GLIBC__)
-#define KANEDYN_COUNT_MALLOC 1
-#else
-#define KANEDYN_COUNT_MALLOC 0
-#endif
-#endif
-
 namespace {
-std::atomic<bool> counting{false};
-std::atomic<long> allocations{0};
-std::atomic<bool> malloc_counted{false};  // this file's malloc has been called
+std::atomic<bool>& counting = alloc_counter::counting;
+std::atomic<long>& allocations = alloc_counter::count;
 void note_allocation() {
   if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1);
 }
-void note_malloc() {
-  malloc_counted.store(true, std::memory_order_relaxed);
-  note_allocation();
-}
-}  // namespace
-
-#if KANEDYN_COUNT_MALLOC
-extern "C" {
-void* __libc_malloc(std::size_t size) noexcept;
-void* __libc_calloc(std::size_t count, std::size_t size) noexcept;
-void* __libc_realloc(void* p, std::size_t size) noexcept;
-void* __libc_memalign(std::size_t align, std::size_t size) noexcept;
-void __libc_free(void* p) noexcept;
-
-__attribute__((weak)) void* malloc(std::size_t size) noexcept {
-  note_malloc();
-  return __libc_malloc(size);
-}
-__attribute__((weak)) void* calloc(std::size_t count, std::size_t size) noexcept {
-  note_allocation();
-  return __libc_calloc(count, size);
-}
-__attribute__((weak)) void* realloc(void* p, std::size_t size) noexcept {
-  note_allocation();
-  return __libc_realloc(p, size);
-}
-__attribute__((weak)) void* aligned_alloc(std::size_t align, std::size_t size) noexcept {
-  note_allocation();
-  return __libc_memalign(align, size);
-}
-__attribute__((weak)) void* memalign(std::size_t align, std::size_t size) noexcept {
-  note_allocation();
-  return __libc_memalign(align, size);
-}
-__attribute__((weak)) int posix_memalign(void** out, std::size_t align, std::size_t size) noexcept {
-  note_allocation();
-  void* p = __libc_memalign(align, size);
-  if (!p) return ENOMEM;
-  *out = p;
-  return 0;
-}
-__attribute__((weak)) void free(void* p) noexcept { __libc_free(p); }
-}
-#endif
-
-namespace {
-// True when this file's malloc is the one in use (and so counts Eigen's allocations too).
-bool malloc_is_counted() {
-  malloc_counted = false;
-  void* p = std::malloc(16);
-  std::free(p);
-  return malloc_counted.load();
-}
+// True when the shared malloc counter is in use (and so counts Eigen's allocations too).
+bool malloc_is_counted() { return alloc_counter::available(); }
 void* allocate(std::size_t size) {
   note_allocation();  // malloc may count it again: the tests only ask for zero or not
   if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
@@ -148,11 +78,10 @@ TEST(NoAlloc, CounterSeesOperatorNew) {
 }
 
 TEST(NoAlloc, CounterSeesEigenAllocations) {
-  // Eigen's dynamic-size matrices allocate with std::malloc: seen only through this file's
-  // malloc (see the top of the file).
+  // Eigen's dynamic-size matrices allocate with std::malloc: seen through the shared
+  // malloc counter, which the sanitizers (owning malloc) replace.
   if (!malloc_is_counted())
-    GTEST_SKIP() << "malloc in this binary is not this file's (a sanitizer's, or another test "
-                    "file's): Eigen's allocations are not counted here";
+    GTEST_SKIP() << "malloc is the sanitizer's here: Eigen's allocations are not counted";
   EXPECT_GE(count_allocations([] { EXPECT_EQ(MatrixX::Identity(7, 7).eval().trace(), 7.0); }), 1);
 }
 

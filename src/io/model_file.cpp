@@ -18,6 +18,8 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "kanedyn/forces.hpp"
@@ -478,12 +480,22 @@ void read_initial(const Reader& r, const Field& f, int k, State& state) {
   if (auto v = m.get("translation_rate")) state.translation_rate(k) = r.vector3(*v);
 }
 
-/// Index of the body named by `f`, which must be one of `names`.
-int body_reference(const Reader& r, const Field& f, const std::vector<std::string>& names) {
+/// Body names in numbering order, with a hash index so that loading stays O(N).
+struct BodyNames {
+  std::vector<std::string> names;
+  std::unordered_map<std::string, int> index;
+};
+
+/// Index of the body named by `f`, which must be one of `bodies`.
+int body_reference(const Reader& r, const Field& f, const BodyNames& bodies) {
   const std::string name = r.text(f);
-  const auto it = std::find(names.begin(), names.end(), name);
-  if (it == names.end()) r.fail(f, "unknown body " + quote(name) + "; bodies: " + join(names));
-  return static_cast<int>(it - names.begin());
+  const auto it = bodies.index.find(name);
+  if (it == bodies.index.end()) {
+    // List the bodies when there are few; a long list helps nobody.
+    const std::string list = bodies.names.size() <= 20 ? "; bodies: " + join(bodies.names) : "";
+    r.fail(f, "unknown body " + quote(name) + list);
+  }
+  return it->second;
 }
 
 struct BodiesSection {
@@ -498,6 +510,7 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
   // recognised as such).
   std::vector<Mapping> maps;
   std::vector<std::string> names;
+  std::unordered_map<std::string, size_t> index_of;  // name -> list index: O(N) loading
   for (size_t i = 0; i < items.size(); ++i) {
     const Mapping& m = maps.emplace_back(r.mapping(items[i]));
     m.allow({"name", "parent", "mass", "inertia", "com", "joint", "initial"});
@@ -508,9 +521,10 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
              "body name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
     if (name == "ground")
       r.fail(name_field, "'ground' is reserved for the inertial frame; choose another body name");
-    if (const auto it = std::find(names.begin(), names.end(), name); it != names.end())
+    if (const auto it = index_of.find(name); it != index_of.end())
       r.fail(name_field, "duplicate body name " + quote(name) + " (already used by " +
-                             index_path("bodies", static_cast<size_t>(it - names.begin())) + ")");
+                             index_path("bodies", it->second) + ")");
+    index_of.emplace(name, i);
     names.push_back(name);
   }
   BodiesSection section;
@@ -524,9 +538,10 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     if (parent == "ground") {
       b.lower_body = kGround;
     } else {
-      const auto it = std::find(names.begin(), names.end(), parent);
-      const int j = static_cast<int>(it - names.begin());
-      if (it == names.end()) {
+      const auto it = index_of.find(parent);
+      const int j =
+          it == index_of.end() ? static_cast<int>(names.size()) : static_cast<int>(it->second);
+      if (it == index_of.end()) {
         const std::vector<std::string> earlier(names.begin(), names.begin() + k);
         r.fail(parent_field, "unknown parent " + quote(parent) + "; expected 'ground'" +
                                  (earlier.empty() ? "" : " or an earlier body: " + join(earlier)));
@@ -550,7 +565,7 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
 }
 
 std::shared_ptr<const ForceElement> read_force(const Reader& r, const Field& f,
-                                               const std::vector<std::string>& names) {
+                                               const BodyNames& names) {
   const Mapping m = r.mapping(f);
   const std::string type =
       r.choice(m.require("type"), {"bushing", "force", "torque"}, "force type");
@@ -620,8 +635,11 @@ ModelFile parse_model_file(const std::string& text, const std::string& source_na
   const Field bodies_field = top.require("bodies");
   BodiesSection bodies = read_bodies(r, bodies_field);
 
-  std::vector<std::string> names;
-  for (const BodySpec& b : bodies.specs) names.push_back(b.name);
+  BodyNames names;
+  for (const BodySpec& b : bodies.specs) {
+    names.index.emplace(b.name, static_cast<int>(names.names.size()));
+    names.names.push_back(b.name);
+  }
   std::vector<std::shared_ptr<const ForceElement>> forces;
   if (const auto forces_field = top.get("forces"))
     for (const Field& item : r.list(*forces_field, "force entries"))

@@ -1,0 +1,15 @@
+// One allocation counter for the whole test binary (tests/test_alloc_counter.cpp): glibc's
+// malloc family is interposed there and counts calls while `counting` is set. operator new
+// and Eigen's aligned_malloc both end in malloc. Not under the sanitizers, which own malloc:
+// then available() is false and only what a test counts itself (operator new) is seen.
+#pragma once
+
+#include <atomic>
+
+namespace alloc_counter {
+extern std::atomic<bool> counting;  ///< count while true
+extern std::atomic<long> count;     ///< calls counted
+extern std::atomic<bool> seen;      ///< set by every interposed call (counting or not)
+/// True when the interposed malloc is the one in use (checked by calling it).
+bool available();
+}  // namespace alloc_counter
