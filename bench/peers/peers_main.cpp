@@ -9,6 +9,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -232,29 +233,54 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Median over batches of the time per evaluation; a batch lasts about 50 us so that the
-// clock's own cost does not count. Stops after opt.reps batches or opt.max_seconds.
-template <class F>
-Timing time_evaluations(F&& evaluate, double first_eval_seconds, const Options& opt) {
-  const long batch = std::max(1L, std::lround(50e-6 / std::max(first_eval_seconds, 1e-9)));
+// One column of one case while it is timed: its batch function and the samples so far.
+// A batch lasts about 50 us (at least one evaluation), so that the clock's own cost does not
+// count.
+struct Runner {
+  std::function<void(long)> run_batch;  // runs that many evaluations
+  long batch = 1;
+  std::vector<double> per_eval_ns;  // one sample per batch
+  double spent = 0;                 // seconds
+  bool active = true;
+};
+
+// Times all columns of a case in interleaved rounds, one batch of each per round, so that a
+// slow spell of the shared machine hits every engine alike and the ratios stay fair. A column
+// stops after opt.reps batches or opt.max_seconds of its own time (at least one batch).
+void time_interleaved(std::vector<Runner*>& runners, const Options& opt) {
   const double warm_up = std::min(0.05, 0.1 * opt.max_seconds);
-  for (const auto t0 = Clock::now(); first_eval_seconds < warm_up && seconds_since(t0) < warm_up;)
-    evaluate();
-  std::vector<double> per_eval;
-  const auto start = Clock::now();
-  while (static_cast<int>(per_eval.size()) < opt.reps) {
-    const auto t0 = Clock::now();
-    for (long b = 0; b < batch; ++b) evaluate();
-    per_eval.push_back(seconds_since(t0) * 1e9 / static_cast<double>(batch));
-    if (seconds_since(start) > opt.max_seconds) break;
+  for (Runner* r : runners) {
+    const double first = 50e-6 / static_cast<double>(r->batch);  // per evaluation, about
+    for (const auto t0 = Clock::now(); first < warm_up && seconds_since(t0) < warm_up;)
+      r->run_batch(r->batch);
   }
+  for (bool any = true; any;) {
+    any = false;
+    for (Runner* r : runners) {
+      if (!r->active) continue;
+      const auto t0 = Clock::now();
+      r->run_batch(r->batch);
+      const double dt = seconds_since(t0);
+      r->per_eval_ns.push_back(dt * 1e9 / static_cast<double>(r->batch));
+      r->spent += dt;
+      r->active = static_cast<int>(r->per_eval_ns.size()) < opt.reps && r->spent < opt.max_seconds;
+      any = any || r->active;
+    }
+  }
+}
+
+Timing statistics(Runner& r) {
   Timing t;
-  t.evals = batch * static_cast<long>(per_eval.size());
-  t.min_ns = *std::min_element(per_eval.begin(), per_eval.end());
-  std::nth_element(per_eval.begin(), per_eval.begin() + static_cast<long>(per_eval.size() / 2),
-                   per_eval.end());
-  t.median_ns = per_eval[per_eval.size() / 2];
+  t.evals = r.batch * static_cast<long>(r.per_eval_ns.size());
+  auto& v = r.per_eval_ns;
+  t.min_ns = *std::min_element(v.begin(), v.end());
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  t.median_ns = v[v.size() / 2];
   return t;
+}
+
+long batch_size(double first_eval_seconds) {
+  return std::max(1L, std::lround(50e-6 / std::max(first_eval_seconds, 1e-9)));
 }
 
 struct Cell {
@@ -434,6 +460,15 @@ int main(int argc, char** argv) {
     const std::vector<peers::BodyMotion> reference =
         kanedyn_motion(c.model, c.state, ref_data.ydot);
 
+    // Every column of this case lives until the case is timed (interleaved rounds).
+    struct Slot {
+      std::unique_ptr<kanedyn::Data> data;
+      std::unique_ptr<peers::Engine> engine;
+      Runner runner;
+      double cost = 0, setup = 0;
+    };
+    std::vector<Slot> slots(columns.size());
+    std::vector<Runner*> runners;
     for (size_t ei = 0; ei < columns.size(); ++ei) {
       EngineColumn& col = columns[ei];
       Cell& cell = table[ci][ei];
@@ -453,35 +488,55 @@ int main(int argc, char** argv) {
                   << std::flush;
         continue;
       }
-      Timing t;
+      slots[ei].cost = cost;
+      // Set up, evaluate once (the result checked), and prepare the batch function.
+      Slot& slot = slots[ei];
       std::vector<peers::BodyMotion> motion;
-      double first = 0, setup = 0;
+      double first = 0;
       if (!col.info) {
         const kanedyn::Method method =
             col.key == "kane" ? kanedyn::Method::kane : kanedyn::Method::recursive;
-        kanedyn::Data data(c.model,
-                           method == kanedyn::Method::kane ? kane_options : recursive_options);
-        auto evaluate = [&] { kanedyn::forward_dynamics(c.model, c.state, data, method); };
+        slot.data = std::make_unique<kanedyn::Data>(
+            c.model, method == kanedyn::Method::kane ? kane_options : recursive_options);
+        kanedyn::Data& data = *slot.data;
+        slot.runner.run_batch = [&c, &data, method](long count) {
+          for (long b = 0; b < count; ++b)
+            kanedyn::forward_dynamics(c.model, c.state, data, method);
+        };
         const auto t0 = Clock::now();
-        evaluate();
+        slot.runner.run_batch(1);
         first = seconds_since(t0);
         motion = kanedyn_motion(c.model, c.state, data.ydot);
-        t = time_evaluations(evaluate, first, opt);
       } else {
         const auto t_setup = Clock::now();
-        std::unique_ptr<peers::Engine> engine = col.info->make(sys);
-        setup = seconds_since(t_setup);
+        slot.engine = col.info->make(sys);
+        slot.setup = seconds_since(t_setup);
+        peers::Engine& engine = *slot.engine;
+        slot.runner.run_batch = [&engine](long count) {
+          for (long b = 0; b < count; ++b) engine.evaluate();
+        };
         const auto t0 = Clock::now();
-        engine->evaluate();
+        slot.runner.run_batch(1);
         first = seconds_since(t0);
-        motion = engine->motion();
+        motion = engine.motion();
         cell.backward =
-            engine->backward_errors(kanedyn_joint_accelerations(c.model, c.state, ref_data.ydot));
-        t = time_evaluations([&] { engine->evaluate(); }, first, opt);
+            engine.backward_errors(kanedyn_joint_accelerations(c.model, c.state, ref_data.ydot));
       }
-      cell.timing = t;
+      slot.runner.batch = batch_size(first);
       cell.agreement = compare(motion, reference);
-      col.last_cost = cost;
+      runners.push_back(&slot.runner);
+    }
+
+    time_interleaved(runners, opt);
+
+    for (size_t ei = 0; ei < columns.size(); ++ei) {
+      EngineColumn& col = columns[ei];
+      Cell& cell = table[ci][ei];
+      Slot& slot = slots[ei];
+      if (!cell.note.empty()) continue;
+      const Timing t = statistics(slot.runner);
+      cell.timing = t;
+      col.last_cost = slot.cost;
       col.last_seconds = t.median_ns * 1e-9;
       // The same accelerations, or (ill-conditioned joint-space M) kanedyn's accelerations
       // solve the engine's own equations to round-off.
@@ -498,7 +553,7 @@ int main(int argc, char** argv) {
       if (cell.backward.size() == 2)
         std::cout << "; backward error of M qacc = f: own " << format_sci(cell.backward[0])
                   << ", kanedyn's " << format_sci(cell.backward[1]);
-      if (col.info) std::cout << "; setup " << format_sci(setup) << " s";
+      if (col.info) std::cout << "; setup " << format_sci(slot.setup) << " s";
       std::cout << "\n" << std::flush;
     }
   }
@@ -521,23 +576,28 @@ int main(int argc, char** argv) {
     std::cout << "\n";
   }
   if (have_recursive) {
-    std::cout << "\nTime relative to kanedyn recursive (x slower):\n";
-    header();
     const auto rec = static_cast<size_t>(
         std::find_if(columns.begin(), columns.end(),
                      [](const EngineColumn& c) { return c.key == "recursive"; }) -
         columns.begin());
-    for (size_t ci = 0; ci < cases.size(); ++ci) {
-      std::cout << "| " << cases[ci].name << " | " << cases[ci].model.num_bodies() << " |";
-      const Cell& base = table[ci][rec];
-      for (const Cell& cell : table[ci])
-        std::cout << ' '
-                  << (cell.timing && base.timing
-                          ? format_ratio(cell.timing->median_ns / base.timing->median_ns)
-                          : "-")
-                  << " |";
-      std::cout << "\n";
-    }
+    auto ratios = [&](const char* title, double Timing::*stat) {
+      std::cout << "\n" << title << "\n";
+      header();
+      for (size_t ci = 0; ci < cases.size(); ++ci) {
+        std::cout << "| " << cases[ci].name << " | " << cases[ci].model.num_bodies() << " |";
+        const Cell& base = table[ci][rec];
+        for (const Cell& cell : table[ci])
+          std::cout << ' '
+                    << (cell.timing && base.timing
+                            ? format_ratio((*cell.timing).*stat / (*base.timing).*stat)
+                            : "-")
+                    << " |";
+        std::cout << "\n";
+      }
+    };
+    ratios("Median time relative to kanedyn recursive (x slower):", &Timing::median_ns);
+    // Minima are less sensitive to slow spells of a shared machine; a cross-check.
+    ratios("Minimum time relative to kanedyn recursive (x slower):", &Timing::min_ns);
   }
   std::cout << "\nLargest relative difference of body accelerations (a_G, alpha; inertial) from "
                "kanedyn recursive:\n";
