@@ -107,6 +107,14 @@ void register_all() {
     add("recursive_fused", recursive, nothing, [](const Model& m, const State& x, Data& d) {
       forward_dynamics(m, x, d, Method::recursive);
     });
+    // The same at each SIMD width this CPU runs (recursive_fused takes the widest).
+    for (const int lanes : {2, 4, 8}) {
+      if (Data(*s.model, DataOptions{false, false, false, lanes}).fused_lanes != lanes) continue;
+      add("recursive_fused_lanes" + std::to_string(lanes), DataOptions{false, false, false, lanes},
+          nothing, [](const Model& m, const State& x, Data& d) {
+            forward_dynamics(m, x, d, Method::recursive);
+          });
+    }
     // The Kane route, where [A] fits (a chain's [A] is dense: O(N^3) to factor).
     const Model& model = *s.model;
     if (model.chain_entries() > 200000 || factor_cost(model) > 3e7) continue;

@@ -1,6 +1,15 @@
-// The fused O(N) route of forward_dynamics(Method::recursive) (src/fused.cpp). Private to the
-// library: the layout of its tables in Data depends on the SIMD width the library is built for.
+// The fused O(N) route of forward_dynamics(Method::recursive). Private to the library.
+//
+// The kernel (src/fused_kernel.inc) evaluates kLanes bodies at once with GCC vector
+// extensions. It is compiled once per SIMD width: 2 lanes (SSE2, any x86-64; or the
+// generic 16-byte vectors elsewhere), 4 (AVX) and 8 (AVX-512F), the wider ones under
+// `#pragma GCC target` in their own translation units (src/fused_avx.cpp,
+// src/fused_avx512.cpp), and compile() picks the widest the running CPU has. The kernel uses
+// no FMA and no reassociation, so every width gives the same bits (tested). The layout of
+// the tables in Data depends on the width chosen (Data::fused_lanes).
 #pragma once
+
+#include <cstddef>
 
 #include "kanedyn/data.hpp"
 #include "kanedyn/model.hpp"
@@ -8,12 +17,73 @@
 
 namespace kanedyn::fused {
 
-/// Fills data.fused_* from the model: per-body constants with the loads grouped per body.
-/// Returns false (and leaves the route unused) when a force element is not a Bushing,
-/// ConstantForce or ConstantTorque.
+/// Fills data.fused_* from the model: per-body constants with the loads grouped per body, for
+/// the widest kernel that options.simd allows and the CPU runs. Returns false (and leaves the
+/// route unused) when a force element is not a Bushing, ConstantForce or ConstantTorque.
 bool compile(const Model& model, Data& data);
 
 /// {y dot} and {x dot} into data.ydot, data.xdot. Needs compile() to have returned true.
 void forward_dynamics(const Model& model, const State& state, Data& data);
+
+/// The widest kernel this CPU runs (lanes: 2, 4 or 8).
+int widest_supported_lanes();
+
+// ---- Shared with the kernels (no kanedyn or Eigen types cross this line, so that the kernels'
+// translation units include nothing compiled for a different target). ----
+
+// Per-body constants, one field after the other, each kLanes doubles (one per body of the
+// group). Body-K components unless stated.
+enum Param : int {
+  kInvMass = 0,        // 1 / m_K
+  kInertia = 1,        // [I'_GK]: xx, yy, zz, xy, xz, yz
+  kInvInertia = 7,     // its inverse, same order
+  kCom = 13,           // r'_K
+  kJoint = 16,         // q'_K, body J
+  kArm = 19,           // q'_K - r'_J, body J (q'_K for a root): Q_K from G_J
+  kForce = 22,         // m_K g + constant forces, inertial
+  kMoment = 25,        // constant torques
+  kStiffness = 28,     // bushing k, body-J axes, summed over K's bushings
+  kDamping = 31,       // bushing c
+  kRotStiffness = 34,  // kr
+  kRotDamping = 35,    // cr
+  kParamFields = 36
+};
+// Per-body results of passes 1 and 2, same layout.
+enum Scratch : int {
+  kLoadForce = 0,   // force at G_K, body K: K's own loads plus its children's reactions
+  kLoadMoment = 3,  // moment about G_K, body K
+  kAccelO = 6,      // a_O_K, body K
+  // Kept by pass 1 for pass 2 (loaded as whole vectors, not gathered or recomputed again):
+  kEuler = 9,    // epsilon_K
+  kRot = 13,     // [R] = [R_K][R_J]^T, row by row
+  kOmega = 22,   // w'_K
+  kRate = 25,    // s'_K dot
+  kShift = 28,   // s'_K
+  kOmegaJ = 31,  // w'_J
+  kScratchFields = 34
+};
+
+/// What one kernel call reads and writes: plain pointers into the State and Data.
+struct Args {
+  int n;                 // bodies
+  const double* x;       // State::x (7N)
+  const double* y;       // State::y (6N)
+  const int* lower;      // L(K) per body, padded to whole groups (kGround = -1)
+  const int* ready;      // per group: the last group holding a child
+  const double* params;  // Param fields per group
+  double* scratch;       // Scratch fields per group
+  double* ydot;          // 6N
+  double* xdot;          // 7N
+};
+
+namespace lanes2 {
+void evaluate(const Args& args);
+}
+namespace lanes4 {
+void evaluate(const Args& args);
+}
+namespace lanes8 {
+void evaluate(const Args& args);
+}
 
 }  // namespace kanedyn::fused

@@ -344,6 +344,37 @@ TEST(SpeedRoutes, FusedPassEqualsStagedRecursiveRoute) {
       expect_fused_equals_staged(model, random_state(rng, model));
 }
 
+// The fused kernel is compiled for 2, 4 and 8 bodies per SIMD pass (src/fused.hpp) with only
+// lane-wise IEEE operations and no FMA, so every width this CPU runs gives the same bits as
+// the 2-lane kernel: at random states (large relative rotations: the scalar rotation-vector
+// fallback) and near rest (small ones: the lanes' series branch).
+TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
+  std::mt19937 rng(12);
+  int widths_run = 0;
+  for (const Model& model : test_models(rng)) {
+    State near_rest = random_state(rng, model);
+    for (int k = 0; k < model.num_bodies(); ++k)
+      near_rest.euler_parameters(k) =
+          Vector4(random_vector(rng, -0.02, 0.02).homogeneous()).normalized();
+    for (const State& state : {random_state(rng, model), near_rest}) {
+      Data base(model, DataOptions{false, false, false, 2});
+      ASSERT_EQ(base.fused_lanes, 2);
+      forward_dynamics(model, state, base, Method::recursive);
+      for (int cap : {4, 8}) {
+        Data wide(model, DataOptions{false, false, false, cap});
+        ASSERT_TRUE(wide.fused_lanes == 2 || wide.fused_lanes == 4 || wide.fused_lanes == 8);
+        ASSERT_LE(wide.fused_lanes, cap);
+        if (wide.fused_lanes == 2) continue;  // the CPU has no wider kernel
+        ++widths_run;
+        forward_dynamics(model, state, wide, Method::recursive);
+        EXPECT_EQ(wide.ydot, base.ydot) << "lanes " << wide.fused_lanes;
+        EXPECT_EQ(wide.xdot, base.xdot) << "lanes " << wide.fused_lanes;
+      }
+    }
+  }
+  if (widths_run == 0) GTEST_SKIP() << "this CPU runs only the 2-lane kernel";
+}
+
 TEST(SpeedRoutes, RecursiveAndKaneRoutesAgreeOnLargeTreesAndDeepChains) {
   // Two algorithms for Eq. (36) (issue 4: 1e-10 relative). The Kane route's error is the
   // condition of [A] times round-off; for these models cond(A) stays below ~1e5.

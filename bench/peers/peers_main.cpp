@@ -57,6 +57,7 @@ struct Options {
   unsigned seed = 1;
   int reps = 1000;
   double max_seconds = 2.0;      // timing budget per engine and model
+  double batch_seconds = 1e-3;   // length of one timed batch
   double max_eval_seconds = 60;  // skip when one evaluation is predicted to take longer
   double max_memory_gb = 0;      // 0: half of MemAvailable
   double tolerance = 1e-8;
@@ -234,10 +235,11 @@ double seconds_since(Clock::time_point t0) {
 }
 
 // One column of one case while it is timed: its batch function and the samples so far.
-// A batch lasts about 50 us (at least one evaluation), so that the clock's own cost does not
-// count.
+// A batch lasts about opt.batch_seconds (at least one evaluation), so that the clock's own cost
+// and the cache refill after the other engines' batches do not count.
 struct Runner {
   std::function<void(long)> run_batch;  // runs that many evaluations
+  double first = 0;                     // seconds of the first (untimed, cold) evaluation
   long batch = 1;
   std::vector<double> per_eval_ns;  // one sample per batch
   double spent = 0;                 // seconds
@@ -245,14 +247,23 @@ struct Runner {
 };
 
 // Times all columns of a case in interleaved rounds, one batch of each per round, so that a
-// slow spell of the shared machine hits every engine alike and the ratios stay fair. A column
-// stops after opt.reps batches or opt.max_seconds of its own time (at least one batch).
+// slow spell of the shared machine hits every engine alike and the ratios stay fair. Each
+// column first warms up (up to 0.05 s) and sizes its batch from the warm time per evaluation.
+// A column stops after opt.reps batches or opt.max_seconds of its own time (at least one batch).
 void time_interleaved(std::vector<Runner*>& runners, const Options& opt) {
   const double warm_up = std::min(0.05, 0.1 * opt.max_seconds);
   for (Runner* r : runners) {
-    const double first = 50e-6 / static_cast<double>(r->batch);  // per evaluation, about
-    for (const auto t0 = Clock::now(); first < warm_up && seconds_since(t0) < warm_up;)
-      r->run_batch(r->batch);
+    double per_eval = r->first;
+    if (r->first < warm_up) {
+      long count = 0;
+      const auto t0 = Clock::now();
+      while (seconds_since(t0) < warm_up) {
+        r->run_batch(1);
+        ++count;
+      }
+      per_eval = seconds_since(t0) / static_cast<double>(count);
+    }
+    r->batch = std::max(1L, std::lround(opt.batch_seconds / std::max(per_eval, 1e-9)));
   }
   for (bool any = true; any;) {
     any = false;
@@ -277,10 +288,6 @@ Timing statistics(Runner& r) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
   t.median_ns = v[v.size() / 2];
   return t;
-}
-
-long batch_size(double first_eval_seconds) {
-  return std::max(1L, std::lround(50e-6 / std::max(first_eval_seconds, 1e-9)));
 }
 
 struct Cell {
@@ -388,6 +395,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-seconds", opt.max_seconds,
                  "Timing budget per engine and model, s (at least one batch is timed)")
       ->capture_default_str();
+  app.add_option("--batch-seconds", opt.batch_seconds,
+                 "Length of one timed batch of evaluations, s (engines take turns batch by batch)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--max-eval-seconds", opt.max_eval_seconds,
                  "Skip a case when one evaluation is predicted (from the engine's smaller "
                  "measured cases) to take longer, s")
@@ -522,7 +533,7 @@ int main(int argc, char** argv) {
         cell.backward =
             engine.backward_errors(kanedyn_joint_accelerations(c.model, c.state, ref_data.ydot));
       }
-      slot.runner.batch = batch_size(first);
+      slot.runner.first = first;
       cell.agreement = compare(motion, reference);
       runners.push_back(&slot.runner);
     }

@@ -22,6 +22,10 @@ struct DataOptions {
   /// With mass_matrix: keep the dense [A] in data.A (filled by kane_equations, for `eom`,
   /// teaching and tests). Costs 36 N^2 doubles; forward_dynamics does not fill it.
   bool dense_mass_matrix = true;
+  /// Widest SIMD kernel the O(N) recursive route may use: 2, 4 (AVX) or 8 (AVX-512F) bodies
+  /// per pass; the widest the running CPU has up to this is taken (Data::fused_lanes). Every
+  /// width gives the same bits; a smaller cap is for comparisons and tests.
+  int max_simd_lanes = 8;
 };
 
 /// Workspace for one Model. Frames: "inertial" columns are unprimed in the notes, "_b" are
@@ -76,6 +80,7 @@ struct Data {
   // The fused O(N) route (forward_dynamics with Method::recursive, src/fused.cpp): per-body
   // constants compiled from the Model, loads grouped per body, in a layout private to src/.
   bool fused_loads = false;           ///< every force element is a known type (else staged)
+  int fused_lanes = 0;                ///< bodies per SIMD pass of the kernel chosen: 2, 4 or 8
   std::vector<int> fused_lower;       ///< L(K) per body, padded to whole SIMD groups
   std::vector<int> fused_ready;       ///< per group: the last group holding a child
   std::vector<double> fused_params;   ///< constants, lane-interleaved per group of bodies

@@ -1,0 +1,23 @@
+// The fused kernel with 4 lanes (src/fused.hpp, src/fused_kernel.inc).
+#include <cstddef>
+#include <cstring>
+
+#include "fused.hpp"
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
+
+#if defined(__x86_64__) || defined(__i386__)
+#pragma GCC push_options
+#pragma GCC target("avx")
+#define KANEDYN_FUSED_LANES 4
+namespace kanedyn::fused::lanes4 {
+#include "fused_kernel.inc"
+}  // namespace kanedyn::fused::lanes4
+#pragma GCC pop_options
+#else
+namespace kanedyn::fused::lanes4 {
+void evaluate(const Args&) {}  // never chosen: widest_supported_lanes() is 2 off x86
+}  // namespace kanedyn::fused::lanes4
+#endif
