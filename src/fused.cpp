@@ -37,7 +37,12 @@ bool compile(const Model& model, Data& data) {
   data.fused_ready.assign(at(groups), 0);
   for (int g = 0; g < groups; ++g) data.fused_ready[at(g)] = g;
   data.fused_params.assign(at(groups) * kParamFields * kLanes, 0.0);
-  data.fused_scratch.assign(at(groups) * kScratchFields * kLanes, 0.0);
+  // Pass 1 keeps its intermediate results for pass 2 while they fit in the caches (the
+  // kernel's tables then take about 700 bytes per body): ~9% fewer instructions. Beyond, pass 2
+  // gathers and recomputes them, and time per body stays flat (docs/performance-internal.md).
+  data.fused_keep = n <= kKeepLimit;
+  data.fused_scratch.assign(at(groups) * (data.fused_keep ? kScratchFields : kAccelFields) * kLanes,
+                            0.0);
   const auto param = [&](int k, int field) -> double& {
     return data
         .fused_params[at(k / kLanes) * kParamFields * kLanes + at(field) * kLanes + at(k % kLanes)];
@@ -91,10 +96,19 @@ bool compile(const Model& model, Data& data) {
 }
 
 void forward_dynamics(const Model& model, const State& state, Data& data) {
-  const Args args{model.num_bodies(),        state.x.data(),          state.y.data(),
-                  data.fused_lower.data(),   data.fused_ready.data(), data.fused_params.data(),
-                  data.fused_scratch.data(), data.ydot.data(),        data.xdot.data()};
-  switch (data.fused_lanes) {
+  const int lanes = data.fused_lanes;
+  const int stride = (data.fused_keep ? kScratchFields : kAccelFields) * lanes;
+  const Args args{model.num_bodies(),
+                  state.x.data(),
+                  state.y.data(),
+                  data.fused_lower.data(),
+                  data.fused_ready.data(),
+                  data.fused_params.data(),
+                  data.fused_scratch.data(),
+                  stride,
+                  data.ydot.data(),
+                  data.xdot.data()};
+  switch (lanes) {
     case 8:
       lanes8::evaluate(args);
       break;

@@ -25,6 +25,9 @@ bool compile(const Model& model, Data& data);
 /// {y dot} and {x dot} into data.ydot, data.xdot. Needs compile() to have returned true.
 void forward_dynamics(const Model& model, const State& state, Data& data);
 
+/// Up to this many bodies pass 1 keeps its intermediate results for pass 2 (Data::fused_keep).
+constexpr int kKeepLimit = 4096;
+
 /// The widest kernel this CPU runs (lanes: 2, 4 or 8).
 int widest_supported_lanes();
 
@@ -50,10 +53,12 @@ enum Param : int {
 };
 // Per-body results of passes 1 and 2, same layout.
 enum Scratch : int {
-  kLoadForce = 0,   // force at G_K, body K: K's own loads plus its children's reactions
-  kLoadMoment = 3,  // moment about G_K, body K
-  kAccelO = 6,      // a_O_K, body K
-  // Kept by pass 1 for pass 2 (loaded as whole vectors, not gathered or recomputed again):
+  kLoadForce = 0,    // force at G_K, body K: K's own loads plus its children's reactions
+  kLoadMoment = 3,   // moment about G_K, body K
+  kAccelO = 6,       // a_O_K, body K
+  kAccelFields = 9,  // the scratch of a large model stops here
+  // Kept by pass 1 for pass 2 when the tables fit in cache (loaded as whole vectors, not
+  // gathered and recomputed again):
   kEuler = 9,    // epsilon_K
   kRot = 13,     // [R] = [R_K][R_J]^T, row by row
   kOmega = 22,   // w'_K
@@ -72,6 +77,7 @@ struct Args {
   const int* ready;      // per group: the last group holding a child
   const double* params;  // Param fields per group
   double* scratch;       // Scratch fields per group
+  int scratch_stride;    // doubles per group: kScratchFields or kAccelFields times the lanes
   double* ydot;          // 6N
   double* xdot;          // 7N
 };

@@ -79,8 +79,9 @@ struct Data {
 
   // The fused O(N) route (forward_dynamics with Method::recursive, src/fused.cpp): per-body
   // constants compiled from the Model, loads grouped per body, in a layout private to src/.
-  bool fused_loads = false;           ///< every force element is a known type (else staged)
-  int fused_lanes = 0;                ///< bodies per SIMD pass of the kernel chosen: 2, 4 or 8
+  bool fused_loads = false;  ///< every force element is a known type (else staged)
+  int fused_lanes = 0;       ///< bodies per SIMD pass of the kernel chosen: 2, 4 or 8
+  bool fused_keep = false;  ///< pass 1 keeps its results for pass 2 (small N) or pass 2 redoes them
   std::vector<int> fused_lower;       ///< L(K) per body, padded to whole SIMD groups
   std::vector<int> fused_ready;       ///< per group: the last group holding a child
   std::vector<double> fused_params;   ///< constants, lane-interleaved per group of bodies
