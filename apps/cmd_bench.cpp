@@ -26,6 +26,7 @@ struct BenchResult {
   double min_ns = 0.0;     ///< minimum over batches
   long reps = 0;           ///< evaluations timed
   long batch = 0;          ///< evaluations per batch
+  int lanes = 0;           ///< bodies per SIMD pass of the recursive route's kernel
 };
 
 double elapsed_ns(Clock::time_point since) {
@@ -33,10 +34,11 @@ double elapsed_ns(Clock::time_point since) {
 }
 
 /// Times forward_dynamics(method) at `state`. reps <= 0: about 2 s worth, at most 100,000.
-BenchResult time_method(const Model& model, const State& state, Method method, long reps) {
+BenchResult time_method(const Model& model, const State& state, Method method, long reps,
+                        int max_lanes) {
   // Only what the route needs: the Kane route's block-sparse [A], no partials, no dense [A].
-  Data data(model,
-            method == Method::kane ? DataOptions{false, true, false} : DataOptions{false, false});
+  Data data(model, method == Method::kane ? DataOptions{false, true, false, max_lanes}
+                                          : DataOptions{false, false, false, max_lanes});
   forward_dynamics(model, state, data, method);  // warm-up (first touch of the workspace)
   if (!data.ydot.allFinite())
     throw std::runtime_error("the equations of motion are not finite at the initial state");
@@ -68,6 +70,7 @@ BenchResult time_method(const Model& model, const State& state, Method method, l
   r.min_ns = per_eval.front();
   r.reps = reps;
   r.batch = (reps + batches - 1) / batches;
+  r.lanes = data.fused_loads ? data.fused_lanes : 0;
   return r;
 }
 
@@ -81,6 +84,12 @@ void print_text(const io::ModelFile& file, const std::vector<BenchResult>& resul
   for (const BenchResult& r : results)
     std::printf("%-10s %11ld %7ld %15.1f %13.1f %15.2f %12.2f\n", to_string(r.method).c_str(),
                 r.reps, r.batch, r.median_ns, r.min_ns, r.median_ns / n, r.min_ns / n);
+  for (const BenchResult& r : results)
+    if (r.method == Method::recursive && r.lanes > 0)
+      std::printf("\nrecursive: %d bodies per SIMD pass (%s)\n", r.lanes,
+                  r.lanes == 8   ? "AVX-512F"
+                  : r.lanes == 4 ? "AVX"
+                                 : "SSE2 or generic");
 }
 
 void print_json(const io::ModelFile& file, const std::vector<BenchResult>& results) {
@@ -104,6 +113,7 @@ void add_bench(CLI::App& app) {
     std::string path;
     std::vector<std::string> methods;
     long reps = 0;
+    int simd_lanes = 8;
     bool json = false;
   };
   auto opt = std::make_shared<Options>();
@@ -113,6 +123,11 @@ void add_bench(CLI::App& app) {
   cmd->add_option("--reps", opt->reps,
                   "evaluations to time per method (default: about 2 s worth, at most 100000)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option(
+         "--simd-lanes", opt->simd_lanes,
+         "widest SIMD kernel of the recursive route: 2, 4 or 8 bodies per pass (default: "
+         "8; the widest this CPU runs up to this is used; every width gives the same bits)")
+      ->check(CLI::IsMember({2, 4, 8}));
   cmd->add_flag("--json", opt->json,
                 "print {\"model\", \"N\", \"results\": [{\"method\", \"ns_per_eval_median\", "
                 "\"ns_per_eval_min\", \"reps\"}]}");
@@ -127,7 +142,7 @@ void add_bench(CLI::App& app) {
     if (methods.empty()) methods = {Method::recursive, Method::kane};
     std::vector<BenchResult> results;
     for (const Method method : methods)
-      results.push_back(time_method(file.model, file.initial, method, opt->reps));
+      results.push_back(time_method(file.model, file.initial, method, opt->reps, opt->simd_lanes));
     if (opt->json)
       print_json(file, results);
     else

@@ -1,4 +1,4 @@
-// The kanedyn tool as a user runs it: output, JSON form and exit codes of `info` and `eom`.
+// The kanedyn tool as a user runs it: output, JSON form and exit codes of `info`, `eom` and `bench`.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -122,4 +122,37 @@ TEST(Cli, MissingFileAndUsageErrorsAreNonzero) {
   EXPECT_NE(run_tool("info").exit_code, 0);
   EXPECT_NE(run_tool("frobnicate").exit_code, 0);
   EXPECT_NE(run_tool("").exit_code, 0);
+}
+
+TEST(Cli, BenchJsonIsTheSpecifiedObject) {
+  const ToolRun r = run_tool("bench --json --reps 50 " + kEight);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::ordered_json::parse(r.out);
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : j.items()) keys.push_back(key);
+  EXPECT_EQ(keys, (std::vector<std::string>{"model", "N", "results"}));
+  EXPECT_EQ(j["model"], kEight);
+  EXPECT_EQ(j["N"], 8);
+  ASSERT_EQ(j["results"].size(), 2u);  // default: both methods
+  EXPECT_EQ(j["results"][0]["method"], "recursive");
+  EXPECT_EQ(j["results"][1]["method"], "kane");
+  for (const auto& result : j["results"]) {
+    std::vector<std::string> fields;
+    for (const auto& [key, value] : result.items()) fields.push_back(key);
+    EXPECT_EQ(fields, (std::vector<std::string>{"method", "ns_per_eval_median", "ns_per_eval_min",
+                                                "reps"}));
+    EXPECT_EQ(result["reps"], 50);
+    EXPECT_GT(result["ns_per_eval_min"].get<double>(), 0.0);
+    EXPECT_GE(result["ns_per_eval_median"].get<double>(), result["ns_per_eval_min"].get<double>());
+  }
+}
+
+TEST(Cli, BenchTextNamesTheSimdWidthAndTakesACap) {
+  const ToolRun r = run_tool("bench --method recursive --reps 20 --simd-lanes 2 " + kEight);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("recursive: 2 bodies per SIMD pass"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("kane"), std::string::npos) << r.out;
+  const ToolRun bad = run_tool("bench --simd-lanes 3 " + kEight);
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("--simd-lanes"), std::string::npos) << bad.err;
 }
