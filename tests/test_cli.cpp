@@ -1,4 +1,5 @@
-// The kanedyn tool as a user runs it: output, JSON form and exit codes of `info`, `eom` and `bench`.
+// The kanedyn tool as a user runs it: output, JSON form and exit codes of `info`, `eom` and
+// `bench`.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
