@@ -3,7 +3,8 @@
 // here, independent of integrate.hpp). Prints N, ns per body (median and minimum over batches),
 // the workspace's bytes per body, the process's peak RSS, and the RK4 step time per body.
 // Then one chain goes through a model file and back (io::load_model_file).
-//   build/bench/kanedyn_scale [--quick] [--file-bodies N]   (default N = 4096)
+//   build/bench/kanedyn_scale [--quick] [--file-bodies N] [--simd-lanes 2|4|8]
+//   (default N = 4096; lanes: the widest this CPU runs)
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -135,29 +136,33 @@ void write_model_file(const GeneratedSystem& g, const std::string& path) {
 
 int main(int argc, char** argv) {
   bool quick = false;
+  int lanes = 8;
   int file_n = 4096;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
     } else if (std::strcmp(argv[i], "--file-bodies") == 0 && i + 1 < argc) {
       file_n = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--simd-lanes") == 0 && i + 1 < argc) {
+      lanes = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: %s [--quick] [--file-bodies N]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--quick] [--file-bodies N] [--simd-lanes 2|4|8]\n", argv[0]);
       return 2;
     }
   }
   std::vector<int> sizes = {64, 256, 1024, 4096, 16384, 65536, 100000};
   if (quick) sizes = {64, 1024, 16384};
   std::printf(
-      "chains, O(N) route (forward_dynamics, Method::recursive, DataOptions{false, false})"
-      "\n\n");
+      "chains, O(N) route (forward_dynamics, Method::recursive, DataOptions{false, false}), "
+      "%d bodies per SIMD pass\n\n",
+      Data(chain_model(8).model, DataOptions{false, false, false, lanes}).fused_lanes);
   std::printf("%8s %10s %12s %12s %14s %13s %14s %s\n", "N", "build ms", "median ns/b", "min ns/b",
               "Data bytes/b", "peak RSS MB", "RK4 ns/step/b", "RK4 check");
   for (const int n : sizes) {
     auto t0 = Clock::now();
     const GeneratedSystem g = chain_model(n);
     const double build_ms = seconds_since(t0) * 1e3;
-    Data data(g.model, DataOptions{false, false});
+    Data data(g.model, DataOptions{false, false, false, lanes});
     const auto [median, min] = time_evaluations(g.model, g.initial, data);
     State end;
     double step = 1e300;  // the fastest of 3 runs of 5 steps
