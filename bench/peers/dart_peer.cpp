@@ -5,11 +5,28 @@
 // reproduce the bushing law; the bushings are applied instead as the spec states them, as
 // external forces and moments on K and J, computed from DART's own kinematics in every
 // evaluation (the same work a DART user would write).
+//
+// Trajectories: DART's World::step is semi-implicit Euler (computeForwardDynamics,
+// integrateVelocities, integratePositions); DART also ships dart::integration::RK4Integrator,
+// which works on an IntegrableSystem that DART's own classes do not implement: the adapter
+// below maps it onto the skeleton, positions advanced by the joints' own integratePositions.
+// Both converge at first order here (docs/peers-trajectory.md): RK4Integrator::integrate
+// starts its fourth stage's positions from the third stage's instead of the step's start, and
+// FreeJoint::integratePositions moves the origin along a straight line (R v dt), not along the
+// screw of a constant body velocity. "rk4-se3" is a diagnostic without both: a textbook RK4
+// over the same DART dynamics, FreeJoint positions advanced by the SE(3) exponential.
 #include <dart/dynamics/BodyNode.hpp>
 #include <dart/dynamics/FreeJoint.hpp>
 #include <dart/dynamics/Skeleton.hpp>
+#include <dart/integration/RK4Integrator.hpp>
+#include <dart/math/Geometry.hpp>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
 
 #include "peer.hpp"
 
@@ -69,6 +86,82 @@ class DartEngine final : public Engine {
     skeleton_->computeForwardDynamics();
   }
 
+  IntegratorInfo start(const IntegratorSettings& settings) override {
+    const std::string& method = settings.method;
+    IntegratorInfo info;
+    if (method.empty() || method == "rk4") {
+      method_ = Method::rk4;
+      info = {"dart::integration::RK4Integrator", true, 4.0};
+    } else if (method == "euler") {
+      method_ = Method::euler;
+      info = {"semi-implicit Euler (World::step)", true, 1.0};
+    } else if (method == "rk4-se3") {
+      method_ = Method::rk4_se3;
+      info = {"textbook RK4, SE(3) exponential (diagnostic)", true, 4.0};
+    } else {
+      throw std::invalid_argument("DART: unknown integrator '" + method +
+                                  "' (rk4, euler, rk4-se3)");
+    }
+    if (!(settings.step > 0)) throw std::invalid_argument("DART: the step must be > 0");
+    step_ = settings.step;
+    char step[32];
+    std::snprintf(step, sizeof step, "%.3g", step_);
+    info.description += std::string(", step ") + step;
+    q_int_ = positions_;
+    v_int_ = velocities_;
+    time_ = 0;
+    steps_ = 0;
+    return info;
+  }
+
+  void advance_to(double t) override {
+    const double span = t - time_;
+    const long n = std::max(1L, static_cast<long>(std::ceil(span / step_ * (1 - 1e-12))));
+    const double h = span / static_cast<double>(n);
+    skeleton_->setPositions(q_int_);
+    skeleton_->setVelocities(v_int_);
+    Adapter adapter(*this);
+    for (long i = 0; i < n; ++i) {
+      switch (method_) {
+        case Method::rk4:
+          rk4_integrator_.integrate(&adapter, h);
+          break;
+        case Method::euler:
+          accelerations();
+          skeleton_->integrateVelocities(h);
+          skeleton_->integratePositions(h);
+          break;
+        case Method::rk4_se3:
+          rk4_se3(h);
+          break;
+      }
+    }
+    q_int_ = skeleton_->getPositions();
+    v_int_ = skeleton_->getVelocities();
+    if (!q_int_.allFinite() || !v_int_.allFinite())
+      throw std::runtime_error("DART: non-finite state after t = " + std::to_string(time_));
+    time_ = t;
+    steps_ += n;
+  }
+
+  std::vector<BodyPose> pose() override {
+    skeleton_->setPositions(q_int_);
+    skeleton_->setVelocities(v_int_);
+    std::vector<BodyPose> out(bodies_.size());
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const BodyNode* b = bodies_[k];
+      out[k].p_G = a3(b->getCOM());
+      out[k].v_G = a3(b->getCOMLinearVelocity());
+      out[k].w = a3(b->getAngularVelocity());
+      const Eigen::Matrix3d& R = b->getWorldTransform().linear();  // body axes -> world
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) out[k].R[static_cast<size_t>(3 * r + c)] = R(r, c);
+    }
+    return out;
+  }
+
+  long steps() const override { return steps_; }
+
   std::vector<BodyMotion> motion() override {
     std::vector<BodyMotion> out(bodies_.size());
     for (size_t k = 0; k < bodies_.size(); ++k) {
@@ -83,6 +176,86 @@ class DartEngine final : public Engine {
   }
 
  private:
+  // The skeleton's accelerations at its current positions and velocities, loads included.
+  void accelerations() {
+    skeleton_->clearExternalForces();
+    for (size_t k = 0; k < bodies_.size(); ++k) apply_loads(k);
+    skeleton_->computeForwardDynamics();
+  }
+
+  // Positions q advanced by the body velocities v over dt, each FreeJoint (every joint here,
+  // six positions each) along the screw of its constant body velocity (SE(3) exponential).
+  static Eigen::VectorXd screw(const Eigen::VectorXd& q, const Eigen::VectorXd& v, double dt) {
+    Eigen::VectorXd out(q.size());
+    for (Eigen::Index j = 0; j < q.size(); j += 6) {
+      const Eigen::Isometry3d Q = FreeJoint::convertToTransform(Eigen::Vector6d(q.segment<6>(j)));
+      const Eigen::Vector6d step = v.segment<6>(j) * dt;
+      out.segment<6>(j) = FreeJoint::convertToPositions(Q * dart::math::expMap(step));
+    }
+    return out;
+  }
+
+  // The diagnostic: classical RK4, every stage from the step's start (q1, v1).
+  void rk4_se3(double h) {
+    const Eigen::VectorXd q1 = skeleton_->getPositions(), v1 = skeleton_->getVelocities();
+    auto acc = [this](const Eigen::VectorXd& q, const Eigen::VectorXd& v) -> Eigen::VectorXd {
+      skeleton_->setPositions(q);
+      skeleton_->setVelocities(v);
+      accelerations();
+      return skeleton_->getAccelerations();
+    };
+    const Eigen::VectorXd dv1 = acc(q1, v1);
+    const Eigen::VectorXd v2 = v1 + 0.5 * h * dv1;
+    const Eigen::VectorXd dv2 = acc(screw(q1, v1, 0.5 * h), v2);
+    const Eigen::VectorXd v3 = v1 + 0.5 * h * dv2;
+    const Eigen::VectorXd dv3 = acc(screw(q1, v2, 0.5 * h), v3);
+    const Eigen::VectorXd v4 = v1 + h * dv3;
+    const Eigen::VectorXd dv4 = acc(screw(q1, v3, h), v4);
+    skeleton_->setPositions(screw(q1, (v1 + 2.0 * v2 + 2.0 * v3 + v4) / 6.0, h));
+    skeleton_->setVelocities(v1 + h / 6.0 * (dv1 + 2.0 * dv2 + 2.0 * dv3 + dv4));
+  }
+
+  // DART's IntegrableSystem on the skeleton: configurations are the joints' positions,
+  // advanced by the joints' own integratePositions (a FreeJoint's exponential map);
+  // velocities are a vector space.
+  class Adapter final : public dart::integration::IntegrableSystem {
+   public:
+    explicit Adapter(DartEngine& engine) : e_(engine) {}
+    void setConfigs(const Eigen::VectorXd& q) override { e_.skeleton_->setPositions(q); }
+    void setGenVels(const Eigen::VectorXd& v) override { e_.skeleton_->setVelocities(v); }
+    Eigen::VectorXd getConfigs() const override { return e_.skeleton_->getPositions(); }
+    Eigen::VectorXd getGenVels() const override { return e_.skeleton_->getVelocities(); }
+    Eigen::VectorXd evalGenAccs() override {
+      e_.accelerations();
+      return e_.skeleton_->getAccelerations();
+    }
+    void integrateConfigs(const Eigen::VectorXd& v, double dt) override {
+      const Eigen::VectorXd saved = e_.skeleton_->getVelocities();
+      e_.skeleton_->setVelocities(v);
+      e_.skeleton_->integratePositions(dt);
+      e_.skeleton_->setVelocities(saved);
+    }
+    void integrateGenVels(const Eigen::VectorXd& a, double dt) override {
+      e_.skeleton_->setVelocities(e_.skeleton_->getVelocities() + dt * a);
+    }
+
+   private:
+    DartEngine& e_;
+  };
+
+  // dart::integration::RK4Integrator is abstract in DART 6.12 (it does not override the
+  // base's integratePos and integrateVel, which its integrate() does not use): these two
+  // complete it; integrate() is DART's own.
+  class Rk4 final : public dart::integration::RK4Integrator {
+   public:
+    void integratePos(dart::integration::IntegrableSystem*, double) override {
+      throw std::logic_error("DART RK4Integrator::integratePos is not used");
+    }
+    void integrateVel(dart::integration::IntegrableSystem*, double) override {
+      throw std::logic_error("DART RK4Integrator::integrateVel is not used");
+    }
+  };
+
   // The bushing on body K and its constant loads, from the body frames' world motion.
   void apply_loads(size_t k) {
     const Body& b = system_.bodies[k];
@@ -117,6 +290,12 @@ class DartEngine final : public Engine {
   dart::dynamics::SkeletonPtr skeleton_;
   std::vector<BodyNode*> bodies_;
   Eigen::VectorXd positions_, velocities_;
+  // Trajectories: the integrated state, apart from evaluate()'s.
+  Rk4 rk4_integrator_;
+  enum class Method { rk4, euler, rk4_se3 } method_ = Method::rk4;
+  Eigen::VectorXd q_int_, v_int_;
+  double step_ = 0, time_ = 0;
+  long steps_ = 0;
 };
 
 }  // namespace

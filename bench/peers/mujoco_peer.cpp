@@ -40,6 +40,12 @@ std::string name(const char* format, size_t k, int i = 0) {
   return buf;
 }
 
+std::string num_short(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
 std::string num(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.17g", x);
@@ -179,6 +185,7 @@ class MujocoEngine final : public Engine {
       mjcb_passive = nullptr;
       g_current = nullptr;
     }
+    if (integration_) mj_deleteData(integration_);
     mj_deleteData(d_);
     mj_deleteModel(m_);
   }
@@ -230,6 +237,62 @@ class MujocoEngine final : public Engine {
     return {backward_error(own), backward_error(other)};
   }
 
+  IntegratorInfo start(const IntegratorSettings& settings) override {
+    const std::string& method = settings.method;
+    IntegratorInfo info;
+    if (method.empty() || method == "rk4") {
+      m_->opt.integrator = mjINT_RK4;
+      info = {"RK4 (mjINT_RK4)", true, 4.0};
+    } else if (method == "euler") {
+      m_->opt.integrator = mjINT_EULER;
+      info = {"semi-implicit Euler (mjINT_EULER)", true, 1.0};
+    } else {
+      throw std::invalid_argument("MuJoCo: unknown integrator '" + method + "' (rk4, euler)");
+    }
+    if (!(settings.step > 0)) throw std::invalid_argument("MuJoCo: the step must be > 0");
+    step_ = settings.step;
+    info.description += ", step " + num_short(step_);
+    if (!integration_) integration_ = mj_makeData(m_);
+    mj_resetData(m_, integration_);
+    mju_copy(integration_->qpos, qpos_.data(), m_->nq);
+    mju_copy(integration_->qvel, qvel_.data(), m_->nv);
+    time_ = 0;
+    steps_ = 0;
+    return info;
+  }
+
+  void advance_to(double t) override {
+    const double span = t - time_;
+    const long n = std::max(1L, static_cast<long>(std::ceil(span / step_ * (1 - 1e-12))));
+    m_->opt.timestep = span / static_cast<double>(n);
+    for (long i = 0; i < n; ++i) mj_step(m_, integration_);
+    for (int i = 0; i < mjNWARNING; ++i)
+      if (integration_->warning[i].number > 0)
+        throw std::runtime_error("MuJoCo: warning " + std::to_string(i) + " during integration");
+    time_ = t;
+    steps_ += n;
+  }
+
+  std::vector<BodyPose> pose() override {
+    mjData* d = integration_;
+    mj_forward(m_, d);  // the kinematics of the current qpos, qvel (mj_step leaves older ones)
+    std::vector<BodyPose> out(system_.bodies.size());
+    for (size_t k = 0; k < out.size(); ++k) {
+      const int b = body_id_[k];
+      mjtNum v[6];
+      mj_objectVelocity(m_, d, mjOBJ_BODY, b, v, 0);  // at xipos = G_K, world axes
+      for (size_t i = 0; i < 3; ++i) {
+        out[k].p_G[i] = d->xipos[3 * b + static_cast<int>(i)];
+        out[k].w[i] = v[i];
+        out[k].v_G[i] = v[3 + i];
+      }
+      for (size_t i = 0; i < 9; ++i) out[k].R[i] = d->xmat[9 * b + static_cast<int>(i)];
+    }
+    return out;
+  }
+
+  long steps() const override { return steps_; }
+
   void add_constant_loads(const mjModel* m, mjData* d) const {
     for (size_t k = 0; k < system_.bodies.size(); ++k) {
       const Body& b = system_.bodies[k];
@@ -271,6 +334,9 @@ class MujocoEngine final : public Engine {
   mjData* d_ = nullptr;
   std::vector<int> body_id_;
   std::vector<mjtNum> qpos_, qvel_;
+  mjData* integration_ = nullptr;  // the integrated state, apart from evaluate()'s d_
+  double step_ = 0, time_ = 0;
+  long steps_ = 0;
 };
 
 void constant_loads(const mjModel* m, mjData* d) {

@@ -55,6 +55,30 @@ struct JointAcceleration {
   Vec3 w_rel_dot_k{};
 };
 
+/// Pose and velocity of body K at an engine's integrated state (kanedyn_peers_trajectory).
+struct BodyPose {
+  Vec3 p_G{};  ///< mass-centre position, inertial
+  Mat3 R{};    ///< body-K components -> inertial components (K's unit vectors as columns)
+  Vec3 v_G{};  ///< mass-centre velocity, inertial
+  Vec3 w{};    ///< angular velocity, inertial
+};
+
+/// How an engine integrates the motion with its own integrator. Each engine reads the knob
+/// its integrator has: the accuracy of an error-controlled integrator, or the step of a
+/// fixed-step one.
+struct IntegratorSettings {
+  std::string method;      ///< engine-specific name ("rkmerson", "rk4", ...); empty: default
+  double accuracy = 1e-9;  ///< error-controlled integrators: the engine's accuracy setting
+  double step = 1e-4;      ///< fixed-step integrators: the largest step
+};
+
+/// What start() set up.
+struct IntegratorInfo {
+  std::string description;  ///< e.g. "RungeKuttaMerson, accuracy 1e-09"; empty: not supported
+  bool fixed_step = false;  ///< refined by IntegratorSettings::step (else by ::accuracy)
+  double order = 0;         ///< nominal order of the global error in the step or the accuracy
+};
+
 struct System {
   std::string name;
   std::vector<Body> bodies;
@@ -76,6 +100,23 @@ class Engine {
   /// max_i |M qacc - f|_i / (|M| |qacc| + |f|)_i of the engine's own qacc and of the given
   /// joint accelerations (kanedyn's), after evaluate(). Empty if not implemented.
   virtual std::vector<double> backward_errors(const std::vector<JointAcceleration>&) { return {}; }
+
+  // Trajectories (kanedyn_peers_trajectory): the engine integrates the motion from the
+  // System's state at t = 0 with its own integrator. The integration keeps its own state,
+  // apart from the one evaluate() uses.
+
+  /// Starts (or restarts) at t = 0. Returns an empty description if the engine cannot
+  /// integrate; throws std::invalid_argument for a method it does not know.
+  virtual IntegratorInfo start(const IntegratorSettings&) { return {}; }
+  /// Advances to time t (after the current time). Fixed-step integrators split the interval
+  /// into equal steps no longer than IntegratorSettings::step, so t is reached by a step;
+  /// error-controlled ones stop at t without interpolating. Throws std::runtime_error when
+  /// the integrator fails.
+  virtual void advance_to(double t) { (void)t; }
+  /// Body poses at the current integrated state, in kanedyn's body order.
+  virtual std::vector<BodyPose> pose() { return {}; }
+  /// Steps taken since start().
+  virtual long steps() const { return 0; }
 };
 
 /// What an engine needs to be able to skip cases it cannot run here.

@@ -13,6 +13,9 @@
 #include <Simbody.h>
 
 #include <cmath>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "peer.hpp"
@@ -132,6 +135,70 @@ class SimbodyEngine final : public Engine {
     return out;
   }
 
+  IntegratorInfo start(const IntegratorSettings& settings) override {
+    const std::string& method = settings.method;
+    std::string name;
+    if (method.empty() || method == "rkmerson") {
+      integrator_ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(mb_system_);
+      name = "RungeKuttaMerson";
+    } else if (method == "rkf") {
+      integrator_ = std::make_unique<SimTK::RungeKuttaFeldbergIntegrator>(mb_system_);
+      name = "RungeKuttaFeldberg";
+    } else if (method == "rk3") {
+      integrator_ = std::make_unique<SimTK::RungeKutta3Integrator>(mb_system_);
+      name = "RungeKutta3";
+    } else if (method == "cpodes") {
+      integrator_ = std::make_unique<SimTK::CPodesIntegrator>(mb_system_, SimTK::CPodes::BDF,
+                                                              SimTK::CPodes::Newton);
+      name = "CPodes (BDF, Newton)";
+    } else {
+      throw std::invalid_argument("Simbody: unknown integrator '" + method +
+                                  "' (rkmerson, rkf, rk3, cpodes)");
+    }
+    integrator_->setAccuracy(settings.accuracy);
+    // Step to each output time exactly: no interpolated (lower-order) output states.
+    integrator_->setAllowInterpolation(false);
+    SimTK::State initial = state_;
+    initial.setTime(0);
+    initial.updQ() = q_;
+    initial.updU() = u_;
+    integrator_->initialize(initial);
+    char accuracy[32];
+    std::snprintf(accuracy, sizeof accuracy, "%.3g", settings.accuracy);
+    // Error control per step: the global error follows the accuracy to about the first power.
+    return {name + ", accuracy " + accuracy, false, 1.0};
+  }
+
+  void advance_to(double t) override {
+    while (integrator_->getTime() < t) {
+      const auto status = integrator_->stepTo(t);
+      if (status == SimTK::Integrator::EndOfSimulation || integrator_->isSimulationOver())
+        throw std::runtime_error(
+            "Simbody: integration ended at t = " + std::to_string(integrator_->getTime()) + ": " +
+            SimTK::Integrator::getTerminationReasonString(integrator_->getTerminationReason()));
+      if (status == SimTK::Integrator::ReachedReportTime) break;
+    }
+  }
+
+  std::vector<BodyPose> pose() override {
+    SimTK::State state = integrator_->getState();
+    mb_system_.realize(state, SimTK::Stage::Velocity);
+    std::vector<BodyPose> out(bodies_.size());
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const SimTK::MobilizedBody& mb = bodies_[k];
+      const SimTK::Vec3 com = v3(system_.bodies[k].com);
+      out[k].p_G = a3(mb.findStationLocationInGround(state, com));
+      out[k].v_G = a3(mb.findStationVelocityInGround(state, com));
+      out[k].w = a3(mb.getBodyAngularVelocity(state));
+      const SimTK::Mat33& R = mb.getBodyRotation(state).asMat33();  // body axes -> ground
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) out[k].R[static_cast<size_t>(3 * r + c)] = R(r, c);
+    }
+    return out;
+  }
+
+  long steps() const override { return integrator_ ? integrator_->getNumStepsTaken() : 0; }
+
  private:
   System system_;
   SimTK::MultibodySystem mb_system_;
@@ -140,6 +207,7 @@ class SimbodyEngine final : public Engine {
   std::vector<SimTK::MobilizedBody> bodies_;
   SimTK::State state_;
   SimTK::Vector q_, u_;
+  std::unique_ptr<SimTK::Integrator> integrator_;
 };
 
 }  // namespace
