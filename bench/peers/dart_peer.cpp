@@ -116,7 +116,7 @@ class DartEngine final : public Engine {
 
   void advance_to(double t) override {
     const double span = t - time_;
-    const long n = std::max(1L, static_cast<long>(std::ceil(span / step_ * (1 - 1e-12))));
+    const long n = equal_steps(span, step_);
     const double h = span / static_cast<double>(n);
     skeleton_->setPositions(q_int_);
     skeleton_->setVelocities(v_int_);

@@ -263,7 +263,7 @@ class MujocoEngine final : public Engine {
 
   void advance_to(double t) override {
     const double span = t - time_;
-    const long n = std::max(1L, static_cast<long>(std::ceil(span / step_ * (1 - 1e-12))));
+    const long n = equal_steps(span, step_);
     m_->opt.timestep = span / static_cast<double>(n);
     for (long i = 0; i < n; ++i) mj_step(m_, integration_);
     for (int i = 0; i < mjNWARNING; ++i)

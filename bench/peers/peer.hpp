@@ -4,7 +4,9 @@
 // implements.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -139,5 +141,10 @@ EngineInfo dart_engine();
 /// Sum over bodies of (number of degrees of freedom from the body down to the ground) and
 /// of its square: the sizes of dense-fill mass-matrix factorizations in joint coordinates.
 double ancestor_dofs(const System& system, int power);
+
+/// Number of equal fixed steps, each at most `step` (to round-off), that span `span` seconds.
+inline long equal_steps(double span, double step) {
+  return std::max(1L, static_cast<long>(std::ceil(span / step * (1 - 1e-12))));
+}
 
 }  // namespace peers
