@@ -203,9 +203,8 @@ int run(const Options& o) {
     return g_signal == 0;
   };
   const Observer observer = [&](double t, const State& state, Data& data) {
-    // total_energy computes this state's kinematics into data, p_G included.
-    const double energy = total_energy(model, state, data);
-    writer.write_row(t, state, data, energy);
+    // simulate() has computed this state's kinematics into data (p_G and v_G included).
+    writer.write_row(t, state, data, total_energy_of_kinematics(model, state, data));
   };
   SimulationStats stats;
   try {

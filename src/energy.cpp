@@ -7,10 +7,9 @@ namespace kanedyn {
 
 namespace {
 size_t at(int i) { return static_cast<size_t>(i); }
-}  // namespace
 
-double kinetic_energy(const Model& model, const State& state, Data& data) {
-  compute_kinematics(model, state, data);
+// The sums, from kinematics already in data.
+double kinetic_sum(const Model& model, const State& state, const Data& data) {
   double t = 0.0;
   for (int k = 0; k < model.num_bodies(); ++k) {
     const Vector3 w = state.angular_velocity(k);
@@ -20,17 +19,31 @@ double kinetic_energy(const Model& model, const State& state, Data& data) {
   return t;
 }
 
-double potential_energy(const Model& model, const State& state, Data& data) {
-  compute_kinematics(model, state, data);
+double potential_sum(const Model& model, const State& state, const Data& data) {
   double v = 0.0;
   for (int k = 0; k < model.num_bodies(); ++k)
     v -= model.body(k).mass * model.gravity().dot(data.p_G[at(k)]);
   for (const auto& e : model.forces()) v += e->potential_energy(model, state, data);
   return v;
 }
+}  // namespace
+
+double kinetic_energy(const Model& model, const State& state, Data& data) {
+  compute_kinematics(model, state, data);
+  return kinetic_sum(model, state, data);
+}
+
+double potential_energy(const Model& model, const State& state, Data& data) {
+  compute_kinematics(model, state, data);
+  return potential_sum(model, state, data);
+}
 
 double total_energy(const Model& model, const State& state, Data& data) {
   return kinetic_energy(model, state, data) + potential_energy(model, state, data);
+}
+
+double total_energy_of_kinematics(const Model& model, const State& state, const Data& data) {
+  return kinetic_sum(model, state, data) + potential_sum(model, state, data);
 }
 
 double damping_power(const Model& model, const State& state, Data& data) {

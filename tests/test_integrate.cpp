@@ -3,9 +3,11 @@
 // the dense output, the step-size control, and that stepping does not allocate.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <random>
 #include <vector>
 
 #include "alloc_counter.hpp"
@@ -430,6 +432,84 @@ TEST(Dopri5, ReportsNonFiniteAndUnderflowWithTheComponent) {
     Dopri5 dp(2, f, Dopri5Options{});
     EXPECT_EQ(dp.start(0.0, VectorX::Zero(2), 1.0), StepStatus::non_finite);
     EXPECT_EQ(dp.failed_component(), 1);
+  }
+}
+
+// The step's vector arithmetic is written as raw loops (compiled for SSE2 and AVX2, picked at
+// load time). It must round exactly as the Eigen expressions of the tableau do, so that the
+// trajectories stay bit for bit what they were: a reference step written with them.
+TEST(Dopri5, StepsRoundAsTheTableauExpressions) {
+  // Hairer, Norsett & Wanner, Table II.5.2.
+  const double a21 = 1.0 / 5, a31 = 3.0 / 40, a32 = 9.0 / 40, a41 = 44.0 / 45, a42 = -56.0 / 15,
+               a43 = 32.0 / 9, a51 = 19372.0 / 6561, a52 = -25360.0 / 2187, a53 = 64448.0 / 6561,
+               a54 = -212.0 / 729, a61 = 9017.0 / 3168, a62 = -355.0 / 33, a63 = 46732.0 / 5247,
+               a64 = 49.0 / 176, a65 = -5103.0 / 18656;
+  const double b1 = 35.0 / 384, b3 = 500.0 / 1113, b4 = 125.0 / 192, b5 = -2187.0 / 6784,
+               b6 = 11.0 / 84;
+  const double e1 = 35.0 / 384 - 5179.0 / 57600, e3 = 500.0 / 1113 - 7571.0 / 16695,
+               e4 = 125.0 / 192 - 393.0 / 640, e5 = -2187.0 / 6784 + 92097.0 / 339200,
+               e6 = 11.0 / 84 - 187.0 / 2100, e7 = -1.0 / 40;
+  const Model model = test::eight_body_model();
+  std::mt19937 rng(5);
+  const State initial = test::random_state(model, rng, 0.05, 1.0, 0.2);
+  SystemOde ode(model), reference_ode(model);
+  const OdeFunction f = reference_ode.function();
+  Dopri5Options opt;
+  Dopri5 dp(13 * model.num_bodies(), ode.function(), opt);
+  VectorX z = stack(initial);
+  ASSERT_EQ(dp.start(0.0, z, 1.0), StepStatus::ok);
+  const Eigen::Index n = z.size();
+  VectorX k1(n), k2(n), k3(n), k4(n), k5(n), k6(n), k7(n), tmp(n), z_new(n), e(n), out(n);
+  double t = 0.0;
+  for (int step = 0; step < 20; ++step) {
+    const double h = 1e-3 * (1 + step % 3);
+    f(t, z, k1);
+    tmp = z + h * (a21 * k1);
+    f(t, tmp, k2);
+    tmp = z + h * (a31 * k1 + a32 * k2);
+    f(t, tmp, k3);
+    tmp = z + h * (a41 * k1 + a42 * k2 + a43 * k3);
+    f(t, tmp, k4);
+    tmp = z + h * (a51 * k1 + a52 * k2 + a53 * k3 + a54 * k4);
+    f(t, tmp, k5);
+    tmp = z + h * (a61 * k1 + a62 * k2 + a63 * k3 + a64 * k4 + a65 * k5);
+    f(t, tmp, k6);
+    z_new = z + h * (b1 * k1 + b3 * k3 + b4 * k4 + b5 * k5 + b6 * k6);
+    f(t, z_new, k7);
+    e = h * (e1 * k1 + e3 * k3 + e4 * k4 + e5 * k5 + e6 * k6 + e7 * k7);
+    double sum = 0.0, worst = -1.0;
+    int worst_at = -1;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double sc = opt.atol + opt.rtol * std::max(std::abs(z[i]), std::abs(z_new[i]));
+      const double r = (e[i] / sc) * (e[i] / sc);
+      sum += r;
+      if (r > worst) {
+        worst = r;
+        worst_at = static_cast<int>(i);
+      }
+    }
+    const double err = std::sqrt(sum / static_cast<double>(n));
+
+    ASSERT_EQ(dp.fixed_step(h), StepStatus::ok);
+    for (Eigen::Index i = 0; i < n; ++i) ASSERT_EQ(dp.state()[i], z_new[i]) << step << " " << i;
+    ASSERT_EQ(dp.error_estimate(), err) << step;
+    ASSERT_EQ(dp.failed_component(), worst_at) << step;  // the largest share of the error
+    // The dense output within the step, as the weights of Hairer et al. Eq. (II.6.12) combine.
+    const double t_out = t + 0.3 * h;
+    const double th = std::clamp((t_out - t) / h, 0.0, 1.0);
+    const double cubic = th * th * (3.0 - 2.0 * th), q = th * th * (th - 1.0) * (th - 1.0);
+    const double w1 = cubic * b1 + th * (th - 1.0) * (th - 1.0) -
+                      q * 5.0 * (2558722523.0 - 31403016.0 * th) / 11282082432.0;
+    const double w3 = cubic * b3 + q * 100.0 * (882725551.0 - 15701508.0 * th) / 32700410799.0;
+    const double w4 = cubic * b4 - q * 25.0 * (443332067.0 - 31403016.0 * th) / 1880347072.0;
+    const double w5 = cubic * b5 + q * 32805.0 * (23143187.0 - 3489224.0 * th) / 199316789632.0;
+    const double w6 = cubic * b6 - q * 55.0 * (29972135.0 - 7076736.0 * th) / 822651844.0;
+    const double w7 = th * th * (th - 1.0) + q * 10.0 * (7414447.0 - 829305.0 * th) / 29380423.0;
+    const VectorX dense = z + h * (w1 * k1 + w3 * k3 + w4 * k4 + w5 * k5 + w6 * k6 + w7 * k7);
+    dp.dense_output(t_out, out);
+    for (Eigen::Index i = 0; i < n; ++i) ASSERT_EQ(out[i], dense[i]) << step << " " << i;
+    z = z_new;
+    t += h;
   }
 }
 

@@ -430,6 +430,19 @@ TEST(TrajectoryCsv, RowsRoundTripAndFinishRenames) {
   }
 }
 
+TEST(TrajectoryCsv, EnergyOfTheKinematicsIsTotalEnergy) {
+  // The command writes total_energy_of_kinematics (the kinematics simulate() computed for
+  // the observer) where it wrote total_energy before: the same value, bit for bit.
+  const Model model = eight_body(Vector3(0, 0, -9.81), true, 1.0);
+  Data a(model), b(model, DataOptions{false, false});
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    const State state = moving_state(model, seed);
+    const double reference = total_energy(model, state, a);
+    compute_kinematics(model, state, b);
+    EXPECT_EQ(total_energy_of_kinematics(model, state, b), reference);
+  }
+}
+
 TEST(TrajectoryCsv, UnfinishedWriterLeavesOnlyThePartialFile) {
   const Model model = eight_body(Vector3(0, 0, -9.81), true, 1.0);
   const State state(model);

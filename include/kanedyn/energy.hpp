@@ -14,6 +14,10 @@ double kinetic_energy(const Model& model, const State& state, Data& data);
 double potential_energy(const Model& model, const State& state, Data& data);
 /// Kinetic plus potential: conserved when every damping is zero and no constant load acts.
 double total_energy(const Model& model, const State& state, Data& data);
+/// total_energy when data already holds this state's kinematics (compute_kinematics(model,
+/// state, data) ran last, as for the data a simulate() observer receives): the same value, bit
+/// for bit, without computing the kinematics again (total_energy computes them twice).
+double total_energy_of_kinematics(const Model& model, const State& state, const Data& data);
 /// Power removed by all damping (>= 0): with only gravity and bushings,
 /// d(total_energy)/dt = -damping_power.
 double damping_power(const Model& model, const State& state, Data& data);

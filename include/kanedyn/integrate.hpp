@@ -107,7 +107,7 @@ class Dopri5 {
   /// The component of the state at fault after a failure: the first non-finite component,
   /// or the one with the largest share of the error norm in the last attempted step; -1
   /// before any step.
-  int failed_component() const { return failed_component_; }
+  int failed_component() const;
 
  private:
   void eval(double t, const VectorX& z, VectorX& dz);
@@ -122,13 +122,16 @@ class Dopri5 {
   OdeFunction f_;
   Dopri5Options opt_;
   VectorX z_, z_old_, z_new_, tmp_;
+  VectorX ratio_;  ///< (e_i / sc_i)^2 of the last attempted step
   VectorX k1_, k2_, k3_, k4_, k5_, k6_, k7_;
   double err_ = 0.0;
   double t_ = 0.0, t_old_ = 0.0, t_end_ = 0.0, h_ = 0.0, h_last_ = 0.0, span_ = 0.0;
   bool fsal_pending_ = false;      ///< k7_ holds f at the accepted state, not yet moved to k1_
   bool trial_non_finite_ = false;  ///< the last attempt produced a non-finite value
   long accepted_ = 0, rejected_ = 0, evaluations_ = 0;
-  int failed_component_ = -1;
+  // Set by a failure, or found from ratio_ on demand (worst_pending_) by failed_component().
+  mutable int failed_component_ = -1;
+  mutable bool worst_pending_ = false;
 };
 
 }  // namespace kanedyn

@@ -7,11 +7,20 @@
 #include <charconv>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <stdexcept>
 
 namespace kanedyn::io {
 
 namespace {
+
+/// The longest number std::to_chars writes for a double in its shortest round-trip form:
+/// "-1.2345678901234567e-308".
+constexpr std::size_t kMaxNumberChars = 24;
+
+/// value at p in the shortest form that reads back as the same double.
+char* put_number(char* p, double value) { return std::to_chars(p, p + kMaxNumberChars, value).ptr; }
+
 constexpr size_t kFlushBytes = 1 << 16;  // write to the file in pieces of about this size
 
 std::string system_error(const std::string& what, const std::string& file) {
@@ -34,15 +43,23 @@ TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path)
   const std::string partial = partial_path();
   fd_ = ::open(partial.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd_ < 0) throw std::runtime_error(system_error("cannot create", partial));
-  // One row holds 2 + 16N numbers of at most 24 characters each.
-  buffer_.reserve(kFlushBytes + 25 * (2 + 16 * static_cast<size_t>(model.num_bodies())));
+  // A row holds 2 + 16N numbers, each followed by ',' or the newline.
+  const size_t row_bytes =
+      (kMaxNumberChars + 1) * (2 + 16 * static_cast<size_t>(model.num_bodies()));
+  buffer_ = std::make_unique_for_overwrite<char[]>(kFlushBytes + row_bytes);
+  std::string header;
   const auto columns = trajectory_columns(model);
   for (size_t i = 0; i < columns.size(); ++i) {
-    if (i) buffer_ += ',';
-    buffer_ += columns[i];
+    if (i) header += ',';
+    header += columns[i];
   }
-  buffer_ += '\n';
-  flush();  // the header is there at once: the file shows the run has begun
+  header += '\n';
+  try {
+    write_out(header.data(), header.size());  // at once: the file shows the run has begun
+  } catch (...) {
+    ::close(fd_);
+    throw;
+  }
 }
 
 TrajectoryWriter::~TrajectoryWriter() {
@@ -52,33 +69,30 @@ TrajectoryWriter::~TrajectoryWriter() {
   }
 }
 
-void TrajectoryWriter::append(double value) {
-  char buf[32];
-  const auto result = std::to_chars(buf, buf + sizeof buf, value);
-  buffer_.append(buf, result.ptr);
-}
-
 void TrajectoryWriter::write_row(double t, const State& state, const Data& data, double energy) {
   if (fd_ < 0) throw std::logic_error("TrajectoryWriter: write_row after close");
-  append(t);
+  if (used_ >= kFlushBytes) flush();  // only after a flush that threw: retry (or throw again)
+  // Fewer than kFlushBytes are buffered now, so the row fits (see the constructor).
+  char* p = put_number(buffer_.get() + used_, t);
+  auto put = [&p](const auto& v) {
+    for (Eigen::Index i = 0; i < v.size(); ++i) {
+      *p++ = ',';
+      p = put_number(p, v[i]);
+    }
+  };
   for (int k = 0; k < model_.num_bodies(); ++k) {
-    auto put = [this](const auto& v) {
-      for (Eigen::Index i = 0; i < v.size(); ++i) {
-        buffer_ += ',';
-        append(v[i]);
-      }
-    };
     put(data.p_G[static_cast<size_t>(k)]);
     put(state.euler_parameters(k));
     put(state.translation(k));
     put(state.angular_velocity(k));
     put(state.translation_rate(k));
   }
-  buffer_ += ',';
-  append(energy);
-  buffer_ += '\n';
+  *p++ = ',';
+  p = put_number(p, energy);
+  *p++ = '\n';
+  used_ = static_cast<size_t>(p - buffer_.get());
   ++rows_;
-  if (buffer_.size() >= kFlushBytes) flush();
+  if (used_ >= kFlushBytes) flush();
 }
 
 void TrajectoryWriter::write_out(const char* bytes, size_t size) {
@@ -100,9 +114,9 @@ void TrajectoryWriter::write_out(const char* bytes, size_t size) {
 }
 
 void TrajectoryWriter::flush() {
-  if (fd_ < 0 || buffer_.empty()) return;
-  write_out(buffer_.data(), buffer_.size());
-  buffer_.clear();
+  if (fd_ < 0 || used_ == 0) return;
+  write_out(buffer_.get(), used_);
+  used_ = 0;
 }
 
 void TrajectoryWriter::close() {

@@ -3,6 +3,8 @@
 // holds an incomplete trajectory and PATH.partial always ends with a complete row.
 #pragma once
 
+#include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -29,8 +31,8 @@ class TrajectoryWriter {
 
   /// Appends one row: t, per body the mass centre G_K (data.p_G, inertial: needs
   /// compute_kinematics at this state), eps_K, s'_K, w'_K, s'_K dot, then energy. Numbers
-  /// are written in the shortest form that reads back as the same double. Rows are
-  /// buffered and reach the file whole; throws std::runtime_error if writing fails.
+  /// are written in the shortest form that reads back as the same double (std::to_chars).
+  /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails.
   void write_row(double t, const State& state, const Data& data, double energy);
   /// Writes the buffered rows to the file (whole rows only).
   void flush();
@@ -44,12 +46,14 @@ class TrajectoryWriter {
   long rows() const { return rows_; }  ///< data rows written so far (header not counted)
 
  private:
-  void append(double value);
   void write_out(const char* bytes, size_t size);
 
   const Model& model_;
   std::string path_;
-  std::string buffer_;
+  /// Rows waiting for the file: buffer_[0, used_). Sized at construction for the flush
+  /// threshold plus one longest row, so a row is written into it without checks.
+  std::unique_ptr<char[]> buffer_;
+  size_t used_ = 0;
   int fd_ = -1;
   size_t committed_ = 0;  ///< bytes of whole rows in the file
   long rows_ = 0;

@@ -1,0 +1,276 @@
+// How much of `kanedyn simulate`'s time goes outside {y dot} (docs/performance.md, "simulate:
+// time outside ydot"). The main benchmark, simulate_share, times in every iteration
+//   (a) the eight-body example simulated as the command does it (defaults: dopri5, rtol 1e-8,
+//       atol 1e-10, 10 s, a row every 0.01 s): TrajectoryWriter to a real file, the energy of
+//       every row, the per-step callback reading the clock as the progress bar does, rename;
+//   (b) as many forward_dynamics calls as (a) made, cycling over the run's 1001 output states;
+// and reports the share outside {y dot}, 1 - (b)/(a), from the minima and from the medians of
+// both over the iterations (the two are interleaved, so a slow spell of a shared machine hits
+// both), and from the medians of the thread's CPU time. The other benchmarks split (a) up:
+// the integrator alone (no output), one CSV row, and one number written by std::to_chars;
+// simulate_share_writer_thread measures a prototype that writes the
+// rows on a second thread. Run e.g.
+//   build/bench/kanedyn_bench_simulate --benchmark_filter=simulate_share
+#include <benchmark/benchmark.h>
+#include <time.h>
+
+#include <algorithm>
+#include <atomic>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/energy.hpp"
+#include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "kanedyn/simulate.hpp"
+
+namespace kanedyn {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+/// CPU time of the calling thread (user and system), s: unlike the wall time it does not grow
+/// while another process has the core.
+double thread_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+const io::ModelFile& eight_body() {
+  static const io::ModelFile file =
+      io::load_model_file(std::string(KANEDYN_SOURCE_DIR) + "/examples/eight_body.yaml");
+  return file;
+}
+
+std::string csv_path() {
+  return (std::filesystem::temp_directory_path() / "kanedyn_bench_simulate.csv").string();
+}
+
+volatile std::sig_atomic_t g_stop = 0;  // as the command's signal flag
+
+/// (a): the run of apps/cmd_simulate.cpp without its model loading and printing. Keep in step
+/// with that file: writer, observer, on_step (Progress::update reads the clock every step).
+SimulationStats simulate_like_the_command(const io::ModelFile& file, const std::string& path) {
+  const Model& model = file.model;
+  io::TrajectoryWriter writer(model, path);
+  SimulationSettings settings;  // the command's defaults
+  const Clock::time_point start = Clock::now();
+  Clock::time_point last_tick = start;
+  settings.on_step = [&](double) {
+    const Clock::time_point now = Clock::now();
+    if (seconds(now - last_tick) >= 1.0) {
+      last_tick = now;
+      writer.flush();
+    }
+    return g_stop == 0;
+  };
+  const Observer observer = [&](double t, const State& state, Data& data) {
+    writer.write_row(t, state, data, total_energy_of_kinematics(model, state, data));
+  };
+  const SimulationStats stats = simulate(model, file.initial, settings, observer);
+  writer.finish();
+  return stats;
+}
+
+/// The output states of the default run: representative states for (b).
+std::vector<State> trajectory_states(const io::ModelFile& file) {
+  std::vector<State> states;
+  simulate(file.model, file.initial, SimulationSettings{},
+           [&](double, const State& state, Data&) { states.push_back(state); });
+  return states;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? 0.0 : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+void simulate_share(benchmark::State& st) {
+  const io::ModelFile& file = eight_body();
+  const Model& model = file.model;
+  const std::vector<State> states = trajectory_states(file);
+  Data data(model, DataOptions{false, false});  // what simulate() allocates for this route
+  const std::string path = csv_path();
+  std::vector<double> a_times, b_times, a_cpu, b_cpu;
+  SimulationStats stats;
+  for (auto _ : st) {
+    const double c0 = thread_cpu_seconds();
+    const Clock::time_point t0 = Clock::now();
+    stats = simulate_like_the_command(file, path);
+    const Clock::time_point t1 = Clock::now();
+    const double c1 = thread_cpu_seconds();
+    for (long i = 0; i < stats.evaluations; ++i) {
+      forward_dynamics(model, states[static_cast<size_t>(i) % states.size()], data);
+      benchmark::DoNotOptimize(data.ydot.data());
+    }
+    benchmark::ClobberMemory();
+    const Clock::time_point t2 = Clock::now();
+    const double c2 = thread_cpu_seconds();
+    a_times.push_back(seconds(t1 - t0));
+    b_times.push_back(seconds(t2 - t1));
+    a_cpu.push_back(c1 - c0);
+    b_cpu.push_back(c2 - c1);
+  }
+  std::filesystem::remove(path);
+  if (!stats.ok()) st.SkipWithError(stats.message.c_str());
+  const double a_min = *std::min_element(a_times.begin(), a_times.end());
+  const double b_min = *std::min_element(b_times.begin(), b_times.end());
+  const double a_med = median(a_times), b_med = median(b_times);
+  st.counters["steps"] = static_cast<double>(stats.steps_accepted);
+  st.counters["evals"] = static_cast<double>(stats.evaluations);
+  st.counters["rows"] = static_cast<double>(stats.outputs);
+  st.counters["a_ms_min"] = 1e3 * a_min;
+  st.counters["a_ms_med"] = 1e3 * a_med;
+  st.counters["b_ms_min"] = 1e3 * b_min;
+  st.counters["b_ms_med"] = 1e3 * b_med;
+  st.counters["ns_per_eval_min"] = 1e9 * b_min / static_cast<double>(stats.evaluations);
+  st.counters["steps_per_s_min"] = static_cast<double>(stats.steps_accepted) / a_min;
+  st.counters["share_outside_min"] = 1.0 - b_min / a_min;
+  st.counters["share_outside_med"] = 1.0 - b_med / a_med;
+  st.counters["share_outside_cpu_med"] = 1.0 - median(b_cpu) / median(a_cpu);
+}
+BENCHMARK(simulate_share)->Unit(benchmark::kMillisecond)->MinTime(3.0);
+
+/// A prototype, not what the command does: the output on a second thread. The observer only
+/// copies t and the state into a preallocated queue; another thread computes the kinematics
+/// and the energy, formats and writes the rows. (a) is then the time to the joined writer.
+/// For docs/performance.md: how much of the time outside {y dot} that would take off the
+/// integrating thread when a second core is free.
+void simulate_share_writer_thread(benchmark::State& st) {
+  const io::ModelFile& file = eight_body();
+  const Model& model = file.model;
+  const std::vector<State> states = trajectory_states(file);
+  Data data(model, DataOptions{false, false});
+  const std::string path = csv_path();
+  std::vector<State> queue(states.size() + 1, State(model));
+  std::vector<double> times(queue.size());
+  std::vector<double> a_times, b_times;
+  SimulationStats stats;
+  for (auto _ : st) {
+    const Clock::time_point t0 = Clock::now();
+    std::atomic<long> produced{0};
+    std::atomic<bool> done{false};
+    std::thread writer_thread([&] {
+      io::TrajectoryWriter writer(model, path);
+      Data out(model, DataOptions{false, false});
+      long consumed = 0;
+      for (;;) {
+        const long available = produced.load(std::memory_order_acquire);
+        if (consumed == available) {
+          if (done.load(std::memory_order_acquire) &&
+              consumed == produced.load(std::memory_order_acquire))
+            break;
+          std::this_thread::yield();
+          continue;
+        }
+        for (; consumed < available; ++consumed) {
+          const State& state = queue[static_cast<size_t>(consumed)];
+          compute_kinematics(model, state, out);
+          writer.write_row(times[static_cast<size_t>(consumed)], state, out,
+                           total_energy_of_kinematics(model, state, out));
+        }
+      }
+      writer.finish();
+    });
+    stats = simulate(model, file.initial, SimulationSettings{},
+                     [&](double t, const State& state, Data&) {
+                       const auto i = static_cast<size_t>(produced.load(std::memory_order_relaxed));
+                       times[i] = t;
+                       queue[i].x = state.x;
+                       queue[i].y = state.y;
+                       produced.store(static_cast<long>(i) + 1, std::memory_order_release);
+                     });
+    done.store(true, std::memory_order_release);
+    writer_thread.join();
+    const Clock::time_point t1 = Clock::now();
+    for (long i = 0; i < stats.evaluations; ++i) {
+      forward_dynamics(model, states[static_cast<size_t>(i) % states.size()], data);
+      benchmark::DoNotOptimize(data.ydot.data());
+    }
+    benchmark::ClobberMemory();
+    const Clock::time_point t2 = Clock::now();
+    a_times.push_back(seconds(t1 - t0));
+    b_times.push_back(seconds(t2 - t1));
+  }
+  std::filesystem::remove(path);
+  const double a_min = *std::min_element(a_times.begin(), a_times.end());
+  const double b_min = *std::min_element(b_times.begin(), b_times.end());
+  st.counters["a_ms_min"] = 1e3 * a_min;
+  st.counters["a_ms_med"] = 1e3 * median(a_times);
+  st.counters["b_ms_min"] = 1e3 * b_min;
+  st.counters["share_outside_min"] = 1.0 - b_min / a_min;
+  st.counters["share_outside_med"] = 1.0 - median(b_times) / median(a_times);
+}
+BENCHMARK(simulate_share_writer_thread)->Unit(benchmark::kMillisecond)->MinTime(3.0);
+
+/// The integrator and simulate()'s loop with no observer: (b) plus the per-step overhead.
+void simulate_no_output(benchmark::State& st) {
+  const io::ModelFile& file = eight_body();
+  SimulationStats stats;
+  for (auto _ : st) stats = simulate(file.model, file.initial, SimulationSettings{});
+  st.counters["evals"] = static_cast<double>(stats.evaluations);
+}
+BENCHMARK(simulate_no_output)->Unit(benchmark::kMillisecond);
+
+/// One output row as the command writes it: energy from the kinematics and the CSV row
+/// (written to the file when 64 KiB have gathered).
+void csv_row(benchmark::State& st) {
+  const io::ModelFile& file = eight_body();
+  const Model& model = file.model;
+  const std::vector<State> states = trajectory_states(file);
+  Data data(model, DataOptions{false, false});
+  const std::string path = csv_path();
+  {
+    io::TrajectoryWriter writer(model, path);
+    size_t i = 0;
+    for (auto _ : st) {
+      const State& state = states[i++ % states.size()];
+      st.PauseTiming();
+      compute_kinematics(model, state, data);  // done by simulate() before the observer
+      st.ResumeTiming();
+      writer.write_row(0.01 * static_cast<double>(i), state, data,
+                       total_energy_of_kinematics(model, state, data));
+    }
+  }
+  std::filesystem::remove(path + ".partial");
+}
+BENCHMARK(csv_row)->Unit(benchmark::kMicrosecond);
+
+/// Numbers like those of the trajectory: |x| from 1e-6 to 1e3, both signs.
+std::vector<double> sample_numbers() {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-20, 10);
+  std::vector<double> v(4096);
+  for (double& x : v) x = std::ldexp(mantissa(rng), exponent(rng));
+  return v;
+}
+
+void number_to_chars(benchmark::State& st) {
+  const std::vector<double> v = sample_numbers();
+  char buf[64];
+  size_t i = 0;
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(std::to_chars(buf, buf + sizeof buf, v[i++ % v.size()]).ptr);
+    benchmark::ClobberMemory();
+  }
+}
+BENCHMARK(number_to_chars);
+
+}  // namespace
+}  // namespace kanedyn
+
+BENCHMARK_MAIN();
