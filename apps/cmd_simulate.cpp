@@ -16,7 +16,6 @@
 #include <string>
 
 #include "commands.hpp"
-#include "kanedyn/energy.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/simulate.hpp"
@@ -54,7 +53,9 @@ extern "C" void on_signal(int sig) {
   g_signal = sig;
 }
 
-/// Installs the handlers for SIGINT and SIGTERM for its lifetime.
+/// Installs the handlers for SIGINT and SIGTERM for its lifetime, and ignores SIGXFSZ: past a
+/// file size limit (ulimit -f) write() then fails with EFBIG, which the writer reports like a
+/// full disk, instead of the signal killing the process with a row half written.
 class SignalGuard {
  public:
   SignalGuard() {
@@ -64,10 +65,15 @@ class SignalGuard {
     sigemptyset(&action.sa_mask);
     sigaction(SIGINT, &action, &old_int_);
     sigaction(SIGTERM, &action, &old_term_);
+    struct sigaction ignore {};
+    ignore.sa_handler = SIG_IGN;
+    sigemptyset(&ignore.sa_mask);
+    sigaction(SIGXFSZ, &ignore, &old_xfsz_);
   }
   ~SignalGuard() {
     sigaction(SIGINT, &old_int_, nullptr);
     sigaction(SIGTERM, &old_term_, nullptr);
+    sigaction(SIGXFSZ, &old_xfsz_, nullptr);
   }
   SignalGuard(const SignalGuard&) = delete;
   SignalGuard& operator=(const SignalGuard&) = delete;
@@ -75,6 +81,7 @@ class SignalGuard {
  private:
   struct sigaction old_int_ {};
   struct sigaction old_term_ {};
+  struct sigaction old_xfsz_ {};
 };
 
 const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : "SIGTERM"; }
@@ -195,23 +202,28 @@ int run(const Options& o) {
 
   // The handlers first: from the moment OUT.partial exists, a signal leaves it whole.
   SignalGuard signals;
-  io::TrajectoryWriter writer(model, out);
+  // Rows are formatted and written on a thread of their own (their kinematics and energy
+  // too): the integrating thread only copies each output state (docs/performance.md).
+  io::BackgroundTrajectoryWriter writer(model, out);
   Progress progress(base.t_start, base.t_end);
   SimulationSettings settings = base;
+  settings.observer_kinematics = false;
   settings.on_step = [&](double t) {
     if (progress.update(t)) writer.flush();
     return g_signal == 0;
   };
-  const Observer observer = [&](double t, const State& state, Data& data) {
-    // simulate() has computed this state's kinematics into data (p_G and v_G included).
-    writer.write_row(t, state, data, total_energy_of_kinematics(model, state, data));
+  const Observer observer = [&](double t, const State& state, Data&) {
+    writer.write_row(t, state);
   };
   SimulationStats stats;
   try {
     stats = simulate(model, file.initial, settings, observer);
   } catch (const std::exception& e) {
     progress.clear();
-    writer.close();
+    try {
+      writer.close();
+    } catch (...) {  // e is the error to report; the partial file keeps whole rows
+    }
     throw std::runtime_error(std::string(e.what()) + "; partial trajectory (" +
                              std::to_string(writer.rows()) + " rows) kept in " +
                              writer.partial_path());

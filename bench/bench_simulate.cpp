@@ -1,21 +1,21 @@
 // How much of `kanedyn simulate`'s time goes outside {y dot} (docs/performance.md, "simulate:
 // time outside ydot"). The main benchmark, simulate_share, times in every iteration
 //   (a) the eight-body example simulated as the command does it (defaults: dopri5, rtol 1e-8,
-//       atol 1e-10, 10 s, a row every 0.01 s): TrajectoryWriter to a real file, the energy of
-//       every row, the per-step callback reading the clock as the progress bar does, rename;
+//       atol 1e-10, 10 s, a row every 0.01 s): BackgroundTrajectoryWriter to a real file (its
+//       thread computes the energy of every row), the per-step callback reading the clock as the
+//       progress bar does, rename;
 //   (b) as many forward_dynamics calls as (a) made, cycling over the run's 1001 output states;
 // and reports the share outside {y dot}, 1 - (b)/(a), from the minima and from the medians of
 // both over the iterations (the two are interleaved, so a slow spell of a shared machine hits
 // both), and from the medians of the thread's CPU time. The other benchmarks split (a) up:
 // the integrator alone (no output), one CSV row, and one number written by std::to_chars;
-// simulate_share_writer_thread measures a prototype that writes the
-// rows on a second thread. Run e.g.
+// simulate_share_inline_writer is simulate_share with the rows written on the integrating
+// thread (io::TrajectoryWriter), as the command did before it had a writer thread. Run e.g.
 //   build/bench/kanedyn_bench_simulate --benchmark_filter=simulate_share
 #include <benchmark/benchmark.h>
 #include <time.h>
 
 #include <algorithm>
-#include <atomic>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -23,7 +23,7 @@
 #include <filesystem>
 #include <random>
 #include <string>
-#include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "kanedyn/data.hpp"
@@ -62,9 +62,10 @@ volatile std::sig_atomic_t g_stop = 0;  // as the command's signal flag
 
 /// (a): the run of apps/cmd_simulate.cpp without its model loading and printing. Keep in step
 /// with that file: writer, observer, on_step (Progress::update reads the clock every step).
+template <class Writer>
 SimulationStats simulate_like_the_command(const io::ModelFile& file, const std::string& path) {
   const Model& model = file.model;
-  io::TrajectoryWriter writer(model, path);
+  Writer writer(model, path);
   SimulationSettings settings;  // the command's defaults
   const Clock::time_point start = Clock::now();
   Clock::time_point last_tick = start;
@@ -76,9 +77,15 @@ SimulationStats simulate_like_the_command(const io::ModelFile& file, const std::
     }
     return g_stop == 0;
   };
-  const Observer observer = [&](double t, const State& state, Data& data) {
-    writer.write_row(t, state, data, total_energy_of_kinematics(model, state, data));
-  };
+  Observer observer;
+  if constexpr (std::is_same_v<Writer, io::BackgroundTrajectoryWriter>) {
+    settings.observer_kinematics = false;  // the writer's thread computes them
+    observer = [&](double t, const State& state, Data&) { writer.write_row(t, state); };
+  } else {
+    observer = [&](double t, const State& state, Data& data) {
+      writer.write_row(t, state, data, total_energy_of_kinematics(model, state, data));
+    };
+  }
   const SimulationStats stats = simulate(model, file.initial, settings, observer);
   writer.finish();
   return stats;
@@ -98,6 +105,9 @@ double median(std::vector<double> v) {
   return n == 0 ? 0.0 : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/// Writer: io::BackgroundTrajectoryWriter (what the command does) or io::TrajectoryWriter
+/// (the rows written on the integrating thread, as the command did before).
+template <class Writer>
 void simulate_share(benchmark::State& st) {
   const io::ModelFile& file = eight_body();
   const Model& model = file.model;
@@ -109,7 +119,7 @@ void simulate_share(benchmark::State& st) {
   for (auto _ : st) {
     const double c0 = thread_cpu_seconds();
     const Clock::time_point t0 = Clock::now();
-    stats = simulate_like_the_command(file, path);
+    stats = simulate_like_the_command<Writer>(file, path);
     const Clock::time_point t1 = Clock::now();
     const double c1 = thread_cpu_seconds();
     for (long i = 0; i < stats.evaluations; ++i) {
@@ -142,79 +152,14 @@ void simulate_share(benchmark::State& st) {
   st.counters["share_outside_med"] = 1.0 - b_med / a_med;
   st.counters["share_outside_cpu_med"] = 1.0 - median(b_cpu) / median(a_cpu);
 }
-BENCHMARK(simulate_share)->Unit(benchmark::kMillisecond)->MinTime(3.0);
-
-/// A prototype, not what the command does: the output on a second thread. The observer only
-/// copies t and the state into a preallocated queue; another thread computes the kinematics
-/// and the energy, formats and writes the rows. (a) is then the time to the joined writer.
-/// For docs/performance.md: how much of the time outside {y dot} that would take off the
-/// integrating thread when a second core is free.
-void simulate_share_writer_thread(benchmark::State& st) {
-  const io::ModelFile& file = eight_body();
-  const Model& model = file.model;
-  const std::vector<State> states = trajectory_states(file);
-  Data data(model, DataOptions{false, false});
-  const std::string path = csv_path();
-  std::vector<State> queue(states.size() + 1, State(model));
-  std::vector<double> times(queue.size());
-  std::vector<double> a_times, b_times;
-  SimulationStats stats;
-  for (auto _ : st) {
-    const Clock::time_point t0 = Clock::now();
-    std::atomic<long> produced{0};
-    std::atomic<bool> done{false};
-    std::thread writer_thread([&] {
-      io::TrajectoryWriter writer(model, path);
-      Data out(model, DataOptions{false, false});
-      long consumed = 0;
-      for (;;) {
-        const long available = produced.load(std::memory_order_acquire);
-        if (consumed == available) {
-          if (done.load(std::memory_order_acquire) &&
-              consumed == produced.load(std::memory_order_acquire))
-            break;
-          std::this_thread::yield();
-          continue;
-        }
-        for (; consumed < available; ++consumed) {
-          const State& state = queue[static_cast<size_t>(consumed)];
-          compute_kinematics(model, state, out);
-          writer.write_row(times[static_cast<size_t>(consumed)], state, out,
-                           total_energy_of_kinematics(model, state, out));
-        }
-      }
-      writer.finish();
-    });
-    stats = simulate(model, file.initial, SimulationSettings{},
-                     [&](double t, const State& state, Data&) {
-                       const auto i = static_cast<size_t>(produced.load(std::memory_order_relaxed));
-                       times[i] = t;
-                       queue[i].x = state.x;
-                       queue[i].y = state.y;
-                       produced.store(static_cast<long>(i) + 1, std::memory_order_release);
-                     });
-    done.store(true, std::memory_order_release);
-    writer_thread.join();
-    const Clock::time_point t1 = Clock::now();
-    for (long i = 0; i < stats.evaluations; ++i) {
-      forward_dynamics(model, states[static_cast<size_t>(i) % states.size()], data);
-      benchmark::DoNotOptimize(data.ydot.data());
-    }
-    benchmark::ClobberMemory();
-    const Clock::time_point t2 = Clock::now();
-    a_times.push_back(seconds(t1 - t0));
-    b_times.push_back(seconds(t2 - t1));
-  }
-  std::filesystem::remove(path);
-  const double a_min = *std::min_element(a_times.begin(), a_times.end());
-  const double b_min = *std::min_element(b_times.begin(), b_times.end());
-  st.counters["a_ms_min"] = 1e3 * a_min;
-  st.counters["a_ms_med"] = 1e3 * median(a_times);
-  st.counters["b_ms_min"] = 1e3 * b_min;
-  st.counters["share_outside_min"] = 1.0 - b_min / a_min;
-  st.counters["share_outside_med"] = 1.0 - median(b_times) / median(a_times);
-}
-BENCHMARK(simulate_share_writer_thread)->Unit(benchmark::kMillisecond)->MinTime(3.0);
+BENCHMARK(simulate_share<io::BackgroundTrajectoryWriter>)
+    ->Name("simulate_share")
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(3.0);
+BENCHMARK(simulate_share<io::TrajectoryWriter>)
+    ->Name("simulate_share_inline_writer")
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(3.0);
 
 /// The integrator and simulate()'s loop with no observer: (b) plus the per-step overhead.
 void simulate_no_output(benchmark::State& st) {

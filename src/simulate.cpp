@@ -167,7 +167,7 @@ class Run {
     out_state_.y = z.tail(6 * n_);
     if (s_.project_euler_parameters) out_state_.normalize_euler_parameters();
     if (observer_) {
-      compute_kinematics(model_, out_state_, data_);
+      if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
       observer_(t, out_state_, data_);
     }
     ++stats_.outputs;

@@ -5,12 +5,14 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -22,6 +24,7 @@
 
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/generate.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/kinematics.hpp"
@@ -461,6 +464,110 @@ TEST(TrajectoryCsv, UnfinishedWriterLeavesOnlyThePartialFile) {
                std::runtime_error);
 }
 
+/// rows states of a moving system, as a trajectory would give them.
+std::vector<State> some_states(const Model& model, int rows) {
+  std::vector<State> states;
+  for (int i = 0; i < rows; ++i) states.push_back(moving_state(model, 100 + i % 37));
+  return states;
+}
+
+/// The file TrajectoryWriter writes for these rows, with the kinematics and energy the command
+/// used to compute on its own thread.
+std::string inline_writer_bytes(const Model& model, const std::vector<State>& states,
+                                const std::string& path) {
+  Data data(model, DataOptions{false, false});
+  io::TrajectoryWriter writer(model, path);
+  for (size_t i = 0; i < states.size(); ++i) {
+    compute_kinematics(model, states[i], data);
+    writer.write_row(0.01 * static_cast<double>(i), states[i], data,
+                     total_energy_of_kinematics(model, states[i], data));
+  }
+  writer.finish();
+  return slurp(path);
+}
+
+TEST(TrajectoryCsv, BackgroundWriterWritesTheSameBytes) {
+  // The eight-body model queues up to 256 states, the 2048-body chain 19 (about 4 MB): 3000
+  // and 120 rows go round each ring several times, with the producer waiting when it is full.
+  const Model eight = eight_body(Vector3(0, 0, -9.81), true, 1.0);
+  const Model chain = chain_model(2048).model;
+  const fs::path dir = temp_dir("background");
+  for (const auto& [model, rows] : {std::pair<const Model*, int>{&eight, 3000}, {&chain, 120}}) {
+    const std::vector<State> states = some_states(*model, rows);
+    const std::string expected = inline_writer_bytes(*model, states, (dir / "inline.csv").string());
+    const std::string path = (dir / "background.csv").string();
+    io::BackgroundTrajectoryWriter writer(*model, path);
+    EXPECT_TRUE(fs::exists(path + ".partial"));  // with its header, at once
+    for (size_t i = 0; i < states.size(); ++i) {
+      writer.write_row(0.01 * static_cast<double>(i), states[i]);
+      if (i % 500 == 7) writer.flush();
+    }
+    EXPECT_EQ(writer.rows(), rows);
+    writer.finish();
+    EXPECT_EQ(writer.rows(), rows);
+    EXPECT_FALSE(fs::exists(path + ".partial"));
+    EXPECT_EQ(slurp(path), expected) << model->num_bodies() << " bodies";
+    EXPECT_THROW(writer.write_row(0.0, states[0]), std::logic_error);
+  }
+}
+
+TEST(TrajectoryCsv, BackgroundWriterUnfinishedLeavesEveryQueuedRowInThePartialFile) {
+  const Model model = eight_body(Vector3(0, 0, -9.81), true, 1.0);
+  const std::vector<State> states = some_states(model, 1500);
+  const fs::path dir = temp_dir("background_unfinished");
+  const std::string path = (dir / "traj.csv").string();
+  {
+    io::BackgroundTrajectoryWriter writer(model, path);
+    for (size_t i = 0; i < states.size(); ++i) writer.write_row(0.01 * i, states[i]);
+  }  // destroyed without finish(), as when an exception unwinds
+  EXPECT_FALSE(fs::exists(path));
+  EXPECT_EQ(read_csv(path + ".partial").size(), 1501u);
+  EXPECT_THROW(io::BackgroundTrajectoryWriter(model, (dir / "no-such-dir" / "x.csv").string()),
+               std::runtime_error);
+}
+
+TEST(TrajectoryCsv, BackgroundWriterReportsAWriteErrorAndKeepsWholeRows) {
+  // A file size limit makes write() fail (EFBIG) on the writer's thread, as a full disk would.
+  // The error reaches the producer at its next call, names the file, and is thrown once more
+  // by finish(); close() then does not repeat it, and the partial file ends with a whole row.
+  const Model model = eight_body(Vector3(0, 0, -9.81), true, 1.0);
+  const std::vector<State> states = some_states(model, 200);
+  const fs::path dir = temp_dir("background_error");
+  const std::string path = (dir / "traj.csv").string();
+  constexpr rlim_t kLimit = 150000;  // about 55 rows of 2.7 KB
+  struct rlimit old_limit {};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  struct rlimit limit = old_limit;
+  limit.rlim_cur = kLimit;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &limit), 0);
+  std::string message;
+  long queued = 0;
+  {
+    io::BackgroundTrajectoryWriter writer(model, path);
+    try {
+      for (int round = 0; round < 100 && message.empty(); ++round)
+        for (size_t i = 0; i < states.size(); ++i, ++queued) {
+          writer.write_row(0.01 * queued, states[i]);
+          if (i % 20 == 0) writer.flush();
+        }
+    } catch (const std::runtime_error& e) {
+      message = e.what();
+    }
+    EXPECT_THROW(writer.finish(), std::runtime_error);
+    EXPECT_NO_THROW(writer.close());
+    EXPECT_LT(writer.rows(), queued);
+  }
+  setrlimit(RLIMIT_FSIZE, &old_limit);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_NE(message.find("cannot write '" + path + ".partial'"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(path));
+  const std::string bytes = slurp(path + ".partial");
+  ASSERT_FALSE(bytes.empty());
+  EXPECT_LE(bytes.size(), kLimit);
+  EXPECT_GT(read_csv(path + ".partial").size(), 1u);  // whole rows of the header's width
+}
+
 // ---------------------------------------------------------------------------------------------
 // The example models
 
@@ -528,10 +635,10 @@ struct Result {
 const std::string kTool = std::string(KANEDYN_BINARY_DIR) + "/kanedyn";
 const std::string kExamples = std::string(KANEDYN_SOURCE_DIR) + "/examples";
 
-/// Runs `cd DIR && kanedyn ARGS`.
-Result run_in(const fs::path& dir, const std::string& args) {
-  const std::string cmd = "cd '" + dir.string() + "' && '" + kTool + "' " + args +
-                          " > stdout.txt 2> stderr.txt < /dev/null";
+/// Runs `cd DIR && SHELL_PREFIX kanedyn ARGS`.
+Result run_in(const fs::path& dir, const std::string& args, const std::string& shell_prefix = "") {
+  const std::string cmd = "cd '" + dir.string() + "' && " + shell_prefix + "'" + kTool + "' " +
+                          args + " > stdout.txt 2> stderr.txt < /dev/null";
   const int status = std::system(cmd.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir / "stdout.txt"),
           slurp(dir / "stderr.txt")};
@@ -627,6 +734,25 @@ forces:
     parse(rows[i].back());
     EXPECT_NEAR(parse(rows[i][0]), 0.01 * static_cast<double>(i - 1), 1e-12);
   }
+}
+
+TEST(SimulateCommand, WriteErrorStopsTheRunAndKeepsWholeRows) {
+  // A file size limit (ulimit -f: 100 or 200 KB, in the shell's blocks) stands in for a full
+  // disk: the writer's thread gets EFBIG (its SIGXFSZ is blocked), the run stops with the
+  // file's name, and the partial file holds the whole rows the message counts.
+  const fs::path dir = temp_dir("cli_write_error");
+  const Result r = run_in(dir, "simulate '" + kExamples + "/eight_body.yaml'", "ulimit -f 200 && ");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("kanedyn: error: cannot write 'eight_body.csv.partial'"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir / "eight_body.csv"));
+  const auto rows = read_csv(dir / "eight_body.csv.partial");  // whole rows only
+  ASSERT_GT(rows.size(), 1u);
+  EXPECT_LT(rows.size(), 1002u);
+  EXPECT_NE(r.err.find("partial trajectory (" + std::to_string(rows.size() - 1) +
+                       " rows) kept in eight_body.csv.partial"),
+            std::string::npos)
+      << r.err;
 }
 
 TEST(SimulateCommand, UsageAndSettingErrors) {

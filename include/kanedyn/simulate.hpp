@@ -32,14 +32,18 @@ struct SimulationSettings {
   /// Rescale every eps_K to unit norm after each accepted step (and in every output state).
   /// The initial state is normalized in any case.
   bool project_euler_parameters = true;
+  /// Compute the kinematics of each output state into the observer's data (see Observer).
+  /// false when the observer does not read them, e.g. when it only queues the state.
+  bool observer_kinematics = true;
   /// Called after every accepted step with the time reached; return false to stop the run
   /// (status interrupted). Keep it cheap: it runs once per step.
   std::function<bool(double t)> on_step;
 };
 
 /// Called at each output time with the state there; data holds the kinematics of that state
-/// (R, p_O, p_G, v_O, v_G: compute_kinematics) and may be used as scratch (e.g. to call
-/// total_energy). Exceptions thrown by the observer leave simulate().
+/// (R, p_O, p_G, v_O, v_G: compute_kinematics; unless settings.observer_kinematics is false)
+/// and may be used as scratch (e.g. to call total_energy). Exceptions thrown by the observer
+/// leave simulate().
 using Observer = std::function<void(double t, const State& state, Data& data)>;
 
 enum class SimulationStatus {

@@ -1,14 +1,24 @@
 #include "kanedyn/io/csv.hpp"
 
 #include <fcntl.h>
+#include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
+#include <condition_variable>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
+
+#include "kanedyn/energy.hpp"
+#include "kanedyn/kinematics.hpp"
 
 namespace kanedyn::io {
 
@@ -117,6 +127,7 @@ void TrajectoryWriter::flush() {
   if (fd_ < 0 || used_ == 0) return;
   write_out(buffer_.get(), used_);
   used_ = 0;
+  rows_in_file_ = rows_;
 }
 
 void TrajectoryWriter::close() {
@@ -137,6 +148,205 @@ void TrajectoryWriter::finish() {
   close();
   if (std::rename(partial_path().c_str(), path_.c_str()) != 0)
     throw std::runtime_error(system_error("cannot rename '" + partial_path() + "' to", path_));
+}
+
+// ---------------------------------------------------------------------------------------------
+// BackgroundTrajectoryWriter: one producer (write_row), one consumer (the thread), a ring of
+// preallocated slots guarded by one mutex. The consumer sleeps until 32 rows (a quarter of a
+// smaller ring) are queued, or a flush or the end is asked for, so the producer wakes it once
+// per 32 rows rather than once per row (a wake-up is a system call, several times the copy of
+// a row), and at the end at most that many rows are left to write after the last one comes.
+
+struct BackgroundTrajectoryWriter::Impl {
+  Impl(const Model& model, std::string path)
+      : writer(model, std::move(path)),
+        data(model, DataOptions{false, false}),
+        state(model),
+        nx(static_cast<size_t>(model.num_coordinates())),
+        ny(static_cast<size_t>(model.num_speeds())) {
+    const size_t slot_bytes = sizeof(double) * slot_size();
+    capacity = std::clamp<size_t>((size_t{4} << 20) / slot_bytes, 2, 256);
+    wake_at = std::clamp<size_t>(capacity / 4, 1, 32);
+    ring.resize(capacity * slot_size());
+    thread = std::thread([this] { run(); });
+  }
+
+  /// A slot of the ring: t, then {x}, then {y}.
+  size_t slot_size() const { return 1 + nx + ny; }
+  double* slot(size_t i) { return ring.data() + i * slot_size(); }
+
+  /// The thread: block signals (they are for the program's own threads), then write rows.
+  void run() {
+    sigset_t all;
+    sigfillset(&all);
+    pthread_sigmask(SIG_BLOCK, &all, nullptr);
+    std::unique_lock lock(mutex);
+    for (;;) {
+      consumer_waiting = true;
+      has_rows.wait(lock, [this] { return count >= wake_at || flush_requested || stopping; });
+      consumer_waiting = false;
+      const size_t first = head, n = count;
+      const bool flush_now = flush_requested || stopping;
+      flush_requested = false;
+      const bool stop = stopping;
+      const bool failed = error != nullptr;
+      lock.unlock();
+      // The slots [first, first + n) are the thread's until it gives them back below; after
+      // an error the rows are dropped (the producer is told at its next call).
+      std::exception_ptr e = failed ? nullptr : write_slots(first, n, flush_now);
+      lock.lock();
+      if (e) error = e;
+      head = (first + n) % capacity;
+      count -= n;
+      if (producer_waiting) has_space.notify_one();  // room, or an error to report
+      if (stop && count == 0) return;
+    }
+  }
+
+  std::exception_ptr write_slots(size_t first, size_t n, bool flush_now) {
+    try {
+      const Model& model = writer.model();
+      for (size_t i = 0; i < n; ++i) {
+        const double* p = slot((first + i) % capacity);
+        std::copy_n(p + 1, nx, state.x.data());
+        std::copy_n(p + 1 + nx, ny, state.y.data());
+        compute_kinematics(model, state, data);
+        writer.write_row(p[0], state, data, total_energy_of_kinematics(model, state, data));
+      }
+      if (flush_now) writer.flush();
+    } catch (...) {
+      return std::current_exception();
+    }
+    return nullptr;
+  }
+
+  /// Under the mutex, or once the thread has ended: throws the thread's error, if any (every
+  /// call but close() after the first report).
+  void check(bool reporting_again) {
+    if (error && (reporting_again || !reported)) {
+      reported = true;
+      std::rethrow_exception(error);
+    }
+  }
+
+  /// After the thread's error: close the file, the thread's error staying the one reported.
+  void close_after_error() noexcept {
+    try {
+      writer.close();
+    } catch (...) {
+    }
+  }
+
+  /// Writes the queue out and joins the thread (once); the TrajectoryWriter stays open.
+  void stop_thread() {
+    if (!thread.joinable()) return;
+    {
+      std::lock_guard lock(mutex);
+      stopping = true;
+    }
+    has_rows.notify_one();
+    thread.join();
+  }
+
+  TrajectoryWriter writer;
+  Data data;    // the thread's kinematics
+  State state;  // the thread's copy of the row being written
+  size_t nx, ny;
+  size_t capacity = 0, wake_at = 0;
+  std::vector<double> ring;  // capacity slots
+  std::mutex mutex;
+  std::condition_variable has_rows, has_space;
+  // Guarded by mutex. The slots [head, head + count) (mod capacity) are queued.
+  size_t head = 0, count = 0;
+  bool flush_requested = false, stopping = false;
+  bool consumer_waiting = false, producer_waiting = false;
+  std::exception_ptr error;
+  bool reported = false;
+  // The producer's own.
+  long queued = 0;
+  bool closed = false;
+  std::thread thread;
+};
+
+BackgroundTrajectoryWriter::BackgroundTrajectoryWriter(const Model& model, std::string path)
+    : impl_(std::make_unique<Impl>(model, std::move(path))) {}
+
+BackgroundTrajectoryWriter::~BackgroundTrajectoryWriter() {
+  try {
+    close();
+  } catch (...) {  // a destructor must not throw; the partial file keeps what was written
+  }
+}
+
+void BackgroundTrajectoryWriter::write_row(double t, const State& state) {
+  Impl& q = *impl_;
+  if (q.closed) throw std::logic_error("BackgroundTrajectoryWriter: write_row after close");
+  if (static_cast<size_t>(state.x.size()) != q.nx || static_cast<size_t>(state.y.size()) != q.ny)
+    throw std::invalid_argument("BackgroundTrajectoryWriter: the state is not the model's size");
+  std::unique_lock lock(q.mutex);
+  q.check(true);
+  if (q.count == q.capacity) {
+    q.producer_waiting = true;
+    q.has_space.wait(lock, [&q] { return q.count < q.capacity || q.error; });
+    q.producer_waiting = false;
+    q.check(true);
+  }
+  double* p = q.slot((q.head + q.count) % q.capacity);  // not among the slots being written
+  p[0] = t;
+  std::copy_n(state.x.data(), q.nx, p + 1);
+  std::copy_n(state.y.data(), q.ny, p + 1 + q.nx);
+  ++q.count;
+  ++q.queued;
+  const bool wake = q.consumer_waiting && q.count >= q.wake_at;
+  lock.unlock();
+  if (wake) q.has_rows.notify_one();
+}
+
+void BackgroundTrajectoryWriter::flush() {
+  Impl& q = *impl_;
+  if (q.closed) return;
+  {
+    std::lock_guard lock(q.mutex);
+    q.check(true);
+    q.flush_requested = true;
+  }
+  q.has_rows.notify_one();
+}
+
+void BackgroundTrajectoryWriter::close() {
+  Impl& q = *impl_;
+  if (q.closed) return;
+  q.closed = true;
+  q.stop_thread();
+  try {
+    q.check(false);
+  } catch (...) {
+    q.close_after_error();
+    throw;
+  }
+  q.writer.close();
+}
+
+void BackgroundTrajectoryWriter::finish() {
+  Impl& q = *impl_;
+  if (q.closed) throw std::logic_error("BackgroundTrajectoryWriter: finish after close");
+  q.closed = true;
+  q.stop_thread();
+  try {
+    q.check(true);
+  } catch (...) {
+    q.close_after_error();
+    throw;
+  }
+  q.writer.finish();
+}
+
+const std::string& BackgroundTrajectoryWriter::path() const { return impl_->writer.path(); }
+std::string BackgroundTrajectoryWriter::partial_path() const {
+  return impl_->writer.partial_path();
+}
+long BackgroundTrajectoryWriter::rows() const {
+  return impl_->closed ? impl_->writer.rows_in_file() : impl_->queued;
 }
 
 }  // namespace kanedyn::io

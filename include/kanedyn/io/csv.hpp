@@ -44,6 +44,9 @@ class TrajectoryWriter {
   const std::string& path() const { return path_; }
   std::string partial_path() const { return path_ + ".partial"; }
   long rows() const { return rows_; }  ///< data rows written so far (header not counted)
+  /// Data rows that have reached the file: rows() once flushed; fewer after a failed write.
+  long rows_in_file() const { return rows_in_file_; }
+  const Model& model() const { return model_; }
 
  private:
   void write_out(const char* bytes, size_t size);
@@ -56,7 +59,46 @@ class TrajectoryWriter {
   size_t used_ = 0;
   int fd_ = -1;
   size_t committed_ = 0;  ///< bytes of whole rows in the file
-  long rows_ = 0;
+  long rows_ = 0, rows_in_file_ = 0;
+};
+
+/// A TrajectoryWriter on a thread of its own, so that writing the output costs the
+/// integrating thread only a copy of each state: write_row() puts (t, state) into a queue of
+/// preallocated slots (waiting while it is full); the thread computes the kinematics and the
+/// energy of each state (compute_kinematics, total_energy_of_kinematics), formats the rows and
+/// writes them. The file is the same, byte for byte, and so is the PATH.partial protocol.
+/// An error of the thread (e.g. disk full) is thrown, once, by the next call of write_row(),
+/// flush(), finish() or close(). Not for concurrent use by several producer threads.
+class BackgroundTrajectoryWriter {
+ public:
+  /// Creates PATH.partial with its header (throws as TrajectoryWriter) and starts the thread.
+  /// The queue holds up to about 4 MB of states, at least 2 and at most 256.
+  BackgroundTrajectoryWriter(const Model& model, std::string path);
+  /// Writes what is queued and closes (as close()), swallowing errors; PATH.partial stays if
+  /// finish() did not run.
+  ~BackgroundTrajectoryWriter();
+  BackgroundTrajectoryWriter(const BackgroundTrajectoryWriter&) = delete;
+  BackgroundTrajectoryWriter& operator=(const BackgroundTrajectoryWriter&) = delete;
+
+  /// Queues one row: t and a copy of the state (its Euler parameters as given). Throws
+  /// std::invalid_argument for a state of another size than the model's.
+  void write_row(double t, const State& state);
+  /// Asks the thread to write the queued rows to the file now (returns at once).
+  void flush();
+  /// Writes every queued row, stops the thread, closes and renames PATH.partial to PATH.
+  void finish();
+  /// Writes every queued row, stops the thread and closes, leaving PATH.partial. Idempotent.
+  void close();
+
+  const std::string& path() const;
+  std::string partial_path() const;
+  /// Rows queued so far; after finish() or close(), the rows in the file (fewer than were
+  /// queued after a write error).
+  long rows() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace kanedyn::io
