@@ -84,13 +84,16 @@ struct DenseWeights {
 }  // namespace dp
 
 // The vector arithmetic of a step: raw loops that the compiler vectorizes, once for the
-// x86-64 baseline (SSE2) and once for AVX2, the copy matching the CPU being chosen when the
-// program is loaded (target_clones; AVX2 without FMA: every operation is rounded as written, so
-// both copies give the same bits as Eigen's expressions did). The 13N-vectors are short and a
-// step of the eight-body example has seven such passes: with twice the width they take half
-// the instructions.
-#if defined(__x86_64__) && defined(__GNUC__)
-#define KANEDYN_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
+// x86-64 baseline (SSE2), once for AVX2 and once for AVX-512F, the copy matching the CPU being
+// chosen when the program is loaded (target_clones). No copy contracts products and sums into
+// FMA (CMakeLists.txt compiles this file with -ffp-contract=off; AVX-512F brings FMA with it),
+// so every operation is rounded as written and all copies give the same bits as Eigen's
+// expressions did. The 13N-vectors are short and a step of the eight-body example has seven
+// such passes: with twice the width they take half the instructions. ThreadSanitizer cannot
+// run the resolver that picks a copy (it runs before the sanitizer's own start-up), so a TSan
+// build has the baseline copy only.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_THREAD__)
+#define KANEDYN_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #else
 #define KANEDYN_VECTOR_CLONES
 #endif
