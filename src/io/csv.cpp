@@ -229,11 +229,19 @@ struct BackgroundTrajectoryWriter::Impl {
     }
   }
 
-  /// After the thread's error: close the file, the thread's error staying the one reported.
-  void close_after_error() noexcept {
+  /// Marks the writer closed, writes the queue out, stops the thread, and throws its error
+  /// (as check), the file then closed without a new error of its own.
+  void end(bool reporting_again) {
+    closed = true;
+    stop_thread();
     try {
-      writer.close();
+      check(reporting_again);
     } catch (...) {
+      try {
+        writer.close();
+      } catch (...) {  // the thread's error stays the one reported
+      }
+      throw;
     }
   }
 
@@ -316,28 +324,14 @@ void BackgroundTrajectoryWriter::flush() {
 void BackgroundTrajectoryWriter::close() {
   Impl& q = *impl_;
   if (q.closed) return;
-  q.closed = true;
-  q.stop_thread();
-  try {
-    q.check(false);
-  } catch (...) {
-    q.close_after_error();
-    throw;
-  }
+  q.end(false);
   q.writer.close();
 }
 
 void BackgroundTrajectoryWriter::finish() {
   Impl& q = *impl_;
   if (q.closed) throw std::logic_error("BackgroundTrajectoryWriter: finish after close");
-  q.closed = true;
-  q.stop_thread();
-  try {
-    q.check(true);
-  } catch (...) {
-    q.close_after_error();
-    throw;
-  }
+  q.end(true);
   q.writer.finish();
 }
 
