@@ -1,6 +1,7 @@
 // One allocation counter for the whole test binary (tests/test_alloc_counter.cpp): glibc's
 // malloc family is interposed there and counts calls while `counting` is set. operator new
-// and Eigen's aligned_malloc both end in malloc. Not under the sanitizers, which own malloc:
+// and Eigen's aligned_malloc both end in malloc. Not under the sanitizers (address, thread),
+// which own malloc:
 // then available() is false and only what a test counts itself (operator new) is seen.
 #pragma once
 

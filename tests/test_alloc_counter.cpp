@@ -17,7 +17,7 @@ bool available() {
 }
 }  // namespace alloc_counter
 
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
 namespace {
 void note() {
   alloc_counter::seen.store(true, std::memory_order_relaxed);
