@@ -1,9 +1,9 @@
-// Scale (issue 4): chains of N = 64 .. 100,000 bodies built in C++ (generate.hpp); forward
-// dynamics by the O(N) route timed at the initial state, and a few RK4 steps (a plain loop
-// here, independent of integrate.hpp). Prints N, ns per body (median and minimum over batches),
-// the workspace's bytes per body, the process's peak RSS, and the RK4 step time per body.
-// Then one chain goes through a model file and back (io::load_model_file).
-//   build/bench/kanedyn_scale [--quick] [--file-bodies N] [--simd-lanes 2|4|8]
+// Scale (issue 4): chains (or, with --trees, random trees) of N = 64 .. 100,000 bodies built in
+// C++ (generate.hpp); forward dynamics by the O(N) route timed at the initial state, and a few
+// RK4 steps (a plain loop here, independent of integrate.hpp). Prints N, ns per body (median and
+// minimum over batches), the workspace's bytes per body, the process's peak RSS, and the RK4 step
+// time per body. Then one chain goes through a model file and back (io::load_model_file).
+//   build/bench/kanedyn_scale [--quick] [--trees] [--file-bodies N] [--simd-lanes 2|4|8]
 //   (default N = 4096; lanes: the widest this CPU runs)
 #include <sys/resource.h>
 
@@ -135,32 +135,36 @@ void write_model_file(const GeneratedSystem& g, const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false;
+  bool quick = false, trees = false;
   int lanes = 8;
   int file_n = 4096;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
+    } else if (std::strcmp(argv[i], "--trees") == 0) {
+      trees = true;
     } else if (std::strcmp(argv[i], "--file-bodies") == 0 && i + 1 < argc) {
       file_n = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--simd-lanes") == 0 && i + 1 < argc) {
       lanes = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: %s [--quick] [--file-bodies N] [--simd-lanes 2|4|8]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--quick] [--trees] [--file-bodies N] [--simd-lanes 2|4|8]\n",
+                   argv[0]);
       return 2;
     }
   }
   std::vector<int> sizes = {64, 256, 1024, 4096, 16384, 65536, 100000};
   if (quick) sizes = {64, 1024, 16384};
   std::printf(
-      "chains, O(N) route (forward_dynamics, Method::recursive, DataOptions{false, false}), "
+      "%s, O(N) route (forward_dynamics, Method::recursive, DataOptions{false, false}), "
       "%d bodies per SIMD pass\n\n",
+      trees ? "random trees (seed 1)" : "chains",
       Data(chain_model(8).model, DataOptions{false, false, false, lanes}).fused_lanes);
   std::printf("%8s %10s %12s %12s %14s %13s %14s %s\n", "N", "build ms", "median ns/b", "min ns/b",
               "Data bytes/b", "peak RSS MB", "RK4 ns/step/b", "RK4 check");
   for (const int n : sizes) {
     auto t0 = Clock::now();
-    const GeneratedSystem g = chain_model(n);
+    const GeneratedSystem g = trees ? random_tree_model(n, 1) : chain_model(n);
     const double build_ms = seconds_since(t0) * 1e3;
     Data data(g.model, DataOptions{false, false, false, lanes});
     const auto [median, min] = time_evaluations(g.model, g.initial, data);
@@ -168,7 +172,7 @@ int main(int argc, char** argv) {
     double step = 1e300;  // the fastest of 3 runs of 5 steps
     for (int run = 0; run < 3; ++run)
       step = std::min(step, rk4_steps(g.model, g.initial, data, 5, 1e-4, end));
-    // The chain hangs on stiff bushings: after 5 steps of 0.1 ms nothing may blow up, and the
+    // The bodies hang on stiff bushings: after 5 steps of 0.1 ms nothing may blow up, and the
     // state must have moved.
     const bool finite = end.x.allFinite() && end.y.allFinite();
     const bool moved = (end.y - g.initial.y).norm() > 0.0;

@@ -59,7 +59,8 @@ std::size_t Data::memory_bytes() const {
     total += bytes(*v);
   for (const auto* v : {&F_y, &f, &ydot, &xdot}) total += bytes(*v);
   total += bytes(A) + bytes(A_blocks) + bytes(composite) + bytes(subtree_mass);
-  total += bytes(fused_lower) + bytes(fused_ready) + bytes(fused_params) + bytes(fused_scratch);
+  total += bytes(fused_lower) + bytes(fused_ready) + bytes(fused_params) +
+           bytes(fused_param_group) + bytes(fused_scratch);
   return total;
 }
 

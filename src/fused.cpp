@@ -3,6 +3,9 @@
 #include "fused.hpp"
 
 #include <algorithm>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
 
 #include "kanedyn/forces.hpp"
 
@@ -11,6 +14,33 @@ namespace kanedyn::fused {
 namespace {
 
 size_t at(long long i) { return static_cast<size_t>(i); }
+
+/// Keeps one copy of each distinct group of constants (equal bit for bit) in
+/// data.fused_params and points every group of bodies at its copy (data.fused_param_group).
+/// Along a chain of identical links every group but the first has the same constants, so
+/// past the caches the kernel streams a quarter less memory per body; bodies that differ
+/// keep their own (one int per group more).
+void share_equal_param_groups(int groups, int lanes, Data& data) {
+  const size_t size = at(kParamFields) * at(lanes);
+  const auto group_bytes = [&](const double* p) {
+    return std::string_view(reinterpret_cast<const char*>(p), size * sizeof(double));
+  };
+  std::vector<double> unique;
+  unique.reserve(data.fused_params.size());
+  std::unordered_map<std::string_view, int> index;  // views into `unique`: reserved, no moves
+  data.fused_param_group.assign(at(groups), 0);
+  for (int g = 0; g < groups; ++g) {
+    const double* p = data.fused_params.data() + at(g) * size;
+    const int next = static_cast<int>(unique.size() / size);
+    const double* copy = unique.data() + unique.size();
+    unique.insert(unique.end(), p, p + size);
+    const auto [it, added] = index.emplace(group_bytes(copy), next);
+    if (!added) unique.resize(unique.size() - size);  // an equal group is there already
+    data.fused_param_group[at(g)] = it->second;
+  }
+  unique.shrink_to_fit();
+  data.fused_params = std::move(unique);
+}
 
 }  // namespace
 
@@ -37,12 +67,6 @@ bool compile(const Model& model, Data& data) {
   data.fused_ready.assign(at(groups), 0);
   for (int g = 0; g < groups; ++g) data.fused_ready[at(g)] = g;
   data.fused_params.assign(at(groups) * kParamFields * kLanes, 0.0);
-  // Pass 1 keeps its intermediate results for pass 2 while they fit in the caches (the
-  // kernel's tables then take about 700 bytes per body): ~9% fewer instructions. Beyond, pass 2
-  // gathers and recomputes them, and time per body stays flat (docs/performance-internal.md).
-  data.fused_keep = n <= kKeepLimit;
-  data.fused_scratch.assign(at(groups) * (data.fused_keep ? kScratchFields : kAccelFields) * kLanes,
-                            0.0);
   const auto param = [&](int k, int field) -> double& {
     return data
         .fused_params[at(k / kLanes) * kParamFields * kLanes + at(field) * kLanes + at(k % kLanes)];
@@ -92,6 +116,26 @@ bool compile(const Model& model, Data& data) {
       return false;
     }
   }
+  share_equal_param_groups(groups, kLanes, data);
+  // Pass 1 keeps its intermediate results for pass 2 (~9% fewer instructions) when they are
+  // still in cache for pass 2: in a small model, or where pass 2 of every group comes soon
+  // after its pass 1 (a chain: one group later). Otherwise (a large bushy tree, whose bodies'
+  // children are spread over the later groups) pass 2 gathers and recomputes them, which moves
+  // less memory (docs/performance-internal.md).
+  int lag = 0;  // the most groups between a group's pass 1 and its pass 2
+  for (int g = 0; g < groups; ++g) lag = std::max(lag, data.fused_ready[at(g)] - g);
+  const bool near = lag * kLanes <= kKeepLag;
+  data.fused_keep = n <= kKeepLimit || near;
+  // The scratch of group g lives in slot g mod 2^k. Group g's slot is written by its pass 1 and
+  // by its children's (groups up to g + lag), read by its pass 2 and its children's (by group
+  // g + 2 lag at the latest, pass 2 running in group order), so 2 lag + 2 slots suffice: where
+  // the lag is short (a chain: 1) the scratch stays a few kilobytes at any N.
+  int slots = 1;
+  while (slots < (near ? 2 * lag + 2 : groups)) slots *= 2;
+  data.fused_scratch_mask = slots - 1;
+  data.fused_scratch.assign(
+      at(std::min(slots, groups)) * (data.fused_keep ? kScratchFields : kAccelFields) * kLanes,
+      0.0);
   return true;
 }
 
@@ -104,8 +148,10 @@ void forward_dynamics(const Model& model, const State& state, Data& data) {
                   data.fused_lower.data(),
                   data.fused_ready.data(),
                   data.fused_params.data(),
+                  data.fused_param_group.data(),
                   data.fused_scratch.data(),
                   stride,
+                  data.fused_scratch_mask,
                   data.ydot.data(),
                   data.xdot.data()};
   switch (lanes) {

@@ -25,8 +25,10 @@ bool compile(const Model& model, Data& data);
 /// {y dot} and {x dot} into data.ydot, data.xdot. Needs compile() to have returned true.
 void forward_dynamics(const Model& model, const State& state, Data& data);
 
-/// Up to this many bodies pass 1 keeps its intermediate results for pass 2 (Data::fused_keep).
+/// Up to this many bodies pass 1 keeps its intermediate results for pass 2 (Data::fused_keep);
+/// beyond, it does so when no group's pass 2 comes more than kKeepLag bodies after its pass 1.
 constexpr int kKeepLimit = 4096;
+constexpr int kKeepLag = 64;
 
 /// The widest kernel this CPU runs (lanes: 2, 4 or 8).
 int widest_supported_lanes();
@@ -70,16 +72,18 @@ enum Scratch : int {
 
 /// What one kernel call reads and writes: plain pointers into the State and Data.
 struct Args {
-  int n;                 // bodies
-  const double* x;       // State::x (7N)
-  const double* y;       // State::y (6N)
-  const int* lower;      // L(K) per body, padded to whole groups (kGround = -1)
-  const int* ready;      // per group: the last group holding a child
-  const double* params;  // Param fields per group
-  double* scratch;       // Scratch fields per group
-  int scratch_stride;    // doubles per group: kScratchFields or kAccelFields times the lanes
-  double* ydot;          // 6N
-  double* xdot;          // 7N
+  int n;                   // bodies
+  const double* x;         // State::x (7N)
+  const double* y;         // State::y (6N)
+  const int* lower;        // L(K) per body, padded to whole groups (kGround = -1)
+  const int* ready;        // per group: the last group holding a child
+  const double* params;    // Param fields per group of constants
+  const int* param_group;  // per group of bodies: its group of constants in params
+  double* scratch;         // Scratch fields per group
+  int scratch_stride;      // doubles per group: kScratchFields or kAccelFields times the lanes
+  int scratch_mask;        // group g's scratch is slot g & scratch_mask (a ring, 2^k slots)
+  double* ydot;            // 6N
+  double* xdot;            // 7N
 };
 
 namespace lanes2 {

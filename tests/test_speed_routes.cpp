@@ -8,6 +8,7 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "kanedyn/detail/fast_rotation.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/generate.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/kinematic_equations.hpp"
 #include "kanedyn/kinematics.hpp"
@@ -373,6 +375,49 @@ TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
     }
   }
   if (widths_run == 0) GTEST_SKIP() << "this CPU runs only the 2-lane kernel";
+}
+
+// Groups of bodies whose constants are equal bit for bit share one copy (src/fused.cpp): a
+// chain of identical links needs two (the root's group differs), a link changed by one ulp
+// gets a copy of its own, and the results stay those of the staged route.
+TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
+  const auto distinct = [](const Data& d) {
+    return std::set<int>(d.fused_param_group.begin(), d.fused_param_group.end()).size();
+  };
+  const GeneratedSystem chain = chain_model(600, 3);
+  Data shared(chain.model, DataOptions{false, false});
+  EXPECT_EQ(shared.fused_param_group.size(), static_cast<size_t>(600 / shared.fused_lanes));
+  EXPECT_EQ(distinct(shared), 2u);
+  expect_fused_equals_staged(chain.model, chain.initial);
+  for (const double factor : {std::nextafter(1.0, 2.0), 2.0}) {
+    std::vector<BodySpec> bodies = chain.model.bodies();
+    bodies[300].mass *= factor;
+    const Model changed(bodies, chain.model.gravity(), chain.model.forces(), "changed");
+    Data own(changed, DataOptions{false, false});
+    EXPECT_EQ(distinct(own), 3u) << factor;
+    expect_fused_equals_staged(changed, chain.initial);
+  }
+  std::mt19937 rng(4);
+  const Model tree = random_model(rng, 64, Shape::tree);  // distinct masses: nothing shared
+  Data none(tree, DataOptions{false, false});
+  EXPECT_EQ(distinct(none), none.fused_param_group.size());
+}
+
+// Past 4096 bodies pass 1 keeps its results for pass 2 only where pass 2 follows soon (a
+// chain, whose scratch is then a small ring); a random tree's pass 2 gathers and recomputes
+// them. Both codings give the staged route's results.
+TEST(SpeedRoutes, LargeModelsKeepOrRecomputeForPassTwo) {
+  const GeneratedSystem chain = chain_model(5000, 5), tree = random_tree_model(5000, 5);
+  const Data chain_data(chain.model, DataOptions{false, false});
+  EXPECT_TRUE(chain_data.fused_keep);
+  // A chain's pass 2 follows one group later: its scratch is a ring of 4 groups, not 5000
+  // bodies' worth.
+  EXPECT_EQ(chain_data.fused_scratch_mask, 3);
+  EXPECT_LT(chain_data.fused_scratch.size(), 2000u);
+  EXPECT_FALSE(Data(tree.model, DataOptions{false, false}).fused_keep);
+  EXPECT_TRUE(Data(random_tree_model(4096, 5).model, DataOptions{false, false}).fused_keep);
+  expect_fused_equals_staged(chain.model, chain.initial);
+  expect_fused_equals_staged(tree.model, tree.initial);
 }
 
 TEST(SpeedRoutes, RecursiveAndKaneRoutesAgreeOnLargeTreesAndDeepChains) {

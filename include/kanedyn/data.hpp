@@ -81,11 +81,17 @@ struct Data {
   // constants compiled from the Model, loads grouped per body, in a layout private to src/.
   bool fused_loads = false;  ///< every force element is a known type (else staged)
   int fused_lanes = 0;       ///< bodies per SIMD pass of the kernel chosen: 2, 4 or 8
-  bool fused_keep = false;  ///< pass 1 keeps its results for pass 2 (small N) or pass 2 redoes them
-  std::vector<int> fused_lower;       ///< L(K) per body, padded to whole SIMD groups
-  std::vector<int> fused_ready;       ///< per group: the last group holding a child
-  std::vector<double> fused_params;   ///< constants, lane-interleaved per group of bodies
+  /// pass 1 keeps its results for pass 2 (small models, chain-like large ones), or pass 2
+  /// redoes them (large bushy trees)
+  bool fused_keep = false;
+  std::vector<int> fused_lower;      ///< L(K) per body, padded to whole SIMD groups
+  std::vector<int> fused_ready;      ///< per group: the last group holding a child
+  std::vector<double> fused_params;  ///< constants, lane-interleaved per group of bodies
+  /// per group: which group of constants in fused_params is its own (groups whose constants
+  /// are equal bit for bit, e.g. along a chain of identical links, share one)
+  std::vector<int> fused_param_group;
   std::vector<double> fused_scratch;  ///< per-body loads and accelerations, same layout
+  int fused_scratch_mask = 0;         ///< group g's scratch is slot g & mask (a ring)
 
   // Scratch of the Kane route (src/kane.cpp): per body.
   std::vector<Vector3> bias_O;    ///< velocity-dependent part of a_O_K, inertial
