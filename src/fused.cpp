@@ -18,7 +18,7 @@ size_t at(long long i) { return static_cast<size_t>(i); }
 /// Keeps one copy of each distinct group of constants (equal bit for bit) in
 /// data.fused_params and points every group of bodies at its copy (data.fused_param_group).
 /// Along a chain of identical links every group but the first has the same constants, so
-/// past the caches the kernel streams a quarter less memory per body; bodies that differ
+/// past the caches the kernel streams about a third less memory per body; bodies that differ
 /// keep their own (one int per group more).
 void share_equal_param_groups(int groups, int lanes, Data& data) {
   const size_t size = at(kParamFields) * at(lanes);
