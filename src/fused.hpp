@@ -3,10 +3,10 @@
 // The kernel (src/fused_kernel.inc) evaluates kLanes bodies at once with GCC vector
 // extensions. It is compiled once per SIMD width: 2 lanes (SSE2, any x86-64; or the
 // generic 16-byte vectors elsewhere), 4 (AVX) and 8 (AVX-512F), the wider ones under
-// `#pragma GCC target` in their own translation units (src/fused_lanes2.cpp,
-// fused_lanes4.cpp, fused_lanes8.cpp), and compile() picks the widest the running CPU has. The kernel uses
-// no FMA and no reassociation, so every width gives the same bits (tested). The layout of
-// the tables in Data depends on the width chosen (Data::fused_lanes).
+// `#pragma GCC target`, each in its own translation unit (src/fused_lanes2.cpp,
+// fused_lanes4.cpp, fused_lanes8.cpp), and compile() picks the widest the running CPU has.
+// The kernel uses no FMA and no reassociation, so every width gives the same bits (tested).
+// The layout of the tables in Data depends on the width chosen (Data::fused_lanes).
 #pragma once
 
 #include <cstddef>
