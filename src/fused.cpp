@@ -22,20 +22,15 @@ size_t at(long long i) { return static_cast<size_t>(i); }
 /// keep their own (one int per group more).
 void share_equal_param_groups(int groups, int lanes, Data& data) {
   const size_t size = at(kParamFields) * at(lanes);
-  const auto group_bytes = [&](const double* p) {
-    return std::string_view(reinterpret_cast<const char*>(p), size * sizeof(double));
-  };
   std::vector<double> unique;
-  unique.reserve(data.fused_params.size());
-  std::unordered_map<std::string_view, int> index;  // views into `unique`: reserved, no moves
+  // The groups seen so far, as views of their bytes in data.fused_params (kept until the end).
+  std::unordered_map<std::string_view, int> index;
   data.fused_param_group.assign(at(groups), 0);
   for (int g = 0; g < groups; ++g) {
     const double* p = data.fused_params.data() + at(g) * size;
-    const int next = static_cast<int>(unique.size() / size);
-    const double* copy = unique.data() + unique.size();
-    unique.insert(unique.end(), p, p + size);
-    const auto [it, added] = index.emplace(group_bytes(copy), next);
-    if (!added) unique.resize(unique.size() - size);  // an equal group is there already
+    const std::string_view bytes(reinterpret_cast<const char*>(p), size * sizeof(double));
+    const auto [it, added] = index.emplace(bytes, static_cast<int>(unique.size() / size));
+    if (added) unique.insert(unique.end(), p, p + size);
     data.fused_param_group[at(g)] = it->second;
   }
   unique.shrink_to_fit();
