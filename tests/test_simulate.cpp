@@ -738,8 +738,8 @@ forces:
 
 TEST(SimulateCommand, WriteErrorStopsTheRunAndKeepsWholeRows) {
   // A file size limit (ulimit -f: 100 or 200 KB, in the shell's blocks) stands in for a full
-  // disk: the writer's thread gets EFBIG (its SIGXFSZ is blocked), the run stops with the
-  // file's name, and the partial file holds the whole rows the message counts.
+  // disk: the writer's thread gets EFBIG (the command ignores SIGXFSZ), the run stops with
+  // the file's name, and the partial file holds the whole rows the message counts.
   const fs::path dir = temp_dir("cli_write_error");
   const Result r = run_in(dir, "simulate '" + kExamples + "/eight_body.yaml'", "ulimit -f 200 && ");
   EXPECT_EQ(r.exit_code, 1) << r.err;
