@@ -37,8 +37,7 @@ void print_tables(const io::ModelFile& file, const Data& data) {
   const int n = file.model.num_bodies();
   std::printf("equations of motion of %s at its initial state: [A]{ydot} = {f} (Eq. 36)\n",
               file.path.c_str());
-  std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n",
-              n);
+  std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n", n);
   std::printf("\n[A] (Eq. 37), %d x %d\n%-7s", 6 * n, 6 * n, "");
   for (int j = 0; j < 6 * n; ++j) std::printf(" %10s", speed_label(n, j).c_str());
   std::printf("\n");
@@ -79,6 +78,8 @@ void print_json(const io::ModelFile& file, const Data& data) {
   std::cout << out.dump() << "\n";
 }
 
+constexpr int kMaxEomBodies = 1000;
+
 void add_eom(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "eom", "Print A, f, ydot and xdot of Kane's equations at the model's initial state");
@@ -91,6 +92,13 @@ void add_eom(CLI::App& app) {
   cmd->add_flag("--json", opt->json, "print the JSON object of docs/model-format.md");
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
+    // [A] is printed dense: 36 N^2 numbers, about 0.7 GB of JSON at N = 1000.
+    if (file.model.num_bodies() > kMaxEomBodies)
+      throw std::runtime_error(opt->path + ": eom prints the dense 6N x 6N [A], and N = " +
+                               std::to_string(file.model.num_bodies()) + " is more than the " +
+                               std::to_string(kMaxEomBodies) +
+                               " bodies it prints; `kanedyn bench` and `kanedyn simulate` run "
+                               "models of any size");
     Data data(file.model);
     kane_equations(file.model, file.initial, data);
     compute_xdot(file.model, file.initial, data.xdot);

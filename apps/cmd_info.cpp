@@ -5,6 +5,7 @@
 
 #include "commands.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/io/text.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -17,8 +18,9 @@ std::string frame_label(const Model& model, int k) {
 void print_info(const io::ModelFile& file, std::ostream& out) {
   const Model& model = file.model;
   const int n = model.num_bodies();
-  out << "model: " << file.path;
-  if (!model.name().empty()) out << " (" << model.name() << ")";
+  out << "model: " << io::printable(file.path);
+  // The name is free text from the file: no control byte reaches the terminal.
+  if (!model.name().empty()) out << " (" << io::printable(model.name()) << ")";
   out << "\nN = " << n << " bodies, " << model.num_coordinates() << " coordinates x, "
       << model.num_speeds() << " speeds y\n";
   out << "L(K) = (";
@@ -44,7 +46,8 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
 }
 
 void add_info(CLI::App& app) {
-  auto* cmd = app.add_subcommand("info", "Print N, L(K), u_K, each body's chain and the total mass");
+  auto* cmd =
+      app.add_subcommand("info", "Print N, L(K), u_K, each body's chain and the total mass");
   auto path = std::make_shared<std::string>();
   cmd->add_option("MODEL", *path, "model file (YAML or JSON)")->required();
   cmd->callback([path] { print_info(io::load_model_file(*path), std::cout); });

@@ -1,9 +1,11 @@
 // `kanedyn simulate MODEL`: integrate the model from its initial state and write the
 // trajectory CSV (docs/simulation.md). Rows stream to OUT.partial, renamed to OUT at the end;
 // an interrupted or failed run keeps OUT.partial and says so.
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -16,8 +18,10 @@
 #include <string>
 
 #include "commands.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/io/text.hpp"
 #include "kanedyn/simulate.hpp"
 
 namespace kanedyn::cli {
@@ -172,7 +176,8 @@ void print_summary(const io::ModelFile& file, const SimulationSettings& s,
                    const SimulationStats& st, const std::string& where, long rows, long columns) {
   const Model& model = file.model;
   const std::string name = model.name().empty() ? file.path : model.name();
-  std::printf("simulated %s: %d bodies, t = %s to %s (%s)\n", name.c_str(), model.num_bodies(),
+  std::printf("simulated %s: %d %s, t = %s to %s (%s)\n", io::printable(name).c_str(),
+              model.num_bodies(), model.num_bodies() == 1 ? "body" : "bodies",
               format("%.6g", s.t_start).c_str(), format("%.6g", st.t_reached).c_str(),
               to_string(st.status).c_str());
   if (s.integrator == Integrator::dopri5)
@@ -191,14 +196,113 @@ void print_summary(const io::ModelFile& file, const SimulationSettings& s,
   std::fflush(stdout);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Checks before the run: they warn where a run may go wrong, in a way the user can act on.
+
+void warn(const std::string& text) {
+  std::fprintf(stderr, "kanedyn: warning: %s\n", text.c_str());
+  std::fflush(stderr);
+}
+
+/// rk4 steps above the stability limit of the stiffest bushing make the run diverge.
+void warn_rk4_stability(const Model& model, const SimulationSettings& s) {
+  if (s.integrator != Integrator::rk4) return;
+  int index = -1;
+  const double limit = rk4_step_limit(model, &index);
+  // The step taken: each output interval split evenly into steps no longer than s.step.
+  const double h = s.dt_out / std::max(1.0, std::ceil(s.dt_out / s.step - 1e-9));
+  if (!(h > limit) || index < 0) return;
+  const int body = model.forces()[static_cast<size_t>(index)]->body();
+  warn("the rk4 step " + format("%.3g", h) + " exceeds the stability limit of about " +
+       format("%.3g", limit) + " set by the stiffest bushing (forces[" + std::to_string(index) +
+       "], on body '" + model.body(body).name + "'); the run will likely diverge: use --step " +
+       format("%.2g", 0.5 * limit) + " or smaller, or --integrator dopri5");
+}
+
+/// A trajectory larger than the free space of its folder fails when the disk fills.
+void warn_disk_space(const Model& model, const SimulationSettings& s, const std::string& out) {
+  const std::filesystem::path folder = std::filesystem::path(out).has_parent_path()
+                                           ? std::filesystem::path(out).parent_path()
+                                           : std::filesystem::path(".");
+  struct statvfs fs {};
+  if (::statvfs(folder.c_str(), &fs) != 0) return;
+  const double free_bytes = static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
+  const double rows = std::floor((s.t_end - s.t_start) / s.dt_out) + 2;
+  // A number takes 18-22 characters in its shortest form, with its separator.
+  const double bytes = rows * (2 + 16.0 * model.num_bodies()) * 20.0;
+  if (bytes > free_bytes)
+    warn("the trajectory will take about " + format("%.3g", bytes / 1e9) + " GB (" +
+         format("%.3g", rows) + " rows), more than the " + format("%.3g", free_bytes / 1e9) +
+         " GB free in '" + folder.string() + "'; a larger --dt-out writes fewer rows");
+}
+
+/// Watches the progress of the run: a step size that has collapsed far below dt_out for
+/// seconds of wall time means a stiff model that will take very long. Says so once.
+/// A wall time for people: "40 s", "12 min", "3.5 h", "9.1 days".
+std::string duration(double seconds) {
+  if (seconds < 120.0) return format("%.2g s", seconds);
+  if (seconds < 7200.0) return format("%.0f min", seconds / 60.0);
+  if (seconds < 172800.0) return format("%.2g h", seconds / 3600.0);
+  return format("%.2g days", seconds / 86400.0);
+}
+
+class StepWatch {
+ public:
+  StepWatch(double t_start, double t_end, double dt_out)
+      : t_end_(t_end), dt_out_(dt_out), window_t_(t_start) {}
+  void step(double t) {
+    ++steps_;
+    if (warned_ || (steps_ & 255) != 0) return;  // the clock every 256 steps
+    const auto now = Clock::now();
+    const double window = seconds(now - window_start_);
+    if (window < kWindowSeconds) return;
+    const double mean_step = (t - window_t_) / static_cast<double>(steps_ - window_steps_);
+    if (seconds(now - start_) >= kWindowSeconds && mean_step < kCollapsedFraction * dt_out_) {
+      const double rate = (t - window_t_) / window;  // simulated time per wall second
+      warn("the steps have averaged " + format("%.3g", mean_step) + " over the last " +
+           format("%.2g", window) + " s of wall time (" + format("%.2g", mean_step / dt_out_) +
+           " of dt_out); at this rate t_end is " +
+           (rate > 0.0 ? "about " + duration((t_end_ - t) / rate) + " away"
+                       : std::string("never reached")) +
+           ". The model is stiff (a very stiff bushing on a light body, say): see "
+           "docs/simulation.md, \"Stiff models\"");
+      warned_ = true;
+    }
+    window_start_ = now;
+    window_t_ = t;
+    window_steps_ = steps_;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  static double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+  static constexpr double kWindowSeconds = 2.0;
+  static constexpr double kCollapsedFraction = 1e-3;
+  double t_end_, dt_out_;
+  double window_t_;
+  long steps_ = 0, window_steps_ = 0;
+  bool warned_ = false;
+  Clock::time_point start_ = Clock::now(), window_start_ = start_;
+};
+
+// ---------------------------------------------------------------------------------------------
+
 /// Runs the command; returns the exit code for an interrupted run (0 otherwise) and throws
 /// for a failed one.
 int run(const Options& o) {
   const io::ModelFile file = io::load_model_file(o.model);
-  const SimulationSettings base = settings_from(o, file.simulation);
-  validate_settings(base);  // before the output file exists
-  const std::string out = o.out.empty() ? default_output(o.model) : o.out;
   const Model& model = file.model;
+  const SimulationSettings base = settings_from(o, file.simulation);
+  const std::string out = o.out.empty() ? default_output(o.model) : o.out;
+  // Everything that can be checked is checked before the output file exists.
+  try {
+    validate_settings(model, base);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(o.model + ": " + e.what());
+  }
+  io::check_output_path(out, o.model);
+  warn_rk4_stability(model, base);
+  warn_disk_space(model, base, out);
 
   // The handlers first: from the moment OUT.partial exists, a signal leaves it whole.
   SignalGuard signals;
@@ -206,10 +310,12 @@ int run(const Options& o) {
   // too): the integrating thread only copies each output state (docs/performance.md).
   io::BackgroundTrajectoryWriter writer(model, out);
   Progress progress(base.t_start, base.t_end);
+  StepWatch watch(base.t_start, base.t_end, base.dt_out);
   SimulationSettings settings = base;
   settings.observer_kinematics = false;
   settings.on_step = [&](double t) {
     if (progress.update(t)) writer.flush();
+    watch.step(t);
     return g_signal == 0;
   };
   const Observer observer = [&](double t, const State& state, Data&) {
@@ -249,19 +355,27 @@ int run(const Options& o) {
   throw std::runtime_error(stats.message + "; " + kept);
 }
 
-/// A CLI11 check: a finite number > 0 (or >= 0), with a short message.
-CLI::Validator number_check(bool allow_zero) {
+/// A CLI11 check: a decimal number > 0 (no hex, inf or nan) that is finite and does not
+/// underflow to 0, with a short message.
+CLI::Validator positive_number() {
   return CLI::Validator(
-      [allow_zero](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        const bool ok = end != text.c_str() && *end == '\0' && std::isfinite(v) &&
-                        (allow_zero ? v >= 0.0 : v > 0.0);
-        return ok ? ""
-                  : (allow_zero ? "must be a number >= 0, got '" : "must be a number > 0, got '") +
-                        text + "'";
+      [](std::string& text) -> std::string {
+        const char* first = text.c_str() + (text.starts_with('+') ? 1 : 0);
+        const char* last = text.c_str() + text.size();
+        double v = 0.0;
+        const auto [end, error] = std::from_chars(first, last, v, std::chars_format::general);
+        const std::string got = ", got '" + io::printable(text, 40) + "'";
+        if (error == std::errc::result_out_of_range)
+          return std::string(text.find_first_of("eE") != std::string::npos &&
+                                     text.find('-', text.find_first_of("eE")) != std::string::npos
+                                 ? "underflows to 0"
+                                 : "overflows a double") +
+                 got;
+        const bool ok =
+            error == std::errc() && end == last && first != last && std::isfinite(v) && v > 0.0;
+        return ok ? "" : "must be a decimal number > 0" + got;
       },
-      allow_zero ? "NUMBER>=0" : "NUMBER>0");
+      "NUMBER>0");
 }
 
 void add_simulate(CLI::App& app) {
@@ -275,18 +389,18 @@ void add_simulate(CLI::App& app) {
       "is kept); 130/143 interrupted by SIGINT/SIGTERM (kept too).");
   cmd->add_option("MODEL", o->model, "model file (YAML or JSON)")->required();
   o->t_end_opt =
-      cmd->add_option("--t-end", o->t_end, "end time (default 10)")->check(number_check(false));
+      cmd->add_option("--t-end", o->t_end, "end time (default 10)")->check(positive_number());
   o->dt_out_opt = cmd->add_option("--dt-out", o->dt_out, "time between output rows (default 0.01)")
-                      ->check(number_check(false));
+                      ->check(positive_number());
   o->integrator_opt = cmd->add_option("--integrator", o->integrator, "dopri5 (default) or rk4")
                           ->check(CLI::IsMember({"dopri5", "rk4"}));
   o->rtol_opt = cmd->add_option("--rtol", o->rtol, "dopri5 relative tolerance (default 1e-8)")
-                    ->check(number_check(true));
+                    ->check(positive_number());
   o->atol_opt = cmd->add_option("--atol", o->atol, "dopri5 absolute tolerance (default 1e-10)")
-                    ->check(number_check(true));
+                    ->check(positive_number());
   o->step_opt = cmd->add_option("--step", o->step,
                                 "rk4 step; output intervals are split evenly (default 1e-3)")
-                    ->check(number_check(false));
+                    ->check(positive_number());
   o->method_opt = cmd->add_option("--method", o->method,
                                   "recursive (O(N), default) or kane (assemble and solve Eq. 36)")
                       ->check(CLI::IsMember({"recursive", "kane"}));

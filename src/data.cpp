@@ -14,9 +14,13 @@ Data::Data(const Model& model, DataOptions opts) : options(opts) {
   const auto n = static_cast<size_t>(model.num_bodies());
   const auto m = static_cast<Eigen::Index>(model.num_speeds());
   if ((options.partials || options.mass_matrix) && !model.has_flat_chains())
-    throw ModelError("model: " + std::to_string(model.chain_entries()) +
-                     " chain entries are too many for the partial velocity blocks and the "
-                     "Kane route; use the recursive route with DataOptions{false, false}");
+    throw ModelError("the model's " + std::to_string(model.num_bodies()) + " bodies have " +
+                     std::to_string(model.chain_entries()) +
+                     " chain entries (the sum of u_K + 1), more than the " +
+                     std::to_string(Model::kMaxFlatChainEntries) +
+                     " for which the partial velocity blocks and the assembled Kane route are "
+                     "built; the O(N) recursive route has no such limit (DataOptions with "
+                     "partials and mass_matrix off)");
   R.assign(n, Matrix3::Identity());
   p_O.assign(n, Vector3::Zero());
   p_G = v_O = v_G = qs_b = force = moment_b = a_G = a_O = alpha_b = p_O;

@@ -162,7 +162,9 @@ StepStatus Dopri5::start(double t0, const VectorX& z0, double t_end) {
       return StepStatus::non_finite;
     }
   h_ = opt_.initial_step > 0.0 ? opt_.initial_step : initial_step(t_end);
-  h_ = std::min(h_, opt_.max_step);
+  // The guess can fall below the smallest step (a stiff model with a state near zero, where
+  // the tolerances are atol alone): try the smallest one, and let the control grow it.
+  h_ = std::min(std::max(h_, min_step()), opt_.max_step);
   return StepStatus::ok;
 }
 

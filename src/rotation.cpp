@@ -53,9 +53,12 @@ Vector3 angular_velocity_from_rates(const Vector4& eps, const Vector4& eps_dot) 
 }
 
 Vector4 euler_parameters_from_axis_angle(const Vector3& axis, double angle) {
-  const double n = axis.norm();
-  if (n == 0.0) return {0.0, 0.0, 0.0, 1.0};
-  const Vector3 e = std::sin(0.5 * angle) / n * axis;
+  // Divided by its largest component first, the axis has a norm in [1, sqrt(3)]: no overflow
+  // for 1e200, no underflow (or lost digits) for 1e-170 or subnormal components.
+  const double largest = axis.cwiseAbs().maxCoeff();
+  if (!(largest > 0.0)) return {0.0, 0.0, 0.0, 1.0};
+  const Vector3 scaled = axis / largest;
+  const Vector3 e = std::sin(0.5 * angle) / scaled.norm() * scaled;
   return {e.x(), e.y(), e.z(), std::cos(0.5 * angle)};
 }
 

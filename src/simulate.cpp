@@ -1,12 +1,16 @@
 #include "kanedyn/simulate.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 
 #include "kanedyn/energy.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/kinematics.hpp"
 
 namespace kanedyn {
@@ -59,6 +63,28 @@ std::string format_time(double t) {
   return buf;
 }
 
+std::string format_g(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+constexpr double kTimeEpsilon = std::numeric_limits<double>::epsilon();
+constexpr double kMaxOutputTimes = 1e12;
+constexpr double kMaxSteps = 1e15;
+constexpr double kRk4StabilityBound = 2.8284271247461903;  // 2 sqrt(2)
+/// Output rows written between two calls of on_step when one step spans many output times.
+constexpr long kRowsBetweenPolls = 64;
+
+/// Index of the first component of z that is not finite or exceeds kStateBound, else -1.
+/// One comparison per component: !(|z_i| <= bound) also catches NaN.
+int first_diverged(const VectorX& z) {
+  if ((z.array().abs() <= kStateBound).all()) return -1;
+  for (Eigen::Index i = 0; i < z.size(); ++i)
+    if (!(std::abs(z[i]) <= kStateBound)) return static_cast<int>(i);
+  return -1;
+}
+
 }  // namespace
 
 void validate_settings(const SimulationSettings& s) {
@@ -66,13 +92,84 @@ void validate_settings(const SimulationSettings& s) {
     throw std::invalid_argument("simulate: need finite t_start <= t_end");
   if (!std::isfinite(s.dt_out) || s.dt_out <= 0.0)
     throw std::invalid_argument("simulate: dt_out must be > 0");
-  if (s.integrator == Integrator::rk4 && !(std::isfinite(s.step) && s.step > 0.0))
-    throw std::invalid_argument("simulate: the rk4 step must be > 0");
+  const double span = s.t_end - s.t_start;
+  // Times are doubles: a step or output interval below a few ulp of the largest time would
+  // repeat times (t + h == t) instead of advancing.
+  const double resolution = 4.0 * kTimeEpsilon * std::max(std::abs(s.t_start), std::abs(s.t_end));
+  if (span / s.dt_out > kMaxOutputTimes)
+    throw std::invalid_argument("simulate: dt_out = " + format_g(s.dt_out) + " gives " +
+                                format_g(span / s.dt_out) +
+                                " output times from t = " + format_time(s.t_start) + " to " +
+                                format_time(s.t_end) + "; at most " + format_g(kMaxOutputTimes) +
+                                " are allowed (that many rows would fill any disk)");
+  if (span > 0.0 && s.dt_out < resolution)
+    throw std::invalid_argument("simulate: dt_out = " + format_g(s.dt_out) +
+                                " is below the resolution of the times (" + format_g(resolution) +
+                                " at t = " + format_time(s.t_end) + ")");
+  if (s.integrator == Integrator::rk4) {
+    if (!(std::isfinite(s.step) && s.step > 0.0))
+      throw std::invalid_argument("simulate: the rk4 step must be > 0");
+    if (std::min(span, s.dt_out) / s.step > kMaxSteps || (span > 0.0 && s.step < resolution))
+      throw std::invalid_argument(
+          "simulate: the rk4 step " + format_g(s.step) + " cannot be honoured: " +
+          (s.step < resolution
+               ? "it is below the resolution of the times (" + format_g(resolution) + ")"
+               : "the run would take over " + format_g(kMaxSteps) + " steps"));
+  }
   if (s.integrator == Integrator::dopri5 &&
       (!(s.rtol >= 0.0) || !(s.atol >= 0.0) || s.rtol + s.atol <= 0.0 || !std::isfinite(s.rtol) ||
        !std::isfinite(s.atol)))
     throw std::invalid_argument("simulate: rtol and atol must be >= 0 and not both 0");
   if (!(s.max_step > 0.0)) throw std::invalid_argument("simulate: max_step must be > 0");
+}
+
+void validate_settings(const Model& model, const SimulationSettings& s) {
+  validate_settings(s);
+  if (s.method == Method::kane && !model.has_flat_chains())
+    throw std::invalid_argument(
+        "simulate: the model's " + std::to_string(model.num_bodies()) + " bodies have " +
+        std::to_string(model.chain_entries()) +
+        " chain entries (the sum of u_K + 1), more than the " +
+        std::to_string(Model::kMaxFlatChainEntries) +
+        " for which the Kane route's partial velocity blocks and [A] are built; use method "
+        "recursive, the O(N) route, which has no such limit");
+}
+
+double rk4_step_limit(const Model& model, int* force_index) {
+  // Along the imaginary axis RK4 is stable for h omega <= 2 sqrt(2) ~ 2.83. Each bushing is
+  // taken as a lone oscillator: its body against its lower body (reduced mass, ground counts
+  // as infinitely heavy), translational and rotational (the smallest principal moment about
+  // G_K); a tree's highest mode can be somewhat faster, so this is an estimate.
+  double limit = std::numeric_limits<double>::infinity();
+  if (force_index) *force_index = -1;
+  const auto& forces = model.forces();
+  for (size_t i = 0; i < forces.size(); ++i) {
+    const auto* bushing = dynamic_cast<const Bushing*>(forces[i].get());
+    if (!bushing) continue;
+    const int k = bushing->body();
+    const int j = model.lower_body(k);
+    const auto reduced = [&](double of_k, double of_j) {
+      return j == kGround ? of_k : of_k * of_j / (of_k + of_j);
+    };
+    const auto smallest_moment = [&](int b) {
+      return Eigen::SelfAdjointEigenSolver<Matrix3>(model.body(b).inertia, Eigen::EigenvaluesOnly)
+          .eigenvalues()
+          .minCoeff();
+    };
+    const double mass = reduced(model.body(k).mass, j == kGround ? 0.0 : model.body(j).mass);
+    double omega2 = bushing->stiffness.maxCoeff() / mass;
+    if (bushing->rotational_stiffness > 0.0)
+      omega2 = std::max(omega2,
+                        bushing->rotational_stiffness /
+                            reduced(smallest_moment(k), j == kGround ? 0.0 : smallest_moment(j)));
+    if (!(omega2 > 0.0)) continue;
+    const double h = kRk4StabilityBound / std::sqrt(omega2);
+    if (h < limit) {
+      limit = h;
+      if (force_index) *force_index = static_cast<int>(i);
+    }
+  }
+  return limit;
 }
 
 namespace {
@@ -104,11 +201,19 @@ class Run {
 
   SimulationStats run() {
     const auto clock_start = std::chrono::steady_clock::now();
-    if (s_.integrator == Integrator::rk4)
-      run_rk4();
-    else
-      run_dopri5();
+    if (check_state(z_, s_.t_start, s_.t_start)) {
+      if (!std::isfinite(stats_.energy_initial))
+        fail_energy(s_.t_start, stats_.energy_initial);
+      else if (s_.integrator == Integrator::rk4)
+        run_rk4();
+      else
+        run_dopri5();
+    }
     final_energy();
+    // A run that ends with a finite state but a non-finite energy (the potential of a huge
+    // gravity, say) has not produced a usable result either.
+    if (stats_.ok() && !std::isfinite(stats_.energy_final))
+      fail_energy(stats_.t_reached, stats_.energy_final);
     stats_.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
     return stats_;
@@ -182,6 +287,40 @@ class Run {
   }
   bool keep_going(double t) { return !s_.on_step || s_.on_step(t); }
 
+  void interrupted(double t) {
+    stats_.status = SimulationStatus::interrupted;
+    stats_.message = "interrupted at t = " + format_time(t);
+  }
+
+  void fail_energy(double t, double energy) {
+    stats_.status = SimulationStatus::non_finite;
+    stats_.message = "non-finite energy (" + format_g(energy) + ") at t = " + format_time(t) +
+                     ", with a finite state: a force or potential overflows";
+  }
+
+  /// Emits every output time up to t (z_ is the state at t; earlier ones come from dense
+  /// output when `dense` is set). Many output times can fall in one step (a tiny dt_out):
+  /// on_step is asked between them too, so that a signal stops the run within a few rows.
+  /// Returns false when on_step asked to stop.
+  template <class Dense>
+  bool emit_up_to(double t, const Dense& dense) {
+    long since_asked = 0;
+    while (!outputs_done() && output_time(next_output_) <= t) {
+      const double t_out = output_time(next_output_);
+      if (t_out == t) {
+        emit(t_out, z_);
+      } else {
+        dense(t_out, z_out_);
+        emit(t_out, z_out_);
+      }
+      if (++since_asked == kRowsBetweenPolls && !outputs_done() && output_time(next_output_) <= t) {
+        since_asked = 0;
+        if (!keep_going(t_out)) return false;
+      }
+    }
+    return true;
+  }
+
   /// Records a failure; the message is before + the body at fault + after.
   void fail(SimulationStatus status, int component, const std::string& before,
             const std::string& after) {
@@ -193,11 +332,11 @@ class Run {
   void run_rk4() {
     Rk4 rk4(13 * n_, ode());
     double t = s_.t_start;
-    if (!check_finite("non-finite initial state at t = " + format_time(t))) return;
     emit(t, z_);
     while (!outputs_done()) {
       const double t_next = output_time(next_output_);
       const double span = t_next - t;
+      // validate_settings keeps span / step far below the range of long.
       const long substeps = std::max(1L, static_cast<long>(std::ceil(span / s_.step - 1e-9)));
       const double h = span / static_cast<double>(substeps);
       for (long i = 0; i < substeps; ++i) {
@@ -205,17 +344,14 @@ class Run {
         z_prev_ = z_;
         rk4.step(t, h, z_);
         stats_.evaluations = rk4.evaluations();
-        if (!z_.allFinite()) {
-          check_finite("non-finite state in the step from t = " + format_time(t) +
-                       " to t = " + format_time(t_new));
-          z_ = z_prev_;  // the last finite state, for the final energy
+        if (!check_state(z_, t, t_new)) {
+          z_ = z_prev_;  // the last good state, for the final energy
           return;
         }
         step_done(t_new, project(z_));
         t = t_new;
         if (!keep_going(t) && !(outputs_done() || (t == s_.t_end))) {
-          stats_.status = SimulationStatus::interrupted;
-          stats_.message = "interrupted at t = " + format_time(t);
+          interrupted(t);
           return;
         }
       }
@@ -223,14 +359,21 @@ class Run {
     }
   }
 
-  /// True when z_ is finite; otherwise records the failure.
-  bool check_finite(const std::string& what) {
-    for (Eigen::Index i = 0; i < z_.size(); ++i)
-      if (!std::isfinite(z_[i])) {
-        fail(SimulationStatus::non_finite, static_cast<int>(i), what, " is not finite");
-        return false;
-      }
-    return true;
+  /// True when every component of z is finite and within kStateBound; otherwise records
+  /// the failure of the step from t_from to t_to (the initial state when they are equal),
+  /// naming the first such component in state order (eps, s', w', s' dot; not necessarily
+  /// the body whose load started the growth). Builds no message unless it fails.
+  bool check_state(const VectorX& z, double t_from, double t_to) {
+    const int i = first_diverged(z);
+    if (i < 0) return true;
+    fail(SimulationStatus::non_finite, i,
+         t_from == t_to ? "initial state at t = " + format_time(t_from)
+                        : "diverged in the step from t = " + format_time(t_from) +
+                              " to t = " + format_time(t_to),
+         std::isfinite(z[i])
+             ? " exceeds " + format_g(kStateBound) + " (the first such component in state order)"
+             : " is not finite (the first such component in state order)");
+    return false;
   }
 
   void run_dopri5() {
@@ -256,7 +399,8 @@ class Run {
       if (status == StepStatus::non_finite) {
         fail(SimulationStatus::non_finite, dp.failed_component(),
              "non-finite state after t = " + format_time(t_old),
-             " is not finite (steps down to the smallest allowed failed too)");
+             " is not finite (the first such component in state order; steps down to the "
+             "smallest allowed failed too)");
         return;
       }
       if (status == StepStatus::step_underflow) {
@@ -269,20 +413,14 @@ class Run {
         return;
       }
       const double t = dp.time();
+      // On failure z_ keeps the last good state, for the final energy.
+      if (!check_state(dp.state(), t_old, t)) return;
       step_done(t, project(dp.mutable_state()));
       copy(dp.state().data(), 13 * n_, z_.data());
-      while (!outputs_done() && output_time(next_output_) <= t) {
-        const double t_out = output_time(next_output_);
-        if (t_out == t) {
-          emit(t_out, z_);
-        } else {
-          dp.dense_output(t_out, z_out_);
-          emit(t_out, z_out_);
-        }
-      }
-      if (!keep_going(t) && !outputs_done()) {
-        stats_.status = SimulationStatus::interrupted;
-        stats_.message = "interrupted at t = " + format_time(t);
+      const bool asked_on =
+          emit_up_to(t, [&](double t_out, VectorX& z) { dp.dense_output(t_out, z); });
+      if ((!asked_on || !keep_going(t)) && !outputs_done()) {
+        interrupted(t);
         return;
       }
     }
@@ -314,7 +452,7 @@ SimulationStats simulate(const Model& model, const State& initial,
                          const SimulationSettings& settings, const Observer& observer) {
   if (initial.x.size() != model.num_coordinates() || initial.y.size() != model.num_speeds())
     throw std::invalid_argument("simulate: the state does not have the model's size (7N + 6N)");
-  validate_settings(settings);
+  validate_settings(model, settings);
   Run run(model, initial, settings, observer);
   return run.run();
 }

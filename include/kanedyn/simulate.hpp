@@ -35,8 +35,9 @@ struct SimulationSettings {
   /// Compute the kinematics of each output state into the observer's data (see Observer).
   /// false when the observer does not read them, e.g. when it only queues the state.
   bool observer_kinematics = true;
-  /// Called after every accepted step with the time reached; return false to stop the run
-  /// (status interrupted). Keep it cheap: it runs once per step.
+  /// Called after every accepted step with the time reached, and every 64 output rows while
+  /// one step spans many output times; return false to stop the run (status interrupted).
+  /// Keep it cheap: it runs once per step.
   std::function<bool(double t)> on_step;
 };
 
@@ -46,10 +47,16 @@ struct SimulationSettings {
 /// leave simulate().
 using Observer = std::function<void(double t, const State& state, Data& data)>;
 
+/// A state component beyond this magnitude counts as diverged: its square, which the energy
+/// and the force laws form, nears the largest double (1.8e308).
+constexpr double kStateBound = 1e150;
+
 enum class SimulationStatus {
-  completed,       ///< reached t_end
-  interrupted,     ///< on_step returned false
-  non_finite,      ///< the state or its derivative became non-finite
+  completed,    ///< reached t_end
+  interrupted,  ///< on_step returned false
+  /// the state became non-finite or diverged (a component beyond kStateBound) at an accepted
+  /// step, or the energy at the start or the end is not finite
+  non_finite,
   step_underflow,  ///< dopri5 could not meet the tolerances with any representable step
 };
 
@@ -72,14 +79,27 @@ struct SimulationStats {
   double max_euler_drift = 0.0;
   double wall_seconds = 0.0;
   int failed_body = -1;  ///< failures: the body at fault (index), -1 if none
-  /// failures: the time and the body ("non-finite state in the step from t = 1.2 to
-  /// t = 1.21: body 'link3' (w2) is not finite"); empty when completed.
+  /// failures: the time and the body ("diverged in the step from t = 1.2 to t = 1.21:
+  /// body 'link3' (w2) is not finite (the first such component in state order)"); empty
+  /// when completed.
   std::string message;
 };
 
 /// Throws std::invalid_argument naming the first inconsistent setting (t_end < t_start,
-/// dt_out <= 0, a non-positive rk4 step, negative or all-zero tolerances, ...).
+/// dt_out <= 0, a non-positive rk4 step, negative or all-zero tolerances, ...) or one that
+/// cannot be honoured: more than 1e12 output times, an rk4 run of more than 1e15 steps, a
+/// dt_out or rk4 step below the resolution of the times (t + h == t).
 void validate_settings(const SimulationSettings& settings);
+
+/// The same, and that settings.method can run on this model (the Kane route builds partial
+/// velocity blocks for every chain entry: Model::kMaxFlatChainEntries at most).
+void validate_settings(const Model& model, const SimulationSettings& settings);
+
+/// An estimate of the largest step rk4 takes stably: 2 sqrt(2) / omega for the stiffest
+/// bushing, each taken as a lone oscillator of its body against its lower body (reduced
+/// mass; the smallest principal moments for the rotational stiffness). Infinity without
+/// bushings. Sets force_index to that bushing's index in model.forces() (-1 if none).
+double rk4_step_limit(const Model& model, int* force_index = nullptr);
 
 /// Integrates from `initial` (its Euler parameters are normalized first) over
 /// [t_start, t_end]. Calls observer (if set) at every output time, the first at t_start.

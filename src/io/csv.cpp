@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -36,7 +38,81 @@ constexpr size_t kFlushBytes = 1 << 16;  // write to the file in pieces of about
 std::string system_error(const std::string& what, const std::string& file) {
   return what + " '" + file + "': " + std::strerror(errno);
 }
+
+std::string quoted(const std::string& path) { return "'" + path + "'"; }
+
+/// Creates PATH.partial for writing without ever writing through a link: a leftover regular
+/// file of that name (from an interrupted run) is removed first; a symbolic link or anything
+/// else there is refused; O_EXCL | O_NOFOLLOW then refuses whatever appears in between.
+int create_partial(const std::string& partial) {
+  struct stat st {};
+  if (::lstat(partial.c_str(), &st) == 0) {
+    if (!S_ISREG(st.st_mode))
+      throw std::runtime_error("cannot create " + quoted(partial) + ": it exists and is " +
+                               (S_ISLNK(st.st_mode)   ? "a symbolic link"
+                                : S_ISDIR(st.st_mode) ? "a directory"
+                                                      : "not a regular file") +
+                               "; remove it, or choose another output");
+    if (::unlink(partial.c_str()) != 0 && errno != ENOENT)
+      throw std::runtime_error(system_error("cannot replace", partial));
+  }
+  const int fd =
+      ::open(partial.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error(system_error("cannot create", partial));
+  return fd;
+}
+
 }  // namespace
+
+namespace {
+
+/// Throws for the row text [row, ...) whose number at `bad` is not finite, naming its column.
+[[noreturn]] void throw_non_finite(const Model& model, const char* row, const char* bad, double t) {
+  const char* start = bad;
+  while (start > row && start[-1] != ',') --start;
+  const char* end = bad;
+  while (*end != ',' && *end != '\n') ++end;
+  const auto column = static_cast<size_t>(std::count(row, start, ','));
+  const auto columns = trajectory_columns(model);
+  char time[32];
+  std::snprintf(time, sizeof time, "%.10g", t);
+  throw std::runtime_error("non-finite output at t = " + std::string(time) + ": column " +
+                           quoted(column < columns.size() ? columns[column] : "?") + " is " +
+                           std::string(start, end) + " (the first such column of the row)");
+}
+
+}  // namespace
+
+void check_output_path(const std::string& path, const std::string& input_path) {
+  namespace fs = std::filesystem;
+  if (path.empty()) throw std::runtime_error("the output file name is empty");
+  if (path.back() == '/')
+    throw std::runtime_error("output " + quoted(path) + " ends with '/': give a file name, e.g. " +
+                             quoted(path + "run.csv"));
+  std::error_code ec;
+  const fs::path out(path);
+  if (fs::is_directory(out, ec))
+    throw std::runtime_error("output " + quoted(path) + " is a directory: give a file name, e.g. " +
+                             quoted((out / "run.csv").string()));
+  const fs::path folder = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  if (!fs::exists(folder, ec))
+    throw std::runtime_error("cannot write " + quoted(path) + ": its folder " +
+                             quoted(folder.string()) + " does not exist");
+  if (!fs::is_directory(folder, ec))
+    throw std::runtime_error("cannot write " + quoted(path) + ": " + quoted(folder.string()) +
+                             " is not a directory");
+  if (::access(folder.c_str(), W_OK | X_OK) != 0)
+    throw std::runtime_error("cannot write " + quoted(path) + ": its folder " +
+                             quoted(folder.string()) + " is not writable (" + std::strerror(errno) +
+                             ")");
+  if (!input_path.empty()) {
+    // The final file and the partial file both: either would destroy the input.
+    for (const std::string& target : {path, path + ".partial"})
+      if (fs::equivalent(target, input_path, ec))
+        throw std::runtime_error("output " + quoted(target) + " is the input file " +
+                                 quoted(input_path) + "; choose another output (-o)");
+  }
+}
 
 std::vector<std::string> trajectory_columns(const Model& model) {
   static const char* const kSuffixes[] = {"x",  "y",  "z",  "e1", "e2", "e3",  "e4",  "s1",
@@ -50,9 +126,8 @@ std::vector<std::string> trajectory_columns(const Model& model) {
 
 TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path)
     : model_(model), path_(std::move(path)) {
-  const std::string partial = partial_path();
-  fd_ = ::open(partial.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd_ < 0) throw std::runtime_error(system_error("cannot create", partial));
+  check_output_path(path_);
+  fd_ = create_partial(partial_path());
   // A row holds 2 + 16N numbers, each followed by ',' or the newline.
   const size_t row_bytes =
       (kMaxNumberChars + 1) * (2 + 16 * static_cast<size_t>(model.num_bodies()));
@@ -83,7 +158,8 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
   if (fd_ < 0) throw std::logic_error("TrajectoryWriter: write_row after close");
   if (used_ >= kFlushBytes) flush();  // only after a flush that threw: retry (or throw again)
   // Fewer than kFlushBytes are buffered now, so the row fits (see the constructor).
-  char* p = put_number(buffer_.get() + used_, t);
+  char* const row = buffer_.get() + used_;
+  char* p = put_number(row, t);
   auto put = [&p](const auto& v) {
     for (Eigen::Index i = 0; i < v.size(); ++i) {
       *p++ = ',';
@@ -100,6 +176,11 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
   *p++ = ',';
   p = put_number(p, energy);
   *p++ = '\n';
+  // A row with "nan" or "inf" is no result: refuse it (the file keeps the rows before it).
+  // Checked on the text, where a non-finite number is the only one holding 'n'.
+  if (const char* bad =
+          static_cast<const char*>(std::memchr(row, 'n', static_cast<size_t>(p - row))))
+    throw_non_finite(model_, row, bad, t);
   used_ = static_cast<size_t>(p - buffer_.get());
   ++rows_;
   if (used_ >= kFlushBytes) flush();

@@ -18,11 +18,19 @@ namespace kanedyn::io {
 /// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns.
 std::vector<std::string> trajectory_columns(const Model& model);
 
+/// Throws std::runtime_error, naming the path and the problem, unless a trajectory can be
+/// written to `path`: not empty, not ending in '/', not a directory, in an existing writable
+/// folder, and (when input_path is given) neither it nor PATH.partial is that input file.
+void check_output_path(const std::string& path, const std::string& input_path = "");
+
 /// Streams a trajectory to PATH.partial.
 class TrajectoryWriter {
  public:
-  /// Creates (truncates) PATH.partial and writes the header to it. Throws std::runtime_error
-  /// naming the file when it cannot be created.
+  /// Checks the path (check_output_path), creates PATH.partial and writes the header to it.
+  /// A leftover regular PATH.partial is replaced; a symbolic link or anything else of that
+  /// name is refused, and the file is opened with O_EXCL | O_NOFOLLOW, so that nothing is
+  /// ever written through a link planted there. Throws std::runtime_error naming the file
+  /// when it cannot be created.
   TrajectoryWriter(const Model& model, std::string path);
   /// Writes the buffered rows and closes the file; PATH.partial stays if finish() did not run.
   ~TrajectoryWriter();
@@ -32,7 +40,9 @@ class TrajectoryWriter {
   /// Appends one row: t, per body the mass centre G_K (data.p_G, inertial: needs
   /// compute_kinematics at this state), eps_K, s'_K, w'_K, s'_K dot, then energy. Numbers
   /// are written in the shortest form that reads back as the same double (std::to_chars).
-  /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails.
+  /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails,
+  /// or if a number of the row is not finite (naming the time and the column; the row is
+  /// not written).
   void write_row(double t, const State& state, const Data& data, double energy);
   /// Writes the buffered rows to the file (whole rows only).
   void flush();

@@ -1,0 +1,24 @@
+// Text from files and users, made fit for a one-line message.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace kanedyn::io {
+
+/// `text` with every control byte escaped (\n, \r, \t, \xNN for the rest and DEL) so that
+/// printing it cannot move the cursor, change colours or end a line; cut after max_chars
+/// input bytes with "..." appended (0: no limit).
+std::string printable(std::string_view text, std::size_t max_chars = 0);
+
+/// Levenshtein distance (insertions, deletions, substitutions), for "did you mean" hints.
+std::size_t edit_distance(std::string_view a, std::string_view b);
+
+/// The word of `choices` nearest to `word` within max_distance edits (the first of equals),
+/// or "" when none is that near.
+std::string closest_word(std::string_view word, const std::vector<std::string>& choices,
+                         std::size_t max_distance = 2);
+
+}  // namespace kanedyn::io
