@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+#include "file_support.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/kane.hpp"
@@ -22,28 +23,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct ToolRun {
-  int exit_code;
-  std::string out, err;
-};
+using kanedyn::test::slurp;
+using kanedyn::test::ToolRun;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
+/// Runs the tool in a folder of the running test's own (ctest runs tests in parallel).
 ToolRun run_tool(const std::string& args) {
-  static int counter = 0;
-  const fs::path dir = fs::temp_directory_path() / ("kanedyn_cli_" + std::to_string(getpid()));
-  fs::create_directories(dir);
-  const fs::path out = dir / ("out" + std::to_string(counter));
-  const fs::path err = dir / ("err" + std::to_string(counter++));
-  const std::string cmd = std::string(KANEDYN_BINARY_DIR) + "/kanedyn " + args + " > " +
-                          out.string() + " 2> " + err.string() + " < /dev/null";
-  const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+  const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  return kanedyn::test::run_in(kanedyn::test::temp_dir("cli_" + test), args);
 }
 
 const std::string kEight = std::string(KANEDYN_SOURCE_DIR) + "/examples/eight_body.yaml";

@@ -574,3 +574,28 @@ TEST(Simulate, AllocatesOnlyDuringSetup) {
 #endif
 
 }  // namespace
+
+TEST(Dopri5, StartsFromTheSmallestStepWhenTheGuessIsBelowIt) {
+  // A stiff oscillator (omega = 1e9) from rest at z = 0.01: the starting-step guess of Hairer
+  // et al. is ~1e-20, below min_step() (16 ulp of t_end). The integrator must take steps,
+  // growing from the smallest one, rather than report an underflow before the first.
+  const double omega2 = 1e18;
+  Dopri5Options opt;
+  opt.rtol = 1e-8;
+  opt.atol = 1e-10;
+  Dopri5 dp(
+      2,
+      [&](double, const VectorX& z, VectorX& dz) {
+        dz[0] = z[1];
+        dz[1] = -omega2 * z[0];
+      },
+      opt);
+  VectorX z0(2);
+  z0 << 0.01, 0.0;
+  ASSERT_EQ(dp.start(0.0, z0, 1.0), StepStatus::ok);
+  for (int i = 0; i < 50; ++i) ASSERT_EQ(dp.step(), StepStatus::ok) << "step " << i;
+  EXPECT_GT(dp.time(), 0.0);
+  // The step size has grown to where the error control holds it, ~1e-10 for omega = 1e9.
+  const double reached_per_step = dp.time() / 50.0;
+  EXPECT_GT(reached_per_step, 1e-13);
+}

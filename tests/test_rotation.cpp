@@ -179,6 +179,28 @@ TEST(Rotation, RotationVectorOfKnownAxisAngle) {
   EXPECT_EQ(rotation_vector(Vector4(0, 0, 0, -1)), Vector3::Zero());
 }
 
+TEST(Rotation, AxisAngleIndependentOfTheAxisScale) {
+  // The axis need not be unit: any positive multiple gives the same Euler parameters, also
+  // where |axis| would overflow (1e200 squared) or underflow (1e-170 squared) in a plain norm,
+  // and for subnormal components. Reference: the unit axis itself, where the norm is exact.
+  std::mt19937 rng(12);
+  for (int i = 0; i < 20; ++i) {
+    const Vector3 unit = random_vector(rng, -1.0, 1.0).normalized();
+    const Vector4 reference = euler_parameters_from_axis_angle(unit, 1.1);
+    for (const double scale : {1e200, 1e300, 1e-160, 1e-170, 1e-310}) {
+      const Vector4 eps = euler_parameters_from_axis_angle(scale * unit, 1.1);
+      ASSERT_TRUE(eps.allFinite()) << "scale " << scale;
+      // Round-off: the scaled axis loses at most a few ulp (and the 1e-310 axis, subnormal,
+      // keeps ~15 digits of its largest component).
+      EXPECT_NEAR(eps.norm(), 1.0, kRoundOff) << "scale " << scale;
+      EXPECT_LT((eps - reference).cwiseAbs().maxCoeff(), scale < 1e-300 ? 1e-12 : kRoundOff)
+          << "scale " << scale;
+    }
+  }
+  EXPECT_EQ(euler_parameters_from_axis_angle(Vector3(1e200, 0, 0), std::numbers::pi / 2),
+            euler_parameters_from_axis_angle(Vector3(1, 0, 0), std::numbers::pi / 2));
+}
+
 TEST(Rotation, RotationVectorOfRelativeRotation) {
   // theta of K relative to J: R(from_axis_angle(theta)) equals R(rel) = R_K R_J^T, also when
   // K is close to J (angle near 0) and when K is J turned by nearly pi.

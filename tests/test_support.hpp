@@ -113,6 +113,18 @@ inline Model eight_body_model(Vector3 gravity = Vector3(0.0, 0.0, -9.81), bool b
   return Model(std::move(bodies), gravity, std::move(forces), "eight-body");
 }
 
+/// The notes' eight-body system with bushings of its own on every body (or all but the
+/// root: a free system), with the given damping factor (0: energy is conserved).
+inline Model eight_body_on_bushings(Vector3 gravity, bool ground_bushing, double damping) {
+  const Model base = eight_body_model(gravity, false);
+  std::vector<std::shared_ptr<const ForceElement>> forces;
+  for (int k = ground_bushing ? 0 : 1; k < 8; ++k)
+    forces.push_back(std::make_shared<Bushing>(k, Vector3(200.0 + 10 * k, 150.0, 300.0 - 5 * k),
+                                               damping * Vector3(2.0, 1.5, 3.0), 20.0 + k,
+                                               damping * 0.5));
+  return Model(base.bodies(), gravity, std::move(forces), "eight-body");
+}
+
 struct RandomTreeOptions {
   int min_bodies = 1;
   int max_bodies = 30;

@@ -1,0 +1,89 @@
+// Test support for files and the tool: reading CSV files back, fresh folders under the
+// build folder, and running build/kanedyn as a user does. Header-only, as test_support.hpp.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <charconv>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace kanedyn::test {
+
+namespace fs = std::filesystem;
+
+inline std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+inline std::vector<std::string> split(const std::string& text, char sep) {
+  std::vector<std::string> parts;
+  std::string part;
+  std::istringstream in(text);
+  while (std::getline(in, part, sep)) parts.push_back(part);
+  if (!text.empty() && text.back() == sep) parts.emplace_back();
+  return parts;
+}
+
+/// A number as the CSV writes it (the shortest round-trip form); the whole field must read.
+inline double parse(const std::string& s) {
+  double v = 0.0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  EXPECT_EQ(r.ec, std::errc()) << s;
+  EXPECT_EQ(r.ptr, s.data() + s.size()) << s;
+  return v;
+}
+
+/// Rows of a CSV file; checks that every line is complete (ends with '\n') and has as many
+/// fields as the header.
+inline std::vector<std::vector<std::string>> read_csv(const fs::path& p) {
+  const std::string text = slurp(p);
+  EXPECT_FALSE(text.empty());
+  if (text.empty()) return {};
+  EXPECT_EQ(text.back(), '\n') << p;
+  std::vector<std::vector<std::string>> rows;
+  for (const std::string& line : split(text.substr(0, text.size() - 1), '\n')) {
+    rows.push_back(split(line, ','));
+    EXPECT_EQ(rows.back().size(), rows.front().size()) << "row " << rows.size() - 1;
+  }
+  return rows;
+}
+
+/// A fresh folder for one test, under the build folder (reused by the next run, so nothing
+/// piles up in /tmp).
+inline fs::path temp_dir(const std::string& name) {
+  const fs::path dir = fs::path(KANEDYN_BINARY_DIR) / "tests" / "tmp" / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+inline const std::string kTool = std::string(KANEDYN_BINARY_DIR) + "/kanedyn";
+inline const std::string kExamples = std::string(KANEDYN_SOURCE_DIR) + "/examples";
+
+struct ToolRun {
+  int exit_code;
+  std::string out, err;
+};
+
+/// Runs `cd DIR && SHELL_PREFIX kanedyn ARGS` with no standard input; stdout and stderr are
+/// kept in DIR.
+inline ToolRun run_in(const fs::path& dir, const std::string& args,
+                      const std::string& shell_prefix = "") {
+  const std::string cmd = "cd '" + dir.string() + "' && " + shell_prefix + "'" + kTool + "' " +
+                          args + " > stdout.txt 2> stderr.txt < /dev/null";
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir / "stdout.txt"),
+          slurp(dir / "stderr.txt")};
+}
+
+}  // namespace kanedyn::test
