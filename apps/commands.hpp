@@ -1,7 +1,7 @@
 // The kanedyn tool's subcommands. Each apps/cmd_*.cpp registers one with a static
 // KANEDYN_COMMAND(order, function) line; main() adds them to the CLI11 app in order.
 // A command reports failure by throwing (std::exception); main prints
-// "kanedyn: error: <what()>" on stderr and exits 1. Usage errors exit 2 (CLI11's codes).
+// "kanedyn: error: <what()>" on stderr and exits 1. Usage errors exit 2 (main.cpp).
 #pragma once
 
 #include <CLI/CLI.hpp>
