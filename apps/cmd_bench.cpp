@@ -139,7 +139,25 @@ void add_bench(CLI::App& app) {
       if (std::find(methods.begin(), methods.end(), method) == methods.end())
         methods.push_back(method);
     }
-    if (methods.empty()) methods = {Method::recursive, Method::kane};
+    const bool kane_fits = file.model.has_flat_chains();
+    if (methods.empty()) {
+      // By default both routes; the Kane route only where it can be built.
+      methods = {Method::recursive};
+      if (kane_fits)
+        methods.push_back(Method::kane);
+      else
+        std::fprintf(stderr,
+                     "kanedyn: note: %s: the Kane route is not built for %lld chain "
+                     "entries (more than %lld); timing the recursive route alone\n",
+                     opt->path.c_str(), file.model.chain_entries(), Model::kMaxFlatChainEntries);
+    } else if (!kane_fits &&
+               std::find(methods.begin(), methods.end(), Method::kane) != methods.end()) {
+      throw std::runtime_error(
+          opt->path + ": the model's " + std::to_string(file.model.num_bodies()) + " bodies have " +
+          std::to_string(file.model.chain_entries()) + " chain entries, more than the " +
+          std::to_string(Model::kMaxFlatChainEntries) +
+          " for which the Kane route is built; use --method recursive");
+    }
     std::vector<BenchResult> results;
     for (const Method method : methods)
       results.push_back(time_method(file.model, file.initial, method, opt->reps, opt->simd_lanes));

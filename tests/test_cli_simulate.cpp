@@ -321,6 +321,14 @@ TEST(SimulateCommand, SettingsTheModelCannotRunFailBeforeTheRun) {
   EXPECT_NE(r.err.find("kanedyn: error: long.yaml: eom prints the dense 6N x 6N [A]"),
             std::string::npos)
       << r.err;
+  // bench: the Kane route only where it can be built (by default it is left out, saying so).
+  r = run_in(dir, "bench long.yaml --reps 3 --method kane");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("use --method recursive"), std::string::npos) << r.err;
+  r = run_in(dir, "bench long.yaml --reps 3 --json");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("timing the recursive route alone"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("\"kane\""), std::string::npos) << r.out;
 }
 
 TEST(SimulateCommand, PlantedLinksAreNeverWrittenThrough) {
