@@ -189,6 +189,33 @@ size_t break_width(std::string_view s, size_t i) {
   return 0;
 }
 
+/// A place in the text as libyaml counts it: the index of a character (a CRLF break is two);
+/// kNoPos when unknown. Nodes keep only this; line and column are counted when a message
+/// needs them.
+using Pos = uint32_t;
+constexpr Pos kNoPos = std::numeric_limits<Pos>::max();
+
+/// The line and column of character `pos` of `text`, counting breaks as libyaml does.
+Mark mark_of_pos(std::string_view text, Pos pos) {
+  if (pos == kNoPos) return {};
+  Mark m{1, 1};
+  size_t chars = 0;
+  for (size_t i = 0; i < text.size() && chars < pos;) {
+    if (const size_t w = break_width(text, i)) {
+      ++m.line;
+      m.column = 1;
+      chars += text[i] == '\r' && w == 2 ? 2 : 1;
+      i += w;
+      continue;
+    }
+    ++m.column;
+    ++chars;
+    ++i;
+    while (i < text.size() && (static_cast<unsigned char>(text[i]) & 0xc0) == 0x80) ++i;
+  }
+  return m;
+}
+
 /// The mark of byte `offset` of `text`.
 Mark mark_of_offset(std::string_view text, size_t offset) {
   Mark m{1, 1};
@@ -227,16 +254,22 @@ std::string character_at(std::string_view text, size_t offset) {
 
 enum class Kind : uint8_t { null, scalar, sequence, mapping };
 
-/// One node of the document: a scalar is `count` bytes at `first` of Tree::chars; a sequence
-/// or mapping has `count` children at `first` of Tree::kids (a mapping: key, value, key, ...).
+/// One node of the document, 12 bytes: a scalar is `count` bytes at `first` of the text (when
+/// it stands there as is) or of Tree::chars; a sequence or mapping has `count` children at
+/// `first` of Tree::kids (a mapping: key, value, key, ...). Positions fit 28 bits: a file has
+/// at most kMaxFileBytes = 2^28 bytes.
 struct TreeNode {
-  uint32_t line, column;  // 1-based
+  uint32_t pos : 28;
+  uint32_t kind : 2;     // Kind
+  uint32_t string : 1;   // quoted, a block scalar, or tagged !!str: text, never a number
+  uint32_t in_text : 1;  // the scalar's bytes are in the text
   uint32_t first, count;
-  Kind kind;
-  bool string;  // quoted, a block scalar, or tagged !!str: text, never a number
 };
+static_assert(sizeof(TreeNode) == 12);
+constexpr Pos kMaxNodePos = (Pos{1} << 28) - 1;
 
 struct Tree {
+  std::string_view text;
   std::vector<TreeNode> nodes;
   std::vector<uint32_t> kids;
   std::string chars;
@@ -247,25 +280,26 @@ class Node {
  public:
   Node() = default;
   Node(const Tree* tree, uint32_t index) : tree_(tree), index_(index) {}
-  bool IsNull() const { return node().kind == Kind::null; }
-  bool IsScalar() const { return node().kind == Kind::scalar; }
-  bool IsSequence() const { return node().kind == Kind::sequence; }
-  bool IsMap() const { return node().kind == Kind::mapping; }
+  Kind kind() const { return static_cast<Kind>(node().kind); }
+  bool IsNull() const { return kind() == Kind::null; }
+  bool IsScalar() const { return kind() == Kind::scalar; }
+  bool IsSequence() const { return kind() == Kind::sequence; }
+  bool IsMap() const { return kind() == Kind::mapping; }
   bool IsString() const { return node().string; }
   /// Elements of a sequence, entries of a mapping.
   size_t size() const {
     const TreeNode& n = node();
-    return n.kind == Kind::mapping ? n.count / 2 : n.kind == Kind::sequence ? n.count : 0;
+    return kind() == Kind::mapping ? n.count / 2 : kind() == Kind::sequence ? n.count : 0;
   }
   Node operator[](size_t i) const { return kid(i); }
   Node key(size_t i) const { return kid(2 * i); }
   Node value(size_t i) const { return kid(2 * i + 1); }
   std::string_view Scalar() const {
     const TreeNode& n = node();
-    if (n.kind != Kind::scalar) return {};
-    return std::string_view(tree_->chars).substr(n.first, n.count);
+    if (kind() != Kind::scalar) return {};
+    return (n.in_text ? tree_->text : std::string_view(tree_->chars)).substr(n.first, n.count);
   }
-  Mark mark() const { return {node().line, node().column}; }
+  Pos mark() const { return node().pos; }
 
  private:
   const TreeNode& node() const { return tree_->nodes[index_]; }
@@ -279,8 +313,8 @@ class Node {
 struct Field {
   Node node;
   std::string path;
-  Mark mark;
-  Mark key_mark;  ///< of its key (of the value itself for a list element)
+  Pos mark;
+  Pos key_mark;  ///< of its key (of the value itself for a list element)
 };
 
 std::string describe(const Node& node) {
@@ -351,7 +385,7 @@ class Mapping {
  private:
   struct Entry {
     std::string_view key;
-    Mark key_mark;
+    Pos key_mark;
     Node value;
   };
   const Entry* find(std::string_view key) const;
@@ -366,26 +400,32 @@ class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
-  [[noreturn]] void fail(const Mark& mark, const std::string& path,
-                         const std::string& problem) const {
+  [[noreturn]] void fail_at(const Mark& mark, const std::string& path,
+                            const std::string& problem) const {
     throw ModelFileError(file_, static_cast<int>(mark.line),
                          mark.known() ? static_cast<int>(mark.column) : 0, path, problem);
   }
+  [[noreturn]] void fail(Pos pos, const std::string& path, const std::string& problem) const {
+    fail_at(mark_of_pos(tree_.text, pos), path, problem);
+  }
+  Mark mark(Pos pos) const { return mark_of_pos(tree_.text, pos); }
   [[noreturn]] void fail(const Field& f, const std::string& problem) const {
     fail(f.mark, f.path, problem);
   }
 
   /// Parses the one YAML document of `text` into tree_; its root must be a mapping.
   Node load(std::string_view text) {
-    if (text.size() > kMaxFileBytes) fail({}, "", too_large());
+    if (text.size() > kMaxFileBytes) fail(kNoPos, "", too_large());
     if (const void* nul = std::memchr(text.data(), 0, text.size()))
-      fail(mark_of_offset(text, static_cast<size_t>(static_cast<const char*>(nul) - text.data())),
-           "", "a NUL byte (\\x00) is not allowed; a model file is UTF-8 text");
-    const std::string tabs_fixed = json_leading_tabs(text);
-    if (!tabs_fixed.empty()) text = tabs_fixed;
+      fail_at(
+          mark_of_offset(text, static_cast<size_t>(static_cast<const char*>(nul) - text.data())),
+          "", "a NUL byte (\\x00) is not allowed; a model file is UTF-8 text");
+    owned_text_ = json_leading_tabs(text);
+    if (!owned_text_.empty()) text = owned_text_;
+    tree_.text = text;
     build(text);
     if (tree_.nodes.empty() || Node(&tree_, root_).IsNull())
-      fail({}, "",
+      fail(kNoPos, "",
            "the file is empty; a model file is a mapping starting with 'format: " +
                std::string(kFormat) + "'");
     const Node root(&tree_, root_);
@@ -401,7 +441,7 @@ class Reader {
 
   Field element(const Field& list, size_t i) const {
     const Node node = list.node[i];
-    const Mark mark = node.IsNull() ? list.mark : node.mark();
+    const Pos mark = node.IsNull() ? list.mark : node.mark();
     return {node, index_path(list.path, i), mark, mark};
   }
 
@@ -413,7 +453,22 @@ class Reader {
     return items;
   }
 
+  /// The value of a plain scalar that is a finite decimal; nothing for anything else, which
+  /// number() then explains. The common case without building a Field.
+  static std::optional<double> plain_number(const Node& n) {
+    if (!n.IsScalar() || n.IsString()) return std::nullopt;
+    const std::string_view s = n.Scalar();
+    if (!is_decimal(s)) return std::nullopt;
+    double value = 0.0;
+    const char* first = s.data() + (s[0] == '+' ? 1 : 0);
+    const auto [end, error] = std::from_chars(first, s.data() + s.size(), value);
+    if (error != std::errc() || end != s.data() + s.size() || !std::isfinite(value))
+      return std::nullopt;
+    return value;
+  }
+
   double number(const Field& f) const {
+    if (const auto v = plain_number(f.node)) return *v;
     if (!f.node.IsScalar()) fail(f, "expected a number, got " + describe(f.node));
     const std::string_view s = f.node.Scalar();
     if (f.node.IsString()) fail(f, "expected a number, got the quoted string " + quote(s));
@@ -453,7 +508,10 @@ class Reader {
     if (!f.node.IsSequence() || f.node.size() != static_cast<size_t>(n))
       fail(f, "expected a list of " + what + ", got " + describe(f.node));
     VectorX v(n);
-    for (int i = 0; i < n; ++i) v[i] = number(element(f, static_cast<size_t>(i)));
+    for (int i = 0; i < n; ++i) {
+      const auto value = plain_number(f.node[static_cast<size_t>(i)]);
+      v[i] = value ? *value : number(element(f, static_cast<size_t>(i)));
+    }
     return v;
   }
 
@@ -520,7 +578,7 @@ class Reader {
         what += v < 0x100 ? std::string(" (byte \\x") + hex[(v >> 4) & 15] + hex[v & 15] + ")"
                           : " (U+" + std::to_string(v) + ")";
       }
-      fail(mark_of_offset(text, p.problem_offset), "", what + "; a model file is UTF-8 text");
+      fail_at(mark_of_offset(text, p.problem_offset), "", what + "; a model file is UTF-8 text");
     }
     std::string what = "YAML syntax error: " + problem + " at " +
                        character_at(text, offset_of_index(text, p.problem_mark.index));
@@ -532,7 +590,7 @@ class Reader {
                 std::to_string(p.context_mark.column + 1);
       what += ")";
     }
-    fail(mark_of(p.problem_mark), "", what);
+    fail_at(mark_of(p.problem_mark), "", what);
   }
 
   /// The event loop: nodes in document order, children collected on a stack of open
@@ -544,8 +602,20 @@ class Reader {
     yaml_parser_set_encoding(&parser, YAML_UTF8_ENCODING);
     yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()),
                                  text.size());
-    tree_.chars.reserve(text.size() / 2);
-    tree_.nodes.reserve(text.size() / 8);
+    tree_.nodes.reserve(text.size() / 10);
+    // libyaml's character index to a byte offset, walking forward: scalars come in text order.
+    size_t walk_index = 0, walk_byte = 0;
+    const auto byte_of = [&](size_t index) {
+      if (index < walk_index) return text.size() + 1;  // not in order: not in the text
+      while (walk_index < index && walk_byte < text.size()) {
+        ++walk_byte;
+        while (walk_byte < text.size() &&
+               (static_cast<unsigned char>(text[walk_byte]) & 0xc0) == 0x80)
+          ++walk_byte;
+        ++walk_index;
+      }
+      return walk_byte;
+    };
     struct Open {
       uint32_t node;
       size_t pending;  // where its children start in `pending`
@@ -557,11 +627,11 @@ class Reader {
       yaml_event_t event;
       if (!yaml_parser_parse(&parser, &event)) syntax_error(parser, text);
       const EventGuard event_guard{&event};
-      const Mark at = mark_of(event.start_mark);
+      const Pos at = static_cast<Pos>(std::min<size_t>(event.start_mark.index, kMaxNodePos));
       const auto add = [&](Kind kind, bool string) {
         if (tree_.nodes.size() >= std::numeric_limits<uint32_t>::max()) throw std::bad_alloc();
         const auto index = static_cast<uint32_t>(tree_.nodes.size());
-        tree_.nodes.push_back({at.line, at.column, 0, 0, kind, string});
+        tree_.nodes.push_back({at, static_cast<uint32_t>(kind), string, 0, 0, 0});
         if (open.empty()) {
           root_ = index;
         } else {
@@ -599,9 +669,20 @@ class Reader {
             add(Kind::null, false);
           } else {
             const uint32_t i = add(Kind::scalar, !plain || tagged_string);
-            tree_.nodes[i].first = static_cast<uint32_t>(tree_.chars.size());
-            tree_.nodes[i].count = static_cast<uint32_t>(value.size());
-            tree_.chars += value;
+            TreeNode& n = tree_.nodes[i];
+            n.count = static_cast<uint32_t>(value.size());
+            // Most scalars stand in the text as they are (after the quote, if quoted): point
+            // there. Others (escapes, folded lines) are copied.
+            const size_t at_byte =
+                byte_of(event.start_mark.index) + (s.style == YAML_SINGLE_QUOTED_SCALAR_STYLE ||
+                                                   s.style == YAML_DOUBLE_QUOTED_SCALAR_STYLE);
+            if (at_byte <= text.size() && text.substr(at_byte, value.size()) == value) {
+              n.in_text = 1;
+              n.first = static_cast<uint32_t>(at_byte);
+            } else {
+              n.first = static_cast<uint32_t>(tree_.chars.size());
+              tree_.chars += value;
+            }
           }
           break;
         }
@@ -638,6 +719,7 @@ class Reader {
   }
 
   std::string file_;
+  std::string owned_text_;  // the text when it had to be changed
   Tree tree_;
   uint32_t root_ = 0;
 };
@@ -663,7 +745,7 @@ Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), f
     if (previous)
       reader.fail(key.mark(), child_path(field.path, printable(k)),
                   "duplicate key " + quote(k) + " (first given on line " +
-                      std::to_string(previous->key_mark.line) + ")");
+                      std::to_string(reader.mark(previous->key_mark).line) + ")");
     entries_.push_back({k, key.mark(), field.node.value(i)});
   }
 }
@@ -802,6 +884,7 @@ int body_reference(const Reader& r, const Field& f, const BodyNames& bodies) {
 }
 
 struct BodiesSection {
+  BodyNames names;
   std::vector<BodySpec> specs;
   std::vector<std::optional<Field>> initial;  // the `initial:` entries, where given
 };
@@ -812,8 +895,12 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
   // First pass: mappings and names, so that a parent can be looked up (and a later one
   // recognised as such).
   std::vector<Mapping> maps;
-  std::vector<std::string> names;
-  std::unordered_map<std::string, size_t> index_of;  // name -> list index: O(N) loading
+  BodiesSection section;
+  std::vector<std::string>& names = section.names.names;
+  auto& index_of = section.names.index;  // name -> list index: O(N) loading
+  maps.reserve(items.size());
+  names.reserve(items.size());
+  index_of.reserve(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     const Mapping& m = maps.emplace_back(r.mapping(items[i]));
     m.allow({"name", "parent", "mass", "inertia", "com", "joint", "initial"});
@@ -827,10 +914,11 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     if (const auto it = index_of.find(name); it != index_of.end())
       r.fail(name_field, "duplicate body name " + quote(name) + " (already used by " +
                              index_path("bodies", it->second) + ")");
-    index_of.emplace(name, i);
+    index_of.emplace(name, static_cast<int>(i));
     names.push_back(name);
   }
-  BodiesSection section;
+  section.specs.reserve(items.size());
+  section.initial.reserve(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     const Mapping& m = maps[i];
     const int k = static_cast<int>(i);
@@ -938,13 +1026,7 @@ ModelFile parse(const std::string& text, const std::string& source_name) {
   const Field bodies_field = top.require("bodies");
   BodiesSection bodies = read_bodies(r, bodies_field);
 
-  BodyNames names;
-  names.names.reserve(bodies.specs.size());
-  names.index.reserve(bodies.specs.size());
-  for (const BodySpec& b : bodies.specs) {
-    names.index.emplace(b.name, static_cast<int>(names.names.size()));
-    names.names.push_back(b.name);
-  }
+  const BodyNames& names = bodies.names;
   std::vector<std::shared_ptr<const ForceElement>> forces;
   if (const auto forces_field = top.get("forces"))
     for (const Field& item : r.list(*forces_field, "force entries"))
@@ -963,7 +1045,7 @@ ModelFile parse(const std::string& text, const std::string& source_name) {
   } catch (const ModelError& e) {
     // Everything the Model checks was checked above with a location; this is a safety net,
     // and the Model's message names the body or force entry. One line, as every message.
-    r.fail({}, "", printable(e.what(), 400));
+    r.fail(kNoPos, "", printable(e.what(), 400));
   }
 }
 
