@@ -2,6 +2,7 @@
 // gives the expected Euler parameters, and bad input is refused with a message naming the
 // file, line:col, key path and problem.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -777,6 +778,46 @@ TEST(ModelFile, NonRegularFilesAreRefusedNotReadForever) {
     EXPECT_NE(e.problem().find("not a regular file"), std::string::npos) << e.what();
   }
   std::remove(fifo.c_str());
+}
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define KANEDYN_TEST_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define KANEDYN_TEST_SANITIZED 1
+#endif
+#endif
+
+/// In a death-test child: parses `text` with the address space capped 32 MB above what the
+/// process uses, and exits 0 if that gave the out-of-memory ModelFileError.
+[[noreturn]] void load_with_little_memory(const std::string& text) {
+  std::ifstream statm("/proc/self/statm");
+  long pages = 0;
+  statm >> pages;
+  const rlim_t used = static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE));
+  const rlimit limit{used + (rlim_t{32} << 20), used + (rlim_t{32} << 20)};
+  setrlimit(RLIMIT_AS, &limit);
+  try {
+    parse_model_file(text, "big.yaml");
+  } catch (const ModelFileError& e) {
+    _exit(std::string(e.what()) == "big.yaml: out of memory while loading the model file" ? 0 : 2);
+  } catch (...) {
+    _exit(3);
+  }
+  _exit(4);
+}
+
+// Out of memory while loading: a ModelFileError naming the file, not std::bad_alloc. The
+// address space of a child process is capped just above what it uses (not under the
+// sanitizers, which reserve terabytes of it).
+TEST(ModelFile, OutOfMemoryIsAModelFileErrorNamingTheFile) {
+#ifdef KANEDYN_TEST_SANITIZED
+  GTEST_SKIP() << "address-space limits and sanitizers do not mix";
+#else
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const std::string text = chain_text(200000);
+  EXPECT_EXIT(load_with_little_memory(text), ::testing::ExitedWithCode(0), "");
+#endif
 }
 
 TEST(ModelFile, NulByteIsNamedWithItsLineAndColumn) {
