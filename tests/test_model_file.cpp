@@ -575,7 +575,7 @@ std::vector<BadCase> bad_cases() {
        "^---\nformat",
        "",
        {"more than one YAML document"}},
-      // yaml-cpp 0.7's LoadAll looped without end on this (jbeder/yaml-cpp#1040).
+      // A stray ',' at the top level: a syntax error at its place, not an endless loop.
       {"stray comma at the top level",
        "# comment\n, 7\n" + b,
        "^, 7",

@@ -14,6 +14,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <initializer_list>
 #include <limits>
@@ -570,15 +571,16 @@ class Reader {
     if (p.error == YAML_MEMORY_ERROR) throw std::bad_alloc();
     const std::string problem = p.problem ? printable(p.problem, 200) : "unknown problem";
     if (p.error == YAML_READER_ERROR) {
-      // Offsets in bytes; the only reader errors left after the NUL check are encoding ones.
-      std::string what = "not UTF-8 text: " + problem;
+      // Bytes that are not UTF-8, or a control character; its offset is in bytes.
+      std::string what = "unreadable text: " + problem;
       if (p.problem_value != -1) {
-        static const char* hex = "0123456789abcdef";
-        const auto v = static_cast<unsigned>(p.problem_value);
-        what += v < 0x100 ? std::string(" (byte \\x") + hex[(v >> 4) & 15] + hex[v & 15] + ")"
-                          : " (U+" + std::to_string(v) + ")";
+        char value[16];
+        std::snprintf(value, sizeof value, p.problem_value < 0x100 ? " (\\x%02x)" : " (U+%04X)",
+                      static_cast<unsigned>(p.problem_value));
+        what += value;
       }
-      fail_at(mark_of_offset(text, p.problem_offset), "", what + "; a model file is UTF-8 text");
+      fail_at(mark_of_offset(text, p.problem_offset), "",
+              what + "; a model file is UTF-8 text with no control characters but tab and breaks");
     }
     std::string what = "YAML syntax error: " + problem + " at " +
                        character_at(text, offset_of_index(text, p.problem_mark.index));
@@ -594,7 +596,7 @@ class Reader {
   }
 
   /// The event loop: nodes in document order, children collected on a stack of open
-  /// collections (no recursion), scalars copied into one buffer.
+  /// collections (no recursion), scalars pointing into the text or copied into one buffer.
   void build(std::string_view text) {
     yaml_parser_t parser;
     if (!yaml_parser_initialize(&parser)) throw std::bad_alloc();
