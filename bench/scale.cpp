@@ -2,18 +2,26 @@
 // C++ (generate.hpp); forward dynamics by the O(N) route timed at the initial state, and a few
 // RK4 steps (a plain loop here, independent of integrate.hpp). Prints N, ns per body (median and
 // minimum over batches), the workspace's bytes per body, the process's peak RSS, and the RK4 step
-// time per body. Then one chain goes through a model file and back (io::load_model_file).
+// time per body. Then one chain goes through a model file, YAML and JSON, and back
+// (io::load_model_file), each loaded in a child process of its own so that its peak RSS is
+// the loading's alone.
 //   build/bench/kanedyn_scale [--quick] [--trees] [--file-bodies N] [--simd-lanes 2|4|8]
-//   (default N = 4096; lanes: the widest this CPU runs)
+//   build/bench/kanedyn_scale --files-only [--keep-files] [--file-bodies N]
+//   (--files-only: the model files only; --keep-files: leave them in /tmp)
+//   (default N = 100,000; lanes: the widest this CPU runs)
+#include <spawn.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -36,6 +44,16 @@ double peak_rss_mb() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+// This process image's peak RSS (VmHWM): unlike ru_maxrss, it starts afresh at exec, so that a
+// child's number is its own and not its parent's.
+double peak_rss_since_exec_mb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;  // kB
+  return peak_rss_mb();
 }
 
 // Median and minimum ns per evaluation over batches of about 2 ms (at least one evaluation).
@@ -132,29 +150,138 @@ void write_model_file(const GeneratedSystem& g, const std::string& path) {
   std::ofstream(path) << file.dump() << "\n";
 }
 
+// The same file in YAML block style (docs/model-format.md), numbers written shortest
+// round-trip, so that both files give the same doubles.
+void write_yaml_model_file(const GeneratedSystem& g, const std::string& path) {
+  const Model& m = g.model;
+  std::string out;
+  const auto num = [&](double v) {
+    char buffer[32];
+    const auto [end, error] = std::to_chars(buffer, buffer + sizeof buffer, v);
+    if (error != std::errc()) throw std::runtime_error("write_yaml_model_file: to_chars");
+    out.append(buffer, end);
+  };
+  const auto vec = [&](const auto& v) {
+    out += '[';
+    for (Eigen::Index i = 0; i < v.size(); ++i) {
+      if (i > 0) out += ", ";
+      num(v[i]);
+    }
+    out += "]\n";
+  };
+  out += "format: kanedyn-model/1\nname: " + m.name() + "\ngravity: ";
+  vec(m.gravity());
+  out += "bodies:\n";
+  for (int k = 0; k < m.num_bodies(); ++k) {
+    const BodySpec& b = m.body(k);
+    const Matrix3& I = b.inertia;
+    out += "  - name: " + b.name + "\n    parent: " +
+           (b.lower_body == kGround ? std::string("ground") : m.body(b.lower_body).name) +
+           "\n    mass: ";
+    num(b.mass);
+    out += "\n    inertia: ";
+    vec(Vector6(I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)));
+    out += "    com: ";
+    vec(b.com);
+    out += "    joint: ";
+    vec(b.joint);
+    out += "    initial:\n      euler_parameters: ";
+    vec(g.initial.euler_parameters(k));
+    out += "      translation: ";
+    vec(g.initial.translation(k));
+    out += "      angular_velocity: ";
+    vec(g.initial.angular_velocity(k));
+    out += "      translation_rate: ";
+    vec(g.initial.translation_rate(k));
+  }
+  out += "forces:\n";
+  for (const auto& element : m.forces()) {
+    const auto* b = dynamic_cast<const Bushing*>(element.get());
+    if (!b) throw std::runtime_error("write_yaml_model_file: only bushings are written");
+    out += "  - type: bushing\n    body: " + m.body(b->body()).name + "\n    stiffness: ";
+    vec(b->stiffness);
+    out += "    damping: ";
+    vec(b->damping);
+    out += "    rotational_stiffness: ";
+    num(b->rotational_stiffness);
+    out += "\n    rotational_damping: ";
+    num(b->rotational_damping);
+    out += '\n';
+  }
+  std::ofstream(path) << out;
+}
+
+// In a child process (--load-file PATH N): loads the file, then checks its accelerations
+// against the generated chain's. Returns the exit status.
+int load_file(const std::string& path, int n) {
+  const auto t0 = Clock::now();
+  const io::ModelFile file = io::load_model_file(path);
+  const double load_s = seconds_since(t0);
+  const double load_rss = peak_rss_since_exec_mb();
+  rusage usage{};  // CPU time too: the wall time depends on what else the machine runs
+  getrusage(RUSAGE_SELF, &usage);
+  const auto cpu = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * t.tv_usec;
+  };
+  const double cpu_s = cpu(usage.ru_utime) + cpu(usage.ru_stime);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  const double file_mb = static_cast<double>(in.tellg()) / 1e6;
+  const GeneratedSystem g = chain_model(n);
+  Data data(file.model, DataOptions{false, false});
+  forward_dynamics(file.model, file.initial, data, Method::recursive);
+  Data reference(g.model, DataOptions{false, false});
+  forward_dynamics(g.model, g.initial, reference, Method::recursive);
+  const double difference = (data.ydot - reference.ydot).norm() / reference.ydot.norm();
+  std::printf(
+      "model file %s (%.1f MB): N = %d loaded in %.2f s (CPU %.2f s), peak RSS %.1f MB; ydot "
+      "equals the generated chain's to %.1e relative\n",
+      path.c_str(), file_mb, file.model.num_bodies(), load_s, cpu_s, load_rss, difference);
+  return difference < 1e-12 ? 0 : 1;
+}
+
+// Runs this program again with --load-file PATH N.
+int load_in_child(const char* self, const std::string& path, int n) {
+  std::string flag = "--load-file", count = std::to_string(n), file = path;
+  char* args[] = {const_cast<char*>(self), flag.data(), file.data(), count.data(), nullptr};
+  pid_t pid = 0;
+  if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, args, environ) != 0) return 1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) != pid) return 1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false, trees = false;
+  bool quick = false, trees = false, files_only = false, keep_files = false;
   int lanes = 8;
-  int file_n = 4096;
+  int file_n = 100000;
+  if (argc == 4 && std::strcmp(argv[1], "--load-file") == 0)
+    return load_file(argv[2], std::atoi(argv[3]));
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
     } else if (std::strcmp(argv[i], "--trees") == 0) {
       trees = true;
+    } else if (std::strcmp(argv[i], "--files-only") == 0) {
+      files_only = true;
+    } else if (std::strcmp(argv[i], "--keep-files") == 0) {
+      keep_files = true;
     } else if (std::strcmp(argv[i], "--file-bodies") == 0 && i + 1 < argc) {
       file_n = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--simd-lanes") == 0 && i + 1 < argc) {
       lanes = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: %s [--quick] [--trees] [--file-bodies N] [--simd-lanes 2|4|8]\n",
+      std::fprintf(stderr,
+                   "usage: %s [--quick] [--trees] [--files-only] [--keep-files] [--file-bodies N] "
+                   "[--simd-lanes 2|4|8]\n",
                    argv[0]);
       return 2;
     }
   }
   std::vector<int> sizes = {64, 256, 1024, 4096, 16384, 65536, 100000};
   if (quick) sizes = {64, 1024, 16384};
+  if (files_only) sizes.clear();
   std::printf(
       "%s, O(N) route (forward_dynamics, Method::recursive, DataOptions{false, false}), "
       "%d bodies per SIMD pass\n\n",
@@ -181,22 +308,20 @@ int main(int argc, char** argv) {
                 step * 1e9 / n, finite && moved ? "finite, moved" : "FAILED");
   }
 
-  // Loading: the same chain through a model file.
-  const std::string path = "/tmp/kanedyn_scale_chain_" + std::to_string(file_n) + ".json";
+  // Loading: the same chain through a model file, YAML and JSON.
+  std::printf("\n");
   const GeneratedSystem g = chain_model(file_n);
-  write_model_file(g, path);
-  const auto t0 = Clock::now();
-  const io::ModelFile file = io::load_model_file(path);
-  const double load_s = seconds_since(t0);
-  Data data(file.model, DataOptions{false, false});
-  forward_dynamics(file.model, file.initial, data, Method::recursive);
-  Data reference(g.model, DataOptions{false, false});
-  forward_dynamics(g.model, g.initial, reference, Method::recursive);
-  const double difference = (data.ydot - reference.ydot).norm() / reference.ydot.norm();
-  std::printf(
-      "\nmodel file %s: N = %d loaded in %.2f s; ydot equals the generated chain's to "
-      "%.1e relative; peak RSS %.1f MB\n",
-      path.c_str(), file.model.num_bodies(), load_s, difference, peak_rss_mb());
-  std::remove(path.c_str());
-  return 0;
+  int failed = 0;
+  for (const char* ext : {".yaml", ".json"}) {
+    const std::string path = "/tmp/kanedyn_scale_chain_" + std::to_string(file_n) + ext;
+    if (ext[1] == 'y') {
+      write_yaml_model_file(g, path);
+    } else {
+      write_model_file(g, path);
+    }
+    std::fflush(stdout);
+    failed |= load_in_child(argv[0], path, file_n);
+    if (!keep_files) std::remove(path.c_str());
+  }
+  return failed;
 }

@@ -3,8 +3,8 @@
 # Does nothing when everything is already present. Usage: scripts/install-deps.sh [--peers]
 #   --peers  also the peer engines for bench/peers (Simbody, MuJoCo, DART); never needed for tests.
 set -euo pipefail
-pkgs=(build-essential cmake g++ libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
-      libgtest-dev libgmock-dev libbenchmark-dev)
+pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev libcli11-dev
+      nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev)
 if [[ "${1:-}" == "--peers" ]]; then
   pkgs+=(libsimbody-dev libmujoco-dev libdart-dev)
 fi

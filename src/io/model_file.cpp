@@ -1,24 +1,30 @@
-// Model files, format kanedyn-model/1 (docs/model-format.md). Every value is checked where it
-// is read, so that an error can name the file, the line and column and the key path; the
-// Model constructor then validates again (it is the library's own guard).
+// Model files, format kanedyn-model/1 (docs/model-format.md). libyaml's event parser builds a
+// compact tree (Tree below); every value is then checked where it is read, so that an error
+// can name the file, the line and column and the key path; the Model constructor then
+// validates again (it is the library's own guard).
 #include "kanedyn/io/model_file.hpp"
 
-#include <yaml-cpp/eventhandler.h>
-#include <yaml-cpp/yaml.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <yaml.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <initializer_list>
+#include <limits>
 #include <memory>
+#include <new>
 #include <numbers>
 #include <optional>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 #include <vector>
 
@@ -53,15 +59,57 @@ namespace {
 
 constexpr const char* kFormat = "kanedyn-model/1";
 constexpr double kEulerNormTolerance = 1e-6;
+/// Limits (docs/model-format.md, "Limits"). The format needs fewer than 10 levels of nesting;
+/// a 100,000-body file is about 25 MB.
+constexpr size_t kMaxFileBytes = size_t{256} << 20;
+constexpr const char* kMaxFileText = "256 MiB";
+constexpr size_t kMaxDepth = 64;
+/// Mappings with more entries than this look keys up by hash; smaller ones by a linear scan.
+constexpr size_t kHashedMapping = 16;
 
-/// A value in the file: its node, its key path and where to point at it. For a null value
-/// (`key:` with nothing after it) yaml-cpp marks the next token, so the key's mark is used.
-struct Field {
-  YAML::Node node;
-  std::string path;
-  YAML::Mark mark;
-  YAML::Mark key_mark;  ///< of its key (of the value itself for a list element)
-};
+// ---- Messages -----------------------------------------------------------------------------
+
+/// Text from the file fit for a one-line message: control characters (C0, DEL, C1, and the
+/// Unicode line and paragraph separators) and bytes that are not UTF-8 escaped, text longer
+/// than `max` bytes shortened at a character boundary.
+std::string printable(std::string_view s, size_t max = 60) {
+  static const char* hex = "0123456789abcdef";
+  const auto byte = [&](size_t i) { return static_cast<unsigned char>(s[i]); };
+  std::string out;
+  size_t i = 0;
+  while (i < s.size()) {
+    const unsigned char c = byte(i);
+    size_t width = c < 0x80 ? 1 : c >= 0xf0 ? 4 : c >= 0xe0 ? 3 : c >= 0xc0 ? 2 : 0;
+    for (size_t k = 1; k < width; ++k)
+      if (i + k >= s.size() || (byte(i + k) & 0xc0) != 0x80) width = 0;
+    if (i + std::max<size_t>(width, 1) > max) break;
+    if (width == 0) {
+      out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
+      ++i;
+      continue;
+    }
+    if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\t') {
+      out += "\\t";
+    } else if (c == '\r') {
+      out += "\\r";
+    } else if (c < 0x20 || c == 0x7f) {
+      out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
+    } else if (c == 0xc2 && byte(i + 1) <= 0x9f) {  // U+0080..U+009F
+      out += std::string("\\u00") + hex[byte(i + 1) >> 4] + hex[byte(i + 1) & 15];
+    } else if (c == 0xe2 && byte(i + 1) == 0x80 && (byte(i + 2) == 0xa8 || byte(i + 2) == 0xa9)) {
+      out += byte(i + 2) == 0xa8 ? "\\u2028" : "\\u2029";
+    } else {
+      out.append(s.data() + i, width);
+    }
+    i += width;
+  }
+  if (i < s.size()) out += "...";
+  return out;
+}
+
+std::string quote(std::string_view s) { return "'" + printable(s) + "'"; }
 
 std::string join(const std::vector<std::string>& words) {
   std::string s;
@@ -69,53 +117,18 @@ std::string join(const std::vector<std::string>& words) {
   return s;
 }
 
-std::string child_path(const std::string& parent, const std::string& key) {
-  return parent.empty() ? key : parent + "." + key;
+std::string child_path(const std::string& parent, std::string_view key) {
+  std::string s = parent;
+  if (!s.empty()) s += '.';
+  s += key;
+  return s;
 }
 
 std::string index_path(const std::string& parent, size_t i) {
   return parent + "[" + std::to_string(i) + "]";
 }
 
-/// User text fit for a one-line message: control characters escaped, long text shortened.
-std::string printable(const std::string& s) {
-  constexpr size_t kMax = 60;
-  std::string out;
-  for (size_t i = 0; i < s.size() && i < kMax; ++i) {
-    const auto c = static_cast<unsigned char>(s[i]);
-    if (c == '\n') {
-      out += "\\n";
-    } else if (c == '\t') {
-      out += "\\t";
-    } else if (c < 0x20 || c == 0x7f) {
-      static const char* hex = "0123456789abcdef";
-      out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  if (s.size() > kMax) out += "...";
-  return out;
-}
-
-std::string quote(const std::string& s) { return "'" + printable(s) + "'"; }
-
-std::string describe(const YAML::Node& node) {
-  switch (node.Type()) {
-    case YAML::NodeType::Null:
-    case YAML::NodeType::Undefined:
-      return "nothing (null)";
-    case YAML::NodeType::Sequence:
-      return "a list of " + std::to_string(node.size());
-    case YAML::NodeType::Map:
-      return "a mapping";
-    case YAML::NodeType::Scalar:
-      return quote(node.Scalar());
-  }
-  return "something else";
-}
-
-size_t edit_distance(const std::string& a, const std::string& b) {
+size_t edit_distance(std::string_view a, std::string_view b) {
   std::vector<size_t> row(b.size() + 1);
   for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
   for (size_t i = 1; i <= a.size(); ++i) {
@@ -130,8 +143,190 @@ size_t edit_distance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
+/// The first of `names` nearest to `word` by edit distance, if it is near (at most 2 edits,
+/// or a third of the word); "" otherwise. For error messages only.
+std::string nearest(std::string_view word, const std::vector<std::string>& names, size_t count) {
+  const size_t limit = std::max<size_t>(2, word.size() / 3);
+  size_t best = limit + 1;
+  std::string found;
+  for (size_t i = 0; i < count && i < names.size(); ++i) {
+    const std::string& n = names[i];
+    const size_t gap = n.size() > word.size() ? n.size() - word.size() : word.size() - n.size();
+    if (gap >= best) continue;
+    if (const size_t d = edit_distance(word, n); d < best) {
+      best = d;
+      found = n;
+    }
+  }
+  return found;
+}
+
+/// Names for a message: all of them when there are at most 20, else a did-you-mean.
+std::string name_hint(std::string_view word, const std::vector<std::string>& names, size_t count,
+                      const std::string& lead) {
+  count = std::min(count, names.size());
+  if (count == 0) return "";
+  if (count <= 20)
+    return lead + join(std::vector<std::string>(names.begin(), names.begin() + count));
+  const std::string n = nearest(word, names, count);
+  return n.empty() ? "" : " (did you mean " + quote(n) + "?)";
+}
+
+// ---- Text positions -----------------------------------------------------------------------
+
+/// A 1-based line and column (column in characters, as libyaml counts); 0 when unknown.
+struct Mark {
+  uint32_t line = 0, column = 0;
+  bool known() const { return line > 0; }
+};
+
+/// The width of the line break at s[i] (CRLF, CR, LF, and NEL, LS, PS as libyaml counts them),
+/// 0 if none.
+size_t break_width(std::string_view s, size_t i) {
+  if (s[i] == '\r') return i + 1 < s.size() && s[i + 1] == '\n' ? 2 : 1;
+  if (s[i] == '\n') return 1;
+  if (s.compare(i, 2, "\xc2\x85") == 0) return 2;
+  if (s.compare(i, 3, "\xe2\x80\xa8") == 0 || s.compare(i, 3, "\xe2\x80\xa9") == 0) return 3;
+  return 0;
+}
+
+/// A place in the text as libyaml counts it: the index of a character (a CRLF break is two);
+/// kNoPos when unknown. Nodes keep only this; line and column are counted when a message
+/// needs them.
+using Pos = uint32_t;
+constexpr Pos kNoPos = std::numeric_limits<Pos>::max();
+
+/// The line and column of character `pos` of `text`, counting breaks as libyaml does.
+Mark mark_of_pos(std::string_view text, Pos pos) {
+  if (pos == kNoPos) return {};
+  Mark m{1, 1};
+  size_t chars = 0;
+  for (size_t i = 0; i < text.size() && chars < pos;) {
+    if (const size_t w = break_width(text, i)) {
+      ++m.line;
+      m.column = 1;
+      chars += text[i] == '\r' && w == 2 ? 2 : 1;
+      i += w;
+      continue;
+    }
+    ++m.column;
+    ++chars;
+    ++i;
+    while (i < text.size() && (static_cast<unsigned char>(text[i]) & 0xc0) == 0x80) ++i;
+  }
+  return m;
+}
+
+/// The mark of byte `offset` of `text`.
+Mark mark_of_offset(std::string_view text, size_t offset) {
+  Mark m{1, 1};
+  for (size_t i = 0; i < offset && i < text.size();) {
+    if (const size_t w = break_width(text, i)) {
+      ++m.line;
+      m.column = 1;
+      i += w;
+      continue;
+    }
+    if ((static_cast<unsigned char>(text[i]) & 0xc0) != 0x80) ++m.column;
+    ++i;
+  }
+  return m;
+}
+
+/// The byte offset of libyaml's character index (it counts characters of the UTF-8 input).
+size_t offset_of_index(std::string_view text, size_t index) {
+  size_t chars = 0;
+  for (size_t i = 0; i < text.size(); ++i) {
+    if ((static_cast<unsigned char>(text[i]) & 0xc0) == 0x80) continue;
+    if (chars++ == index) return i;
+  }
+  return text.size();
+}
+
+/// The character at byte `offset` for a message: quoted, or "end of file".
+std::string character_at(std::string_view text, size_t offset) {
+  if (offset >= text.size()) return "end of file";
+  const auto c = static_cast<unsigned char>(text[offset]);
+  const size_t width = c >= 0xf0 ? 4 : c >= 0xe0 ? 3 : c >= 0xc0 ? 2 : 1;
+  return quote(text.substr(offset, width));
+}
+
+// ---- The tree -----------------------------------------------------------------------------
+
+enum class Kind : uint8_t { null, scalar, sequence, mapping };
+
+/// One node of the document, 12 bytes: a scalar is `count` bytes at `first` of the text (when
+/// it stands there as is) or of Tree::chars; a sequence or mapping has `count` children at
+/// `first` of Tree::kids (a mapping: key, value, key, ...). Positions fit 28 bits: a file has
+/// at most kMaxFileBytes = 2^28 bytes.
+struct TreeNode {
+  uint32_t pos : 28;
+  uint32_t kind : 2;     // Kind
+  uint32_t string : 1;   // quoted, a block scalar, or tagged !!str: text, never a number
+  uint32_t in_text : 1;  // the scalar's bytes are in the text
+  uint32_t first, count;
+};
+static_assert(sizeof(TreeNode) == 12);
+constexpr Pos kMaxNodePos = (Pos{1} << 28) - 1;
+
+struct Tree {
+  std::string_view text;
+  std::vector<TreeNode> nodes;
+  std::vector<uint32_t> kids;
+  std::string chars;
+};
+
+/// A node of a Tree, with the accessors the readers below need.
+class Node {
+ public:
+  Node() = default;
+  Node(const Tree* tree, uint32_t index) : tree_(tree), index_(index) {}
+  Kind kind() const { return static_cast<Kind>(node().kind); }
+  bool IsNull() const { return kind() == Kind::null; }
+  bool IsScalar() const { return kind() == Kind::scalar; }
+  bool IsSequence() const { return kind() == Kind::sequence; }
+  bool IsMap() const { return kind() == Kind::mapping; }
+  bool IsString() const { return node().string; }
+  /// Elements of a sequence, entries of a mapping.
+  size_t size() const {
+    const TreeNode& n = node();
+    return kind() == Kind::mapping ? n.count / 2 : kind() == Kind::sequence ? n.count : 0;
+  }
+  Node operator[](size_t i) const { return kid(i); }
+  Node key(size_t i) const { return kid(2 * i); }
+  Node value(size_t i) const { return kid(2 * i + 1); }
+  std::string_view Scalar() const {
+    const TreeNode& n = node();
+    if (kind() != Kind::scalar) return {};
+    return (n.in_text ? tree_->text : std::string_view(tree_->chars)).substr(n.first, n.count);
+  }
+  Pos mark() const { return node().pos; }
+
+ private:
+  const TreeNode& node() const { return tree_->nodes[index_]; }
+  Node kid(size_t i) const { return {tree_, tree_->kids[node().first + i]}; }
+  const Tree* tree_ = nullptr;
+  uint32_t index_ = 0;
+};
+
+/// A value in the file: its node, its key path and where to point at it. For a null value
+/// (`key:` with nothing after it) the key's mark is used.
+struct Field {
+  Node node;
+  std::string path;
+  Pos mark;
+  Pos key_mark;  ///< of its key (of the value itself for a list element)
+};
+
+std::string describe(const Node& node) {
+  if (node.IsNull()) return "nothing (null)";
+  if (node.IsSequence()) return "a list of " + std::to_string(node.size());
+  if (node.IsMap()) return "a mapping";
+  return quote(node.Scalar());
+}
+
 /// A strict YAML 1.2 / JSON decimal: [-+]? (digits [. digits?] | . digits) ([eE] [-+]? digits)?
-bool is_decimal(const std::string& s) {
+bool is_decimal(std::string_view s) {
   size_t i = 0;
   const auto digits = [&] {
     const size_t start = i;
@@ -153,13 +348,27 @@ bool is_decimal(const std::string& s) {
   return i == s.size();
 }
 
-bool is_yaml_inf_or_nan(const std::string& s) {
-  std::string t = s;
-  if (!t.empty() && (t[0] == '+' || t[0] == '-')) t.erase(0, 1);
+bool is_yaml_inf_or_nan(std::string_view t) {
+  if (!t.empty() && (t[0] == '+' || t[0] == '-')) t.remove_prefix(1);
   for (const char* w : {".inf", ".Inf", ".INF", ".nan", ".NaN", ".NAN"})
     if (t == w) return true;
   return false;
 }
+
+/// The YAML 1.2 core schema's null: an empty plain scalar, `~`, `null`, `Null`, `NULL`.
+bool is_null_word(std::string_view s) {
+  return s.empty() || s == "~" || s == "null" || s == "Null" || s == "NULL";
+}
+
+/// Owns a libyaml parser, or an event, for the time of a scope.
+struct ParserGuard {
+  yaml_parser_t* p;
+  ~ParserGuard() { yaml_parser_delete(p); }
+};
+struct EventGuard {
+  yaml_event_t* e;
+  ~EventGuard() { yaml_event_delete(e); }
+};
 
 class Reader;
 
@@ -169,122 +378,101 @@ class Mapping {
   Mapping(const Reader& reader, const Field& field);
   /// Refuses keys not in `allowed`, naming the key and listing the allowed ones.
   void allow(std::initializer_list<const char*> allowed) const;
-  bool has(const std::string& key) const { return find(key) != nullptr; }
-  std::optional<Field> get(const std::string& key) const;
-  Field require(const std::string& key) const;
+  bool has(std::string_view key) const { return find(key) != nullptr; }
+  std::optional<Field> get(std::string_view key) const;
+  Field require(std::string_view key) const;
   const Field& field() const { return field_; }
 
  private:
   struct Entry {
-    std::string key;
-    YAML::Mark key_mark;
-    YAML::Node value;
+    std::string_view key;
+    Pos key_mark;
+    Node value;
   };
-  const Entry* find(const std::string& key) const;
+  const Entry* find(std::string_view key) const;
 
-  const Reader& reader_;
+  const Reader* reader_;
   Field field_;
   std::vector<Entry> entries_;
+  std::unordered_map<std::string_view, uint32_t> index_;  // for large mappings only
 };
 
 class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
-  [[noreturn]] void fail(const YAML::Mark& mark, const std::string& path,
-                         const std::string& problem) const {
-    const bool known = !mark.is_null() && mark.line >= 0;
-    throw ModelFileError(file_, known ? mark.line + 1 : 0, known ? mark.column + 1 : 0, path,
-                         problem);
+  [[noreturn]] void fail_at(const Mark& mark, const std::string& path,
+                            const std::string& problem) const {
+    throw ModelFileError(file_, static_cast<int>(mark.line),
+                         mark.known() ? static_cast<int>(mark.column) : 0, path, problem);
   }
+  [[noreturn]] void fail(Pos pos, const std::string& path, const std::string& problem) const {
+    fail_at(mark_of_pos(tree_.text, pos), path, problem);
+  }
+  Mark mark(Pos pos) const { return mark_of_pos(tree_.text, pos); }
   [[noreturn]] void fail(const Field& f, const std::string& problem) const {
     fail(f.mark, f.path, problem);
   }
 
-  /// The one YAML document of the file, which must be a mapping.
-  YAML::Node load(const std::string& text) const {
-    const std::vector<YAML::Mark> starts = document_starts(text);
-    if (starts.empty())
-      fail(YAML::Mark::null_mark(), "",
+  /// Parses the one YAML document of `text` into tree_; its root must be a mapping.
+  Node load(std::string_view text) {
+    if (text.size() > kMaxFileBytes) fail(kNoPos, "", too_large());
+    if (const void* nul = std::memchr(text.data(), 0, text.size()))
+      fail_at(
+          mark_of_offset(text, static_cast<size_t>(static_cast<const char*>(nul) - text.data())),
+          "", "a NUL byte (\\x00) is not allowed; a model file is UTF-8 text");
+    owned_text_ = json_leading_tabs(text);
+    if (!owned_text_.empty()) text = owned_text_;
+    tree_.text = text;
+    build(text);
+    if (tree_.nodes.empty() || Node(&tree_, root_).IsNull())
+      fail(kNoPos, "",
            "the file is empty; a model file is a mapping starting with 'format: " +
                std::string(kFormat) + "'");
-    if (starts.size() > 1)
-      fail(starts[1], "",
-           "the file holds more than one YAML document; a model file is exactly one");
-    YAML::Node root;
-    try {
-      root = YAML::Load(text);
-    } catch (const YAML::Exception& e) {
-      fail(e.mark, "", "YAML syntax error: " + e.msg);
-    }
-    if (root.IsNull())
-      fail(YAML::Mark::null_mark(), "",
-           "the file is empty; a model file is a mapping starting with 'format: " +
-               std::string(kFormat) + "'");
+    const Node root(&tree_, root_);
     if (!root.IsMap())
-      fail(root.Mark(), "",
+      fail(root.mark(), "",
            "a model file must be a mapping (key: value lines), got " + describe(root));
     return root;
   }
 
-  /// Where the documents of a YAML stream start (at most three are looked for). yaml-cpp 0.7's
-  /// LoadAll loops without end, allocating, on some bad input (a stray ',' at the top level,
-  /// jbeder/yaml-cpp#1040): its parser then starts document after document at the same token.
-  /// Here the loop is bounded and that case is reported as the syntax error it is.
-  std::vector<YAML::Mark> document_starts(const std::string& text) const {
-    struct Starts final : YAML::EventHandler {
-      std::vector<YAML::Mark> marks;
-      void OnDocumentStart(const YAML::Mark& mark) override { marks.push_back(mark); }
-      void OnDocumentEnd() override {}
-      void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
-      void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
-      void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                    const std::string&) override {}
-      void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                           YAML::EmitterStyle::value) override {}
-      void OnSequenceEnd() override {}
-      void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                      YAML::EmitterStyle::value) override {}
-      void OnMapEnd() override {}
-    } starts;
-    std::istringstream in(text);
-    try {
-      YAML::Parser parser(in);
-      while (starts.marks.size() < 3 && parser.HandleNextDocument(starts)) {
-        const size_t n = starts.marks.size();
-        if (n >= 2 && starts.marks[n - 1].pos == starts.marks[n - 2].pos) {
-          const YAML::Mark& at = starts.marks[n - 1];
-          const size_t pos = static_cast<size_t>(std::max(at.pos, 0));
-          fail(at, "",
-               "YAML syntax error: unexpected " +
-                   (pos < text.size() ? quote(text.substr(pos, 1)) : "end of file"));
-        }
-      }
-    } catch (const YAML::Exception& e) {
-      fail(e.mark, "", "YAML syntax error: " + e.msg);
-    }
-    return starts.marks;
+  static std::string too_large() {
+    return std::string("the file is larger than ") + kMaxFileText + ", the limit for a model file";
   }
 
   Field element(const Field& list, size_t i) const {
-    const YAML::Node node = list.node[i];
-    const YAML::Mark mark = node.IsNull() ? list.mark : node.Mark();
+    const Node node = list.node[i];
+    const Pos mark = node.IsNull() ? list.mark : node.mark();
     return {node, index_path(list.path, i), mark, mark};
   }
 
   std::vector<Field> list(const Field& f, const std::string& what) const {
     if (!f.node.IsSequence()) fail(f, "expected a list of " + what + ", got " + describe(f.node));
     std::vector<Field> items;
+    items.reserve(f.node.size());
     for (size_t i = 0; i < f.node.size(); ++i) items.push_back(element(f, i));
     return items;
   }
 
+  /// The value of a plain scalar that is a finite decimal; nothing for anything else, which
+  /// number() then explains. The common case without building a Field.
+  static std::optional<double> plain_number(const Node& n) {
+    if (!n.IsScalar() || n.IsString()) return std::nullopt;
+    const std::string_view s = n.Scalar();
+    if (!is_decimal(s)) return std::nullopt;
+    double value = 0.0;
+    const char* first = s.data() + (s[0] == '+' ? 1 : 0);
+    const auto [end, error] = std::from_chars(first, s.data() + s.size(), value);
+    if (error != std::errc() || end != s.data() + s.size() || !std::isfinite(value))
+      return std::nullopt;
+    return value;
+  }
+
   double number(const Field& f) const {
+    if (const auto v = plain_number(f.node)) return *v;
     if (!f.node.IsScalar()) fail(f, "expected a number, got " + describe(f.node));
-    const std::string& s = f.node.Scalar();
-    const std::string& tag = f.node.Tag();
-    if (tag == "!" || tag.find(":str") != std::string::npos)
-      fail(f, "expected a number, got the quoted string " + quote(s));
+    const std::string_view s = f.node.Scalar();
+    if (f.node.IsString()) fail(f, "expected a number, got the quoted string " + quote(s));
     if (is_yaml_inf_or_nan(s))
       fail(f, "non-finite number " + quote(s) + "; numbers must be finite");
     if (!is_decimal(s)) fail(f, "expected a number, got " + quote(s));
@@ -294,7 +482,7 @@ class Reader {
     const auto [end, error] = std::from_chars(first, s.data() + s.size(), value);
     if (error == std::errc::result_out_of_range) {
       const size_t e = s.find_first_of("eE");
-      if (e != std::string::npos && s[e + 1] == '-')
+      if (e != std::string_view::npos && s[e + 1] == '-')
         fail(f, quote(s) + " is too small for a double (it underflows)");
       fail(f, "non-finite number: " + quote(s) + " overflows a double");
     }
@@ -305,13 +493,13 @@ class Reader {
 
   double positive(const Field& f) const {
     const double v = number(f);
-    if (!(v > 0.0)) fail(f, "must be > 0, got " + f.node.Scalar());
+    if (!(v > 0.0)) fail(f, "must be > 0, got " + printable(f.node.Scalar()));
     return v;
   }
 
   double non_negative(const Field& f) const {
     const double v = number(f);
-    if (v < 0.0) fail(f, "must be >= 0, got " + f.node.Scalar());
+    if (v < 0.0) fail(f, "must be >= 0, got " + printable(f.node.Scalar()));
     return v;
   }
 
@@ -321,7 +509,10 @@ class Reader {
     if (!f.node.IsSequence() || f.node.size() != static_cast<size_t>(n))
       fail(f, "expected a list of " + what + ", got " + describe(f.node));
     VectorX v(n);
-    for (int i = 0; i < n; ++i) v[i] = number(element(f, static_cast<size_t>(i)));
+    for (int i = 0; i < n; ++i) {
+      const auto value = plain_number(f.node[static_cast<size_t>(i)]);
+      v[i] = value ? *value : number(element(f, static_cast<size_t>(i)));
+    }
     return v;
   }
 
@@ -337,7 +528,7 @@ class Reader {
 
   std::string text(const Field& f) const {
     if (!f.node.IsScalar()) fail(f, "expected a text value, got " + describe(f.node));
-    return f.node.Scalar();
+    return std::string(f.node.Scalar());
   }
 
   /// A text value that must be one of `choices`.
@@ -353,22 +544,214 @@ class Reader {
   Mapping mapping(const Field& f) const { return Mapping(*this, f); }
 
  private:
+  /// libyaml refuses a tab before the first token in block context, which is where a
+  /// tab-indented JSON document's opening bracket stands. A copy of the text with those tabs
+  /// (only those) made spaces, which changes no line or column; "" when there are none.
+  static std::string json_leading_tabs(std::string_view text) {
+    size_t i = text.compare(0, 3, "\xef\xbb\xbf") == 0 ? 3 : 0;
+    bool tab = false;
+    for (; i < text.size(); ++i) {
+      if (text[i] == '\t') {
+        tab = true;
+      } else if (text[i] != ' ' && text[i] != '\r' && text[i] != '\n') {
+        break;
+      }
+    }
+    if (!tab || i == text.size() || (text[i] != '{' && text[i] != '[')) return "";
+    std::string copy(text);
+    std::replace(copy.begin(), copy.begin() + static_cast<std::ptrdiff_t>(i), '\t', ' ');
+    return copy;
+  }
+
+  static Mark mark_of(const yaml_mark_t& m) {
+    return {static_cast<uint32_t>(m.line + 1), static_cast<uint32_t>(m.column + 1)};
+  }
+
+  [[noreturn]] void syntax_error(const yaml_parser_t& p, std::string_view text) const {
+    if (p.error == YAML_MEMORY_ERROR) throw std::bad_alloc();
+    const std::string problem = p.problem ? printable(p.problem, 200) : "unknown problem";
+    if (p.error == YAML_READER_ERROR) {
+      // Bytes that are not UTF-8, or a control character; its offset is in bytes.
+      std::string what = "unreadable text: " + problem;
+      if (p.problem_value != -1) {
+        char value[16];
+        std::snprintf(value, sizeof value, p.problem_value < 0x100 ? " (\\x%02x)" : " (U+%04X)",
+                      static_cast<unsigned>(p.problem_value));
+        what += value;
+      }
+      fail_at(mark_of_offset(text, p.problem_offset), "",
+              what + "; a model file is UTF-8 text with no control characters but tab and breaks");
+    }
+    std::string what = "YAML syntax error: " + problem + " at " +
+                       character_at(text, offset_of_index(text, p.problem_mark.index));
+    if (p.context) {
+      what += " (" + printable(p.context, 200);
+      if (p.context_mark.line != p.problem_mark.line ||
+          p.context_mark.column != p.problem_mark.column)
+        what += " that starts at line " + std::to_string(p.context_mark.line + 1) + ", column " +
+                std::to_string(p.context_mark.column + 1);
+      what += ")";
+    }
+    fail_at(mark_of(p.problem_mark), "", what);
+  }
+
+  /// The event loop: nodes in document order, children collected on a stack of open
+  /// collections (no recursion), scalars pointing into the text or copied into one buffer.
+  void build(std::string_view text) {
+    yaml_parser_t parser;
+    if (!yaml_parser_initialize(&parser)) throw std::bad_alloc();
+    const ParserGuard parser_guard{&parser};
+    yaml_parser_set_encoding(&parser, YAML_UTF8_ENCODING);
+    yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()),
+                                 text.size());
+    // At most one node per two bytes ("[1,1,..."); reserving for a node per four costs
+    // address space, not memory (untouched pages), and spares the copies of regrowth.
+    tree_.nodes.reserve(text.size() / 4 + 16);
+    tree_.kids.reserve(text.size() / 4 + 16);
+    // libyaml's character index to a byte offset, walking forward: scalars come in text order.
+    size_t walk_index = 0, walk_byte = 0;
+    const auto byte_of = [&](size_t index) {
+      if (index < walk_index) return text.size() + 1;  // not in order: not in the text
+      while (walk_index < index && walk_byte < text.size()) {
+        ++walk_byte;
+        while (walk_byte < text.size() &&
+               (static_cast<unsigned char>(text[walk_byte]) & 0xc0) == 0x80)
+          ++walk_byte;
+        ++walk_index;
+      }
+      return walk_byte;
+    };
+    struct Open {
+      uint32_t node;
+      size_t pending;  // where its children start in `pending`
+    };
+    std::vector<Open> open;
+    std::vector<uint32_t> pending;
+    int documents = 0;
+    for (;;) {
+      yaml_event_t event;
+      if (!yaml_parser_parse(&parser, &event)) syntax_error(parser, text);
+      const EventGuard event_guard{&event};
+      const Pos at = static_cast<Pos>(std::min<size_t>(event.start_mark.index, kMaxNodePos));
+      const auto add = [&](Kind kind, bool string) {
+        if (tree_.nodes.size() >= std::numeric_limits<uint32_t>::max()) throw std::bad_alloc();
+        const auto index = static_cast<uint32_t>(tree_.nodes.size());
+        tree_.nodes.push_back({at, static_cast<uint32_t>(kind), string, 0, 0, 0});
+        if (open.empty()) {
+          root_ = index;
+        } else {
+          pending.push_back(index);
+        }
+        return index;
+      };
+      const auto check_tag = [&](const yaml_char_t* tag) {
+        // Standard tags (tag:yaml.org,2002:...) are accepted; !!str makes a scalar text.
+        if (!tag) return false;
+        const std::string_view t(reinterpret_cast<const char*>(tag));
+        if (t == "!" || t == "tag:yaml.org,2002:str") return true;
+        if (t.substr(0, 18) == "tag:yaml.org,2002:") return false;
+        fail(at, "", "unsupported tag " + quote(t) + "; a model file needs no tags");
+      };
+      switch (event.type) {
+        case YAML_STREAM_END_EVENT:
+          return;
+        case YAML_DOCUMENT_START_EVENT:
+          if (++documents > 1)
+            fail(at, "", "the file holds more than one YAML document; a model file is exactly one");
+          break;
+        case YAML_ALIAS_EVENT:
+          fail(
+              at, "",
+              "alias " +
+                  quote("*" + std::string(reinterpret_cast<const char*>(event.data.alias.anchor))) +
+                  ": aliases are not supported in model files; write the value out");
+        case YAML_SCALAR_EVENT: {
+          const auto& s = event.data.scalar;
+          const bool tagged_string = check_tag(s.tag);
+          const std::string_view value(reinterpret_cast<const char*>(s.value), s.length);
+          const bool plain = s.style == YAML_PLAIN_SCALAR_STYLE || s.style == YAML_ANY_SCALAR_STYLE;
+          if (plain && !tagged_string && is_null_word(value)) {
+            add(Kind::null, false);
+          } else {
+            const uint32_t i = add(Kind::scalar, !plain || tagged_string);
+            TreeNode& n = tree_.nodes[i];
+            n.count = static_cast<uint32_t>(value.size());
+            // Most scalars stand in the text as they are (after the quote, if quoted): point
+            // there. Others (escapes, folded lines) are copied.
+            const size_t at_byte =
+                byte_of(event.start_mark.index) + (s.style == YAML_SINGLE_QUOTED_SCALAR_STYLE ||
+                                                   s.style == YAML_DOUBLE_QUOTED_SCALAR_STYLE);
+            if (at_byte <= text.size() && text.substr(at_byte, value.size()) == value) {
+              n.in_text = 1;
+              n.first = static_cast<uint32_t>(at_byte);
+            } else {
+              n.first = static_cast<uint32_t>(tree_.chars.size());
+              tree_.chars += value;
+            }
+          }
+          break;
+        }
+        case YAML_SEQUENCE_START_EVENT:
+        case YAML_MAPPING_START_EVENT: {
+          check_tag(event.type == YAML_SEQUENCE_START_EVENT ? event.data.sequence_start.tag
+                                                            : event.data.mapping_start.tag);
+          if (open.size() >= kMaxDepth)
+            fail(at, "",
+                 "nesting deeper than " + std::to_string(kMaxDepth) +
+                     " levels; a model file needs fewer than 10");
+          const uint32_t i =
+              add(event.type == YAML_SEQUENCE_START_EVENT ? Kind::sequence : Kind::mapping, false);
+          open.push_back({i, pending.size()});
+          break;
+        }
+        case YAML_SEQUENCE_END_EVENT:
+        case YAML_MAPPING_END_EVENT: {
+          const Open o = open.back();
+          open.pop_back();
+          TreeNode& n = tree_.nodes[o.node];
+          n.first = static_cast<uint32_t>(tree_.kids.size());
+          n.count = static_cast<uint32_t>(pending.size() - o.pending);
+          tree_.kids.insert(tree_.kids.end(),
+                            pending.begin() + static_cast<std::ptrdiff_t>(o.pending),
+                            pending.end());
+          pending.resize(o.pending);
+          break;
+        }
+        default:
+          break;
+      }
+    }
+  }
+
   std::string file_;
+  std::string owned_text_;  // the text when it had to be changed
+  Tree tree_;
+  uint32_t root_ = 0;
 };
 
-Mapping::Mapping(const Reader& reader, const Field& field) : reader_(reader), field_(field) {
+Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), field_(field) {
   if (!field.node.IsMap()) reader.fail(field, "expected a mapping, got " + describe(field.node));
-  // yaml-cpp keeps every pair of a mapping, duplicates included; refuse them here.
-  for (auto it = field.node.begin(); it != field.node.end(); ++it) {
-    const YAML::Node key = it->first;  // copies: the iterator hands out temporaries
+  const size_t n = field.node.size();
+  entries_.reserve(n);
+  const bool hashed = n > kHashedMapping;
+  if (hashed) index_.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Node key = field.node.key(i);
     if (!key.IsScalar())
-      reader.fail(key.Mark(), field.path, "keys must be plain words, got " + describe(key));
-    if (const Entry* previous = find(key.Scalar()))
-      reader.fail(key.Mark(), child_path(field.path, printable(key.Scalar())),
-                  "duplicate key " + quote(key.Scalar()) + " (first given on line " +
-                      std::to_string(previous->key_mark.line + 1) + ")");
-    const YAML::Node value = it->second;
-    entries_.push_back({key.Scalar(), key.Mark(), value});
+      reader.fail(key.mark(), field.path, "keys must be plain words, got " + describe(key));
+    const std::string_view k = key.Scalar();
+    const Entry* previous = nullptr;
+    if (hashed) {
+      const auto [it, inserted] = index_.emplace(k, static_cast<uint32_t>(i));
+      if (!inserted) previous = &entries_[it->second];
+    } else {
+      previous = find(k);
+    }
+    if (previous)
+      reader.fail(key.mark(), child_path(field.path, printable(k)),
+                  "duplicate key " + quote(k) + " (first given on line " +
+                      std::to_string(reader.mark(previous->key_mark).line) + ")");
+    entries_.push_back({k, key.mark(), field.node.value(i)});
   }
 }
 
@@ -382,28 +765,31 @@ void Mapping::allow(std::initializer_list<const char*> allowed) const {
         problem += " (did you mean " + quote(w) + "?)";
         break;
       }
-    reader_.fail(e.key_mark, child_path(field_.path, printable(e.key)),
-                 problem + "; allowed keys: " + join(words));
+    reader_->fail(e.key_mark, child_path(field_.path, printable(e.key)),
+                  problem + "; allowed keys: " + join(words));
   }
 }
 
-const Mapping::Entry* Mapping::find(const std::string& key) const {
+const Mapping::Entry* Mapping::find(std::string_view key) const {
+  if (!index_.empty()) {
+    const auto it = index_.find(key);
+    return it == index_.end() ? nullptr : &entries_[it->second];
+  }
   for (const Entry& e : entries_)
     if (e.key == key) return &e;
   return nullptr;
 }
 
-std::optional<Field> Mapping::get(const std::string& key) const {
+std::optional<Field> Mapping::get(std::string_view key) const {
   const Entry* e = find(key);
   if (!e) return std::nullopt;
   return Field{e->value, child_path(field_.path, key),
-               e->value.IsNull() || e->value.Mark().is_null() ? e->key_mark : e->value.Mark(),
-               e->key_mark};
+               e->value.IsNull() ? e->key_mark : e->value.mark(), e->key_mark};
 }
 
-Field Mapping::require(const std::string& key) const {
+Field Mapping::require(std::string_view key) const {
   if (auto f = get(key)) return *f;
-  reader_.fail(field_.mark, child_path(field_.path, key), "missing required key " + quote(key));
+  reader_->fail(field_.mark, child_path(field_.path, key), "missing required key " + quote(key));
 }
 
 // ---- Sections -----------------------------------------------------------------------------
@@ -439,8 +825,12 @@ Vector4 read_rotation(const Reader& r, const Field& f) {
   const Mapping m = r.mapping(f);
   m.allow({"axis", "angle", "angle_deg"});
   const Field axis_field = m.require("axis");
-  const Vector3 axis = r.vector3(axis_field);
-  if (axis.norm() == 0.0) r.fail(axis_field, "the rotation axis must not be zero");
+  Vector3 axis = r.vector3(axis_field);
+  // Any non-zero axis is a direction, however large or small its components; scaled by the
+  // largest so that its norm neither overflows nor underflows.
+  const double largest = axis.cwiseAbs().maxCoeff();
+  if (largest == 0.0) r.fail(axis_field, "the rotation axis must not be zero");
+  axis /= largest;
   const auto angle = m.get("angle");
   const auto angle_deg = m.get("angle_deg");
   if (angle && angle_deg)
@@ -492,13 +882,14 @@ int body_reference(const Reader& r, const Field& f, const BodyNames& bodies) {
   const auto it = bodies.index.find(name);
   if (it == bodies.index.end()) {
     // List the bodies when there are few; a long list helps nobody.
-    const std::string list = bodies.names.size() <= 20 ? "; bodies: " + join(bodies.names) : "";
-    r.fail(f, "unknown body " + quote(name) + list);
+    r.fail(f, "unknown body " + quote(name) +
+                  name_hint(name, bodies.names, bodies.names.size(), "; bodies: "));
   }
   return it->second;
 }
 
 struct BodiesSection {
+  BodyNames names;
   std::vector<BodySpec> specs;
   std::vector<std::optional<Field>> initial;  // the `initial:` entries, where given
 };
@@ -509,8 +900,12 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
   // First pass: mappings and names, so that a parent can be looked up (and a later one
   // recognised as such).
   std::vector<Mapping> maps;
-  std::vector<std::string> names;
-  std::unordered_map<std::string, size_t> index_of;  // name -> list index: O(N) loading
+  BodiesSection section;
+  std::vector<std::string>& names = section.names.names;
+  auto& index_of = section.names.index;  // name -> list index: O(N) loading
+  maps.reserve(items.size());
+  names.reserve(items.size());
+  index_of.reserve(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     const Mapping& m = maps.emplace_back(r.mapping(items[i]));
     m.allow({"name", "parent", "mass", "inertia", "com", "joint", "initial"});
@@ -524,10 +919,11 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     if (const auto it = index_of.find(name); it != index_of.end())
       r.fail(name_field, "duplicate body name " + quote(name) + " (already used by " +
                              index_path("bodies", it->second) + ")");
-    index_of.emplace(name, i);
+    index_of.emplace(name, static_cast<int>(i));
     names.push_back(name);
   }
-  BodiesSection section;
+  section.specs.reserve(items.size());
+  section.initial.reserve(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     const Mapping& m = maps[i];
     const int k = static_cast<int>(i);
@@ -541,11 +937,10 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
       const auto it = index_of.find(parent);
       const int j =
           it == index_of.end() ? static_cast<int>(names.size()) : static_cast<int>(it->second);
-      if (it == index_of.end()) {
-        const std::vector<std::string> earlier(names.begin(), names.begin() + k);
-        r.fail(parent_field, "unknown parent " + quote(parent) + "; expected 'ground'" +
-                                 (earlier.empty() ? "" : " or an earlier body: " + join(earlier)));
-      }
+      if (it == index_of.end())
+        r.fail(parent_field,
+               "unknown parent " + quote(parent) + "; expected 'ground'" +
+                   (i == 0 ? "" : " or an earlier body" + name_hint(parent, names, i, ": ")));
       if (j == k) r.fail(parent_field, "a body cannot be its own parent");
       if (j > k)
         r.fail(parent_field, "parent " + quote(parent) + " is " +
@@ -567,6 +962,9 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
 std::shared_ptr<const ForceElement> read_force(const Reader& r, const Field& f,
                                                const BodyNames& names) {
   const Mapping m = r.mapping(f);
+  // Keys no type knows first, so that a misspelt `type` is named as such.
+  m.allow({"type", "body", "stiffness", "damping", "rotational_stiffness", "rotational_damping",
+           "value"});
   const std::string type =
       r.choice(m.require("type"), {"bushing", "force", "torque"}, "force type");
   if (type == "bushing") {
@@ -610,12 +1008,10 @@ SimulationSection read_simulation(const Reader& r, const Field& f) {
   return s;
 }
 
-}  // namespace
-
-ModelFile parse_model_file(const std::string& text, const std::string& source_name) {
-  const Reader r(source_name);
-  const YAML::Node root_node = r.load(text);
-  const Field root{root_node, "", root_node.Mark(), root_node.Mark()};
+ModelFile parse(const std::string& text, const std::string& source_name) {
+  Reader r(source_name);
+  const Node root_node = r.load(text);
+  const Field root{root_node, "", root_node.mark(), root_node.mark()};
   const Mapping top = r.mapping(root);
 
   // The format first: a file of some other kind should be told so, not about its keys.
@@ -635,11 +1031,7 @@ ModelFile parse_model_file(const std::string& text, const std::string& source_na
   const Field bodies_field = top.require("bodies");
   BodiesSection bodies = read_bodies(r, bodies_field);
 
-  BodyNames names;
-  for (const BodySpec& b : bodies.specs) {
-    names.index.emplace(b.name, static_cast<int>(names.names.size()));
-    names.names.push_back(b.name);
-  }
+  const BodyNames& names = bodies.names;
   std::vector<std::shared_ptr<const ForceElement>> forces;
   if (const auto forces_field = top.get("forces"))
     for (const Field& item : r.list(*forces_field, "force entries"))
@@ -657,23 +1049,67 @@ ModelFile parse_model_file(const std::string& text, const std::string& source_na
     return ModelFile{std::move(model), std::move(initial), std::move(simulation), source_name};
   } catch (const ModelError& e) {
     // Everything the Model checks was checked above with a location; this is a safety net,
-    // and the Model's message names the body or force entry.
-    r.fail(YAML::Mark::null_mark(), "", e.what());
+    // and the Model's message names the body or force entry. One line, as every message.
+    r.fail(kNoPos, "", printable(e.what(), 400));
+  }
+}
+
+[[noreturn]] void out_of_memory(const std::string& source_name) {
+  throw ModelFileError(source_name, 0, 0, "", "out of memory while loading the model file");
+}
+
+}  // namespace
+
+ModelFile parse_model_file(const std::string& text, const std::string& source_name) {
+  try {
+    return parse(text, source_name);
+  } catch (const std::bad_alloc&) {
+    out_of_memory(source_name);
   }
 }
 
 ModelFile load_model_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw ModelFileError(path, 0, 0, "", "cannot open: is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw ModelFileError(path, 0, 0, "", std::string("cannot open: ") + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad())
-    throw ModelFileError(path, 0, 0, "", std::string("cannot read: ") + std::strerror(errno));
-  return parse_model_file(text.str(), path);
+  const auto fail = [&](const std::string& problem) {
+    throw ModelFileError(path, 0, 0, "", problem);
+  };
+  // O_NONBLOCK: opening a FIFO must not wait for a writer (it is refused below anyway).
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) fail(std::string("cannot open: ") + std::strerror(errno));
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) fail(std::string("cannot open: ") + std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) fail("cannot open: is a directory");
+  if (!S_ISREG(st.st_mode))
+    fail("cannot read: not a regular file (a device, pipe or socket); a model file is a file");
+  if (static_cast<uint64_t>(st.st_size) > kMaxFileBytes) fail(Reader::too_large());
+  std::string text;
+  try {
+    // The size is a hint only: the file may change while it is read. The loop stops at the
+    // limit whatever the file does.
+    text.resize(static_cast<size_t>(st.st_size) + 1);
+    size_t used = 0;
+    for (;;) {
+      if (used == text.size()) {
+        if (text.size() > kMaxFileBytes) fail(Reader::too_large());
+        text.resize(std::min(2 * text.size(), kMaxFileBytes + 1));
+      }
+      const ssize_t got = ::read(fd, text.data() + used, text.size() - used);
+      if (got < 0) {
+        if (errno == EINTR) continue;
+        fail(std::string("cannot read: ") + std::strerror(errno));
+      }
+      if (got == 0) break;
+      used += static_cast<size_t>(got);
+    }
+    if (used > kMaxFileBytes) fail(Reader::too_large());
+    text.resize(used);
+  } catch (const std::bad_alloc&) {
+    out_of_memory(path);
+  }
+  return parse_model_file(text, path);
 }
 
 }  // namespace kanedyn::io
