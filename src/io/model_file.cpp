@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "kanedyn/forces.hpp"
+#include "kanedyn/io/text.hpp"
 #include "kanedyn/rotation.hpp"
 
 namespace kanedyn::io {
@@ -72,42 +73,8 @@ constexpr size_t kHashedMapping = 16;
 /// Text from the file fit for a one-line message: control characters (C0, DEL, C1, and the
 /// Unicode line and paragraph separators) and bytes that are not UTF-8 escaped, text longer
 /// than `max` bytes shortened at a character boundary.
-std::string printable(std::string_view s, size_t max = 60) {
-  static const char* hex = "0123456789abcdef";
-  const auto byte = [&](size_t i) { return static_cast<unsigned char>(s[i]); };
-  std::string out;
-  size_t i = 0;
-  while (i < s.size()) {
-    const unsigned char c = byte(i);
-    size_t width = c < 0x80 ? 1 : c >= 0xf0 ? 4 : c >= 0xe0 ? 3 : c >= 0xc0 ? 2 : 0;
-    for (size_t k = 1; k < width; ++k)
-      if (i + k >= s.size() || (byte(i + k) & 0xc0) != 0x80) width = 0;
-    if (i + std::max<size_t>(width, 1) > max) break;
-    if (width == 0) {
-      out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
-      ++i;
-      continue;
-    }
-    if (c == '\n') {
-      out += "\\n";
-    } else if (c == '\t') {
-      out += "\\t";
-    } else if (c == '\r') {
-      out += "\\r";
-    } else if (c < 0x20 || c == 0x7f) {
-      out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
-    } else if (c == 0xc2 && byte(i + 1) <= 0x9f) {  // U+0080..U+009F
-      out += std::string("\\u00") + hex[byte(i + 1) >> 4] + hex[byte(i + 1) & 15];
-    } else if (c == 0xe2 && byte(i + 1) == 0x80 && (byte(i + 2) == 0xa8 || byte(i + 2) == 0xa9)) {
-      out += byte(i + 2) == 0xa8 ? "\\u2028" : "\\u2029";
-    } else {
-      out.append(s.data() + i, width);
-    }
-    i += width;
-  }
-  if (i < s.size()) out += "...";
-  return out;
-}
+/// User text for a message: escaped (io::printable), at most 60 bytes of it.
+std::string printable(std::string_view s, size_t max = 60) { return io::printable(s, max); }
 
 std::string quote(std::string_view s) { return "'" + printable(s) + "'"; }
 
@@ -126,21 +93,6 @@ std::string child_path(const std::string& parent, std::string_view key) {
 
 std::string index_path(const std::string& parent, size_t i) {
   return parent + "[" + std::to_string(i) + "]";
-}
-
-size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
-    }
-  }
-  return row[b.size()];
 }
 
 /// The first of `names` nearest to `word` by edit distance, if it is near (at most 2 edits,

@@ -4,28 +4,41 @@
 
 namespace kanedyn::io {
 
-std::string printable(std::string_view text, std::size_t max_chars) {
-  static constexpr char kHex[] = "0123456789abcdef";
-  const std::size_t n = max_chars == 0 || text.size() <= max_chars ? text.size() : max_chars;
+std::string printable(std::string_view s, std::size_t max_chars) {
+  const std::size_t max = max_chars == 0 ? s.size() : max_chars;
+  static const char* hex = "0123456789abcdef";
+  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(s[i]); };
   std::string out;
-  out.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto c = static_cast<unsigned char>(text[i]);
+  std::size_t i = 0;
+  while (i < s.size()) {
+    const unsigned char c = byte(i);
+    std::size_t width = c < 0x80 ? 1 : c >= 0xf0 ? 4 : c >= 0xe0 ? 3 : c >= 0xc0 ? 2 : 0;
+    for (std::size_t k = 1; k < width; ++k)
+      if (i + k >= s.size() || (byte(i + k) & 0xc0) != 0x80) width = 0;
+    if (i + std::max<std::size_t>(width, 1) > max) break;
+    if (width == 0) {
+      out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
+      ++i;
+      continue;
+    }
     if (c == '\n') {
       out += "\\n";
-    } else if (c == '\r') {
-      out += "\\r";
     } else if (c == '\t') {
       out += "\\t";
+    } else if (c == '\r') {
+      out += "\\r";
     } else if (c < 0x20 || c == 0x7f) {
-      out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 15];
+      out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
+    } else if (c == 0xc2 && byte(i + 1) <= 0x9f) {  // U+0080..U+009F
+      out += std::string("\\u00") + hex[byte(i + 1) >> 4] + hex[byte(i + 1) & 15];
+    } else if (c == 0xe2 && byte(i + 1) == 0x80 && (byte(i + 2) == 0xa8 || byte(i + 2) == 0xa9)) {
+      out += byte(i + 2) == 0xa8 ? "\\u2028" : "\\u2029";
     } else {
-      out += static_cast<char>(c);
+      out.append(s.data() + i, width);
     }
+    i += width;
   }
-  if (n < text.size()) out += "...";
+  if (i < s.size()) out += "...";
   return out;
 }
 

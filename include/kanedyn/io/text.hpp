@@ -8,9 +8,11 @@
 
 namespace kanedyn::io {
 
-/// `text` with every control byte escaped (\n, \r, \t, \xNN for the rest and DEL) so that
-/// printing it cannot move the cursor, change colours or end a line; cut after max_chars
-/// input bytes with "..." appended (0: no limit).
+/// `text` made safe to print on one line: control bytes escaped (\n, \r, \t, \xNN for the
+/// rest and DEL), likewise the C1 controls (\u0080..\u009f) and the line and paragraph
+/// separators (\u2028, \u2029), bytes that are not UTF-8 as \xNN; so printing it cannot move
+/// the cursor, change colours or end a line. Cut after max_chars bytes of input, at a
+/// character boundary, with "..." appended (0: no limit).
 std::string printable(std::string_view text, std::size_t max_chars = 0);
 
 /// Levenshtein distance (insertions, deletions, substitutions), for "did you mean" hints.
