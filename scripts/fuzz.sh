@@ -39,9 +39,11 @@ if [[ "${FUZZ_KEEP_GOING:-0}" == 1 ]]; then
 fi
 echo "fuzz: running $fuzzer${mode[*]:+ ${mode[*]}} for $seconds s (log: $log)"
 status=0
+started=$(date +%s)
 "$fuzzer" "${mode[@]}" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
   -dict=fuzz/model.dict -print_final_stats=1 -artifact_prefix="$findings/" "$work/corpus" \
   </dev/null >"$log" 2>&1 || status=$?
+elapsed=$(($(date +%s) - started))
 
 # The last status line ("#N  DONE  cov: C ft: F corp: ...") and the final stats.
 last=$(grep -E '^#[0-9]+' "$log" | tail -n 1 || true)
@@ -53,7 +55,7 @@ corp=$(sed -E -n 's/.* corp: ([0-9]+).*/\1/p' <<<"$last")
 mapfile -t found < <(find "$findings" -type f \( -name 'crash-*' -o -name 'leak-*' \
   -o -name 'timeout-*' -o -name 'oom-*' \) | sort)
 if ((status != 0)) && ((${#found[@]} == 0)); then found=("(exit status $status, no reproducer)"); fi
-echo "fuzz: ${mode:+fork mode, }${seconds} s, ${execs:-?} executions, cov: ${cov:-?}, ft: ${ft:-?}," \
+echo "fuzz: ${mode:+fork mode, }${elapsed} s of ${seconds}, ${execs:-?} executions, cov: ${cov:-?}, ft: ${ft:-?}," \
   "corpus: ${corp:-?} inputs, findings: ${#found[@]}"
 if ((${#found[@]} > 0)); then
   echo "fuzz: FINDINGS; the reports (with counts), then the log's last lines:" >&2
