@@ -1,13 +1,18 @@
 #!/usr/bin/env bash
 # Installs, with apt-get, the Debian 12 packages kanedyn needs to build and test.
-# Does nothing when everything is already present. Usage: scripts/install-deps.sh [--peers]
+# Does nothing when everything is already present. Usage: scripts/install-deps.sh [--peers] [--fuzz]
 #   --peers  also the peer engines for bench/peers (Simbody, MuJoCo, DART); never needed for tests.
+#   --fuzz   also clang 14 and libFuzzer, for the fuzz target (scripts/fuzz.sh).
 set -euo pipefail
 pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev libcli11-dev
       nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev)
-if [[ "${1:-}" == "--peers" ]]; then
-  pkgs+=(libsimbody-dev libmujoco-dev libdart-dev)
-fi
+for arg in "$@"; do
+  case "$arg" in
+    --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev) ;;
+    --fuzz) pkgs+=(clang-14 libfuzzer-14-dev libclang-rt-14-dev) ;;
+    *) echo "install-deps: unknown option $arg (expected --peers or --fuzz)" >&2; exit 2 ;;
+  esac
+done
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -980,11 +980,35 @@ TEST(ModelFile, LargeMappingsAreCheckedInLinearTime) {
   expect_clean(unknown.what());
 }
 
-TEST(ModelFile, AliasesAndNonStandardTagsAreRefusedWithTheirPlace) {
-  const std::string alias = edit(kBase, "mass: 1.0", "mass: *m");
-  const ModelFileError a = error_of(edit(alias, "mass: 2.0", "mass: &m 2.0"));
-  EXPECT_NE(a.problem().find("alias '*m'"), std::string::npos) << a.what();
-  EXPECT_EQ(a.line(), locate(alias, "mass: ^*m").line);
+TEST(ModelFile, AliasesShareTheAnchoredValueAndNonStandardTagsAreRefused) {
+  // An alias reads as the anchored value (YAML's meaning), with the key path of where it is
+  // used; a value refused through an alias points at the anchored value.
+  const ModelFile f = parse_model_file(
+      edit(edit(kBase, "mass: 2.0", "mass: &m 2.0"), "mass: 1.0", "mass: *m"), "ok.yaml");
+  EXPECT_EQ(f.model.body(1).mass, f.model.body(0).mass);
+  const std::string bad = edit(edit(kBase, "mass: 2.0", "mass: &m -1.0"), "mass: 1.0", "mass: *m");
+  const ModelFileError neg = error_of(bad);
+  EXPECT_EQ(neg.key_path(), "bodies[0].mass") << neg.what();  // the anchor's own use first
+  const ModelFileError unknown = error_of(edit(kBase, "mass: 1.0", "mass: *nothing"));
+  EXPECT_NE(unknown.problem().find("alias '*nothing' names no anchor"), std::string::npos)
+      << unknown.what();
+  EXPECT_EQ(unknown.line(), locate(edit(kBase, "mass: 1.0", "mass: *nothing"), "mass: ^*").line);
+  // A value holding an alias to itself would be a cycle: refused where the alias stands.
+  const ModelFileError cycle =
+      error_of(edit(kBase, "gravity: [0, 0, -9.81]", "gravity: &g [0, *g, 1]"));
+  EXPECT_NE(cycle.problem().find("stands inside the value it names"), std::string::npos)
+      << cycle.what();
+  // Nested aliases (a "billion laughs") cost nothing: each names one shared node, and the
+  // readers refuse the wrong shape at its first level.
+  std::string laughs = kBase + "x0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n";
+  for (int i = 1; i <= 9; ++i)
+    laughs += "x" + std::to_string(i) + ": &a" + std::to_string(i) + " [" + [&] {
+      std::string l;
+      for (int k = 0; k < 10; ++k) l += (k ? ", *a" : "*a") + std::to_string(i - 1);
+      return l;
+    }() + "]\n";
+  const ModelFileError bomb = error_of(laughs);
+  EXPECT_NE(bomb.problem().find("unknown key 'x0'"), std::string::npos) << bomb.what();
   const std::string tag = edit(kBase, "mass: 1.0", "mass: !kg 1.0");
   const ModelFileError t = error_of(tag);
   EXPECT_NE(t.problem().find("tag '!kg'"), std::string::npos) << t.what();

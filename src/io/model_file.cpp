@@ -579,6 +579,11 @@ class Reader {
     };
     std::vector<Open> open;
     std::vector<uint32_t> pending;
+    // Anchors: an alias stands for the anchored node itself (shared in the tree, never copied),
+    // so no input expands into more than it spells out. `closed` marks finished collections:
+    // an alias inside the value it names would make the tree a cycle.
+    std::unordered_map<std::string, uint32_t> anchors;
+    std::vector<bool> closed;
     int documents = 0;
     for (;;) {
       yaml_event_t event;
@@ -596,6 +601,10 @@ class Reader {
         }
         return index;
       };
+      const auto anchor = [&](const yaml_char_t* name, uint32_t index) {
+        // A later anchor of the same name takes over from there on, as YAML says.
+        if (name) anchors[std::string(reinterpret_cast<const char*>(name))] = index;
+      };
       const auto check_tag = [&](const yaml_char_t* tag) {
         // Standard tags (tag:yaml.org,2002:...) are accepted; !!str makes a scalar text.
         if (!tag) return false;
@@ -611,21 +620,28 @@ class Reader {
           if (++documents > 1)
             fail(at, "", "the file holds more than one YAML document; a model file is exactly one");
           break;
-        case YAML_ALIAS_EVENT:
-          fail(
-              at, "",
-              "alias " +
-                  quote("*" + std::string(reinterpret_cast<const char*>(event.data.alias.anchor))) +
-                  ": aliases are not supported in model files; write the value out");
+        case YAML_ALIAS_EVENT: {
+          const std::string name(reinterpret_cast<const char*>(event.data.alias.anchor));
+          const auto it = anchors.find(name);
+          if (it == anchors.end())
+            fail(at, "",
+                 "alias " + quote("*" + name) + " names no anchor before it (&" + printable(name) +
+                     ")");
+          if (it->second < closed.size() && !closed[it->second])
+            fail(at, "", "alias " + quote("*" + name) + " stands inside the value it names");
+          pending.push_back(it->second);  // the root is never an alias: an anchor came first
+          break;
+        }
         case YAML_SCALAR_EVENT: {
           const auto& s = event.data.scalar;
           const bool tagged_string = check_tag(s.tag);
           const std::string_view value(reinterpret_cast<const char*>(s.value), s.length);
           const bool plain = s.style == YAML_PLAIN_SCALAR_STYLE || s.style == YAML_ANY_SCALAR_STYLE;
           if (plain && !tagged_string && is_null_word(value)) {
-            add(Kind::null, false);
+            anchor(s.anchor, add(Kind::null, false));
           } else {
             const uint32_t i = add(Kind::scalar, !plain || tagged_string);
+            anchor(s.anchor, i);
             TreeNode& n = tree_.nodes[i];
             n.count = static_cast<uint32_t>(value.size());
             // Most scalars stand in the text as they are (after the quote, if quoted): point
@@ -654,12 +670,18 @@ class Reader {
           const uint32_t i =
               add(event.type == YAML_SEQUENCE_START_EVENT ? Kind::sequence : Kind::mapping, false);
           open.push_back({i, pending.size()});
+          if (closed.size() <= i) closed.resize(i + 1, true);
+          closed[i] = false;
+          anchor(event.type == YAML_SEQUENCE_START_EVENT ? event.data.sequence_start.anchor
+                                                         : event.data.mapping_start.anchor,
+                 i);
           break;
         }
         case YAML_SEQUENCE_END_EVENT:
         case YAML_MAPPING_END_EVENT: {
           const Open o = open.back();
           open.pop_back();
+          closed[o.node] = true;
           TreeNode& n = tree_.nodes[o.node];
           n.first = static_cast<uint32_t>(tree_.kids.size());
           n.count = static_cast<uint32_t>(pending.size() - o.pending);
