@@ -58,8 +58,8 @@ TEST(Cli, EomJsonIsTheSpecifiedObjectAtFullPrecision) {
   for (const auto& [key, value] : j.items()) keys.push_back(key);
   EXPECT_EQ(keys, (std::vector<std::string>{"N", "L", "u", "A", "f", "ydot", "xdot"}));
   EXPECT_EQ(j["N"], 8);
-  EXPECT_EQ(j["L"], nlohmann::json::parse("[0,1,2,2,1,1,1,7]"));
-  EXPECT_EQ(j["u"], nlohmann::json::parse("[0,1,2,2,1,1,1,2]"));
+  EXPECT_EQ(j["L"], nlohmann::ordered_json::parse("[0,1,2,2,1,1,1,7]"));
+  EXPECT_EQ(j["u"], nlohmann::ordered_json::parse("[0,1,2,2,1,1,1,2]"));
   ASSERT_EQ(j["A"].size(), 48u);
   ASSERT_EQ(j["f"].size(), 48u);
   ASSERT_EQ(j["ydot"].size(), 48u);

@@ -3,11 +3,15 @@
 // g++ 12 reports a false -Wmaybe-uninitialized inside Eigen's dynamic-size
 // SelfAdjointEigenSolver (its matrix-vector kernels); silence it for Eigen's headers only,
 // which must therefore come first.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 #include <gtest/gtest.h>
 
