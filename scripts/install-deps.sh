@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs, with apt-get, the Debian 12 packages kanedyn needs to build and test.
-# Does nothing when everything is already present. Usage: scripts/install-deps.sh [--peers] [--fuzz]
+# Does nothing when everything is already present.
+# Usage: scripts/install-deps.sh [--peers] [--clang] [--fuzz]
 #   --peers  also the peer engines for bench/peers (Simbody, MuJoCo, DART); never needed for tests.
+#   --clang  also clang 14 and clang-format 14 (CI's clang build and format check).
 #   --fuzz   also clang 14 and libFuzzer, for the fuzz target (scripts/fuzz.sh).
 set -euo pipefail
 pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev libcli11-dev
@@ -9,8 +11,9 @@ pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev libcli11-de
 for arg in "$@"; do
   case "$arg" in
     --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev) ;;
+    --clang) pkgs+=(clang-14 clang-format-14 libclang-rt-14-dev) ;;
     --fuzz) pkgs+=(clang-14 libfuzzer-14-dev libclang-rt-14-dev) ;;
-    *) echo "install-deps: unknown option $arg (expected --peers or --fuzz)" >&2; exit 2 ;;
+    *) echo "install-deps: unknown option $arg (expected --peers, --clang or --fuzz)" >&2; exit 2 ;;
   esac
 done
 missing=()
