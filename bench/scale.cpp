@@ -1,4 +1,4 @@
-// Scale (issue 4): chains (or, with --trees, random trees) of N = 64 .. 100,000 bodies built in
+// Scale: chains (or, with --trees, random trees) of N = 64 .. 100,000 bodies built in
 // C++ (generate.hpp); forward dynamics by the O(N) route timed at the initial state, and a few
 // RK4 steps (a plain loop here, independent of integrate.hpp). Prints N, ns per body (median and
 // minimum over batches), the workspace's bytes per body, the process's peak RSS, and the RK4 step

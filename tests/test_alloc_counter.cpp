@@ -19,7 +19,7 @@ bool available() {
 }
 }  // namespace alloc_counter
 
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+#if defined(__GLIBC__) && !defined(KANEDYN_SANITIZER_OWNS_MALLOC)
 namespace {
 void note() {
   alloc_counter::seen.store(true, std::memory_order_relaxed);

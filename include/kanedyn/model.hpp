@@ -1,4 +1,4 @@
-// Model: what does not change during a run (GUIDE: "Model"). Topology from the
+// Model: what does not change during a run. Topology from the
 // body-connection array L(K), mass properties, offsets q'_K and r'_K, gravity and force
 // elements. Built and validated once, immutable afterwards.
 #pragma once
