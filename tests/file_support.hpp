@@ -4,12 +4,15 @@
 
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <charconv>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -84,6 +87,27 @@ inline ToolRun run_in(const fs::path& dir, const std::string& args,
   const int status = std::system(cmd.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir / "stdout.txt"),
           slurp(dir / "stderr.txt")};
+}
+
+/// Starts `kanedyn ARGS...` in DIR (stdout.txt and stderr.txt there, no standard input) and
+/// returns its process id at once, for tests that signal a running command; -1 if fork fails.
+inline pid_t spawn_in(const fs::path& dir, std::initializer_list<std::string> args) {
+  std::vector<std::string> words{"kanedyn"};
+  words.insert(words.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid != 0) return pid;
+  // The child: only async-signal-safe calls until exec.
+  if (chdir(dir.c_str()) != 0) _exit(99);
+  const int in = open("/dev/null", O_RDONLY);
+  const int out = open("stdout.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  const int err = open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (in < 0 || out < 0 || err < 0 || dup2(in, 0) < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0)
+    _exit(97);
+  execv(kTool.c_str(), argv.data());
+  _exit(98);
 }
 
 }  // namespace kanedyn::test

@@ -3,35 +3,25 @@
 // warnings, signals and exit codes.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
 #include <signal.h>
-#include <sys/resource.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <random>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "file_support.hpp"
 #include "kanedyn/energy.hpp"
-#include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
-#include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
-#include "test_support.hpp"
 
 namespace fs = std::filesystem;
 
@@ -195,17 +185,8 @@ TEST(SimulateCommand, UsageAndSettingErrors) {
 TEST(SimulateCommand, SigtermKeepsThePartialFile) {
   const fs::path dir = temp_dir("cli_sigterm");
   const std::string model = kExamples + "/chain64.yaml";
-  const pid_t pid = fork();
+  const pid_t pid = test::spawn_in(dir, {"simulate", model, "--t-end", "1e6", "--dt-out", "0.001"});
   ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    if (chdir(dir.c_str()) != 0) _exit(99);
-    const int out = open("stdout.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err = open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (out < 0 || err < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0) _exit(97);
-    execl(kTool.c_str(), "kanedyn", "simulate", model.c_str(), "--t-end", "1e6", "--dt-out",
-          "0.001", static_cast<char*>(nullptr));
-    _exit(98);
-  }
   // Wait until the run has begun (the header is written at once), then a little more.
   const fs::path partial = dir / "chain64.csv.partial";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -426,17 +407,9 @@ TEST(SimulateCommand, ATinyDtOutRunStopsAtOnceOnSignals) {
   for (const int sig : {SIGINT, SIGTERM}) {
     const fs::path dir = temp_dir("cli_tiny_dt_out");
     const std::string model = kExamples + "/eight_body.yaml";
-    const pid_t pid = fork();
+    const pid_t pid =
+        test::spawn_in(dir, {"simulate", model, "--dt-out", "1e-9", "-o", "tiny.csv"});
     ASSERT_GE(pid, 0);
-    if (pid == 0) {
-      if (chdir(dir.c_str()) != 0) _exit(99);
-      const int out = open("stdout.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      const int err = open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (out < 0 || err < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0) _exit(97);
-      execl(kTool.c_str(), "kanedyn", "simulate", model.c_str(), "--dt-out", "1e-9", "-o",
-            "tiny.csv", static_cast<char*>(nullptr));
-      _exit(98);
-    }
     // Once rows are flowing (the file has grown past its header), signal.
     const fs::path partial = dir / "tiny.csv.partial";
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
@@ -472,17 +445,8 @@ bodies:
 forces:
   - {type: bushing, body: bead, stiffness: 1.0e12}
 )";
-  const pid_t pid = fork();
+  const pid_t pid = test::spawn_in(dir, {"simulate", "stiff.yaml", "--t-end", "1"});
   ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    if (chdir(dir.c_str()) != 0) _exit(99);
-    const int out = open("stdout.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err = open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (out < 0 || err < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0) _exit(97);
-    execl(kTool.c_str(), "kanedyn", "simulate", "stiff.yaml", "--t-end", "1",
-          static_cast<char*>(nullptr));
-    _exit(98);
-  }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   std::string err;
   while (err.find("The model is stiff") == std::string::npos &&

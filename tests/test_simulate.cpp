@@ -3,53 +3,22 @@
 // honoured, and the example models.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <charconv>
-#include <chrono>
 #include <cmath>
-#include <csignal>
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <random>
-#include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
-#include "file_support.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
-#include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
-#include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
 #include "test_support.hpp"
-
-namespace fs = std::filesystem;
 
 namespace {
 
 using namespace kanedyn;
-using test::parse;
-using test::read_csv;
-using test::slurp;
-using test::temp_dir;
 
-Model eight_body(Vector3 gravity, bool ground_bushing, double damping) {
-  return test::eight_body_on_bushings(gravity, ground_bushing, damping);
-}
-
-State moving_state(const Model& model, unsigned seed) {
-  std::mt19937 rng(seed);
-  return test::random_state(model, rng, 0.05, 1.5, 0.3);
-}
+using test::eight_body;
+using test::moving_state;
 
 TEST(Simulate, ZeroDampingEightBodyKeepsEnergyOverTenSeconds) {
   const Model model = eight_body(Vector3(0, 0, -9.81), true, 0.0);

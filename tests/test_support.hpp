@@ -115,7 +115,7 @@ inline Model eight_body_model(Vector3 gravity = Vector3(0.0, 0.0, -9.81), bool b
 
 /// The notes' eight-body system with bushings of its own on every body (or all but the
 /// root: a free system), with the given damping factor (0: energy is conserved).
-inline Model eight_body_on_bushings(Vector3 gravity, bool ground_bushing, double damping) {
+inline Model eight_body(Vector3 gravity, bool ground_bushing, double damping) {
   const Model base = eight_body_model(gravity, false);
   std::vector<std::shared_ptr<const ForceElement>> forces;
   for (int k = ground_bushing ? 0 : 1; k < 8; ++k)
@@ -182,6 +182,12 @@ inline State random_state(const Model& model, std::mt19937& rng, double s_max = 
     state.translation_rate(k) = random_vector(rng, -v_max, v_max);
   }
   return state;
+}
+
+/// A random moving state of the kind the simulation tests start from.
+inline State moving_state(const Model& model, unsigned seed) {
+  std::mt19937 rng(seed);
+  return random_state(model, rng, 0.05, 1.5, 0.3);
 }
 
 /// The state at x + h xdot, y + h ydot, Euler parameters renormalized (a path on the
