@@ -21,8 +21,8 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
   out << "model: " << io::printable(file.path);
   // The name is free text from the file: no control byte reaches the terminal.
   if (!model.name().empty()) out << " (" << io::printable(model.name()) << ")";
-  out << "\nN = " << n << " bodies, " << model.num_coordinates() << " coordinates x, "
-      << model.num_speeds() << " speeds y\n";
+  out << "\nN = " << n << (n == 1 ? " body, " : " bodies, ") << model.num_coordinates()
+      << " coordinates x, " << model.num_speeds() << " speeds y\n";
   out << "L(K) = (";
   for (int k = 0; k < n; ++k) out << (k ? ", " : "") << model.lower_body(k) + 1;
   out << ")\nu_K  = (";

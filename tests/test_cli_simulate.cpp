@@ -396,9 +396,13 @@ TEST(SimulateCommand, ANonFiniteOutputIsAFailure) {
 
 TEST(SimulateCommand, TheSummarySaysBodyForOne) {
   const fs::path dir = temp_dir("cli_one_body");
-  const Result r = run_in(dir, "simulate '" + kExamples + "/tennis_racket.yaml' --t-end 0.1");
+  const std::string model = "'" + kExamples + "/tennis_racket.yaml'";
+  Result r = run_in(dir, "simulate " + model + " --t-end 0.1");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find(": 1 body, t = 0 to 0.1 (completed)"), std::string::npos) << r.out;
+  r = run_in(dir, "info " + model);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("N = 1 body, 7 coordinates x"), std::string::npos) << r.out;
 }
 
 TEST(SimulateCommand, ATinyDtOutRunStopsAtOnceOnSignals) {
