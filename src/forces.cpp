@@ -2,8 +2,7 @@
 
 #include <cmath>
 
-#include "kanedyn/detail/fast_rotation.hpp"
-#include "kanedyn/rotation.hpp"
+#include "equations.hpp"
 
 namespace kanedyn {
 
@@ -33,55 +32,55 @@ std::string Bushing::validate(const Model& /*model*/) const {
 }
 
 Vector3 Bushing::translational_force_b(const State& state) const {
-  return -stiffness.cwiseProduct(state.translation(body_)) -
-         damping.cwiseProduct(state.translation_rate(body_));
+  return eq::eigen(eq::bushing_force(eq::vec(stiffness), eq::vec(damping),
+                                     eq::vec(state.translation(body_)),
+                                     eq::vec(state.translation_rate(body_))));
 }
 
+namespace {
+// Euler parameters of K relative to J (J = L(K); exactly eps_K for a root).
+eq::Euler<double> relative_euler(const Model& model, const State& state, int k) {
+  const int j = model.lower_body(k);
+  const eq::Euler<double> eps_k = eq::euler(state.x.data() + 4 * k);
+  return j == kGround ? eps_k
+                      : eq::relative_euler_parameters(eq::euler(state.x.data() + 4 * j), eps_k);
+}
+}  // namespace
+
 Vector3 Bushing::rotation_vector(const State& state, const Model& model) const {
-  const int j = model.lower_body(body_);
-  const Vector4 eps_k = state.euler_parameters(body_);
-  if (j == kGround) return kanedyn::rotation_vector(eps_k);
-  return kanedyn::rotation_vector(relative_euler_parameters(state.euler_parameters(j), eps_k));
+  return eq::eigen(eq::rotation_vector(relative_euler(model, state, body_)));
 }
 
 void Bushing::apply(const Model& model, const State& state, Data& data) const {
   const int k = body_;
   const int j = model.lower_body(k);
-  const Vector3& com = model.body(k).com;
-  // Translational part: {F'} in body-J components, on K at O_K, reversed on J at O_K.
-  const Vector3 f_b = translational_force_b(state);
-  // Rotational part: M = -kr theta - cr (w_K - w_J), body-K components, -M on J.
-  Vector3 w_rel_b = state.angular_velocity(k);
-  if (j == kGround) {
-    data.force[at(k)] += f_b;
-    data.moment_b[at(k)] += (data.R[at(k)] * f_b).cross(com);  // (O_K - G_K) x F
-    const Vector3 m_b = -rotational_stiffness * detail::rotation_vector(state.euler_parameters(k)) -
-                        rotational_damping * w_rel_b;
-    data.moment_b[at(k)] += m_b;
-    return;
-  }
-  const Matrix3& Rj = data.R[at(j)];
-  const Matrix3 R_rel = data.R[at(k)] * Rj.transpose();  // body J -> body K components
-  const Vector3 f = Rj.transpose() * f_b;                // inertial
-  data.force[at(k)] += f;
-  data.moment_b[at(k)] += (R_rel * f_b).cross(com);
-  data.force[at(j)] -= f;
-  // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
-  const Vector3 arm = model.body(k).joint + state.translation(k) - model.body(j).com;
-  data.moment_b[at(j)] += f_b.cross(arm);
-  w_rel_b -= R_rel * state.angular_velocity(j);
-  const Vector4 rel =
-      detail::relative_euler_parameters(state.x.data() + 4 * j, state.x.data() + 4 * k);
-  const Vector3 m_b =
-      -rotational_stiffness * detail::rotation_vector(rel) - rotational_damping * w_rel_b;
-  data.moment_b[at(k)] += m_b;
-  data.moment_b[at(j)] -= R_rel.transpose() * m_b;
+  const eq::Euler<double> rel = relative_euler(model, state, k);
+  const eq::Mat3<double> R = eq::rotation_matrix(rel);               // body J -> body K components
+  const eq::Vec3<double> f = eq::vec(translational_force_b(state));  // body J
+  eq::Vec3<double> w_rel = eq::vec(state.angular_velocity(k));
+  if (j != kGround) w_rel = w_rel - R * eq::vec(state.angular_velocity(j));
+  const eq::Vec3<double> m = eq::bushing_moment(rotational_stiffness, rotational_damping,
+                                                eq::rotation_vector(rel), w_rel);  // body K
+  // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J (unused for a root).
+  const Vector3 arm = j == kGround
+                          ? Vector3::Zero()
+                          : Vector3(model.body(k).joint + state.translation(k) - model.body(j).com);
+  const eq::BushingLoads<double> loads =
+      eq::bushing_loads(R, f, m, eq::vec(model.body(k).com), eq::vec(arm));
+  const Vector3 f_inertial =
+      j == kGround ? eq::eigen(f) : Vector3(data.R[at(j)].transpose() * eq::eigen(f));
+  data.force[at(k)] += f_inertial;
+  data.moment_b[at(k)] += eq::eigen(loads.force_moment_k);
+  data.moment_b[at(k)] += eq::eigen(m);
+  if (j == kGround) return;
+  data.force[at(j)] -= f_inertial;
+  data.moment_b[at(j)] += eq::eigen(loads.moment_j);
 }
 
 double Bushing::potential_energy(const Model& model, const State& state, const Data&) const {
-  const Vector3 s = state.translation(body_);
-  const Vector3 theta = rotation_vector(state, model);
-  return 0.5 * s.dot(stiffness.cwiseProduct(s)) + 0.5 * rotational_stiffness * theta.squaredNorm();
+  return eq::bushing_energy(eq::vec(stiffness), rotational_stiffness,
+                            eq::vec(state.translation(body_)),
+                            eq::vec(rotation_vector(state, model)));
 }
 
 double Bushing::damping_power(const Model& model, const State& state, const Data& data) const {

@@ -74,7 +74,8 @@ struct Data {
   VectorX ydot;  ///< 6N, solution of Eq. (36)
   VectorX xdot;  ///< 7N, Eqs. (39)-(40)
 
-  // Scratch of the O(N) recursive route (body accelerations, inertial / body components).
+  // Scratch of the staged O(N) recursive route: a_G inertial; a_O and alpha_b body-K
+  // components.
   std::vector<Vector3> a_G, a_O, alpha_b;
 
   // The fused O(N) route (forward_dynamics with Method::recursive, src/fused.cpp): per-body
