@@ -29,6 +29,7 @@ Data::Data(const Model& model, DataOptions opts) : options(opts) {
     vO_w.assign(c, Matrix3::Zero());
     vO_s = vG_w = vG_s = vO_w_dot = vO_s_dot = vG_w_dot = vG_s_dot = vO_w;
   }
+  if (options.partials || options.mass_matrix) load_sum.assign(n, Vector3::Zero());  // Eq. (31)
   F_y = VectorX::Zero(m);
   f = VectorX::Zero(m);
   ydot = VectorX::Zero(m);
@@ -38,7 +39,7 @@ Data::Data(const Model& model, DataOptions opts) : options(opts) {
     A_blocks.assign(at(model.chain_entries()), Matrix6::Zero());
     A_factor = TreeLdlt(model);
     bias_O.assign(n, Vector3::Zero());
-    h_b = load_sum = bias_O;
+    h_b = bias_O;
     subtree_mass.assign(n, 0.0);
     composite.assign(n, Matrix36::Zero());
   }

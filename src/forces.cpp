@@ -109,20 +109,4 @@ void compute_resultants(const Model& model, const State& state, Data& data) {
   for (const auto& element : model.forces()) element->apply(model, state, data);
 }
 
-void compute_generalized_forces(const Model& model, Data& data) {
-  const int n = model.num_bodies();
-  data.F_y.setZero();
-  for (int k = 0; k < n; ++k) {
-    const Model::Chain chain = model.chain(k);
-    const size_t o = at(model.chain_offset(k));
-    const Vector3& F = data.force[at(k)];
-    for (int r = 0; r < chain.size; ++r) {  // [v_G_K,y]^T {F_K}, block by block
-      const int c = chain[r];
-      data.F_y.segment<3>(3 * c) += data.vG_w[o + at(r)].transpose() * F;
-      data.F_y.segment<3>(3 * n + 3 * c) += data.vG_s[o + at(r)].transpose() * F;
-    }
-    data.F_y.segment<3>(3 * k) += data.moment_b[at(k)];  // [w'_K,y]^T {M'_K}
-  }
-}
-
 }  // namespace kanedyn
