@@ -55,10 +55,12 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
                      : eq::relative_euler_parameters(eq::euler(state.x.data() + 4 * j), eps_k));
     const bool root = j == kGround;
     const auto jj = at(root ? k : j);
+    const eq::Vec3<double> qs = eq::vec(data.qs_b[i]);
+    const eq::Vec3<double> before_j = eq::translation_acceleration_before_j(
+        eq::transpose_times(R, eq::vec(data.a_O[i])),
+        root ? zero : eq::vec(state.angular_velocity(j)), eq::vec(state.translation_rate(k)), qs);
     const eq::Vec3<double> sdd = eq::translation_acceleration(
-        eq::transpose_times(R, eq::vec(data.a_O[i])), root ? zero : eq::vec(data.a_O[jj]),
-        root ? zero : eq::vec(state.angular_velocity(j)), root ? zero : eq::vec(data.alpha_b[jj]),
-        eq::vec(state.translation_rate(k)), eq::vec(data.qs_b[i]));
+        before_j, root ? zero : eq::vec(data.a_O[jj]), root ? zero : eq::vec(data.alpha_b[jj]), qs);
     data.ydot.segment<3>(3 * n + 3 * k) = eq::eigen(sdd);
   }
 }
