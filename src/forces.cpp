@@ -61,20 +61,17 @@ void Bushing::apply(const Model& model, const State& state, Data& data) const {
   if (j != kGround) w_rel = w_rel - R * eq::vec(state.angular_velocity(j));
   const eq::Vec3<double> m = eq::bushing_moment(rotational_stiffness, rotational_damping,
                                                 eq::rotation_vector(rel), w_rel);  // body K
-  // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J (unused for a root).
-  const Vector3 arm = j == kGround
-                          ? Vector3::Zero()
-                          : Vector3(model.body(k).joint + state.translation(k) - model.body(j).com);
-  const eq::BushingLoads<double> loads =
-      eq::bushing_loads(R, f, m, eq::vec(model.body(k).com), eq::vec(arm));
+  const eq::ForceAndMoment<double> on_k = eq::bushing_load_on_k(R, f, eq::vec(model.body(k).com));
   const Vector3 f_inertial =
       j == kGround ? eq::eigen(f) : Vector3(data.R[at(j)].transpose() * eq::eigen(f));
   data.force[at(k)] += f_inertial;
-  data.moment_b[at(k)] += eq::eigen(loads.force_moment_k);
+  data.moment_b[at(k)] += eq::eigen(on_k.moment);
   data.moment_b[at(k)] += eq::eigen(m);
   if (j == kGround) return;
   data.force[at(j)] -= f_inertial;
-  data.moment_b[at(j)] += eq::eigen(loads.moment_j);
+  // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
+  const Vector3 arm = model.body(k).joint + state.translation(k) - model.body(j).com;
+  data.moment_b[at(j)] += eq::eigen(eq::bushing_moment_on_j(R, f, m, eq::vec(arm)));
 }
 
 double Bushing::potential_energy(const Model& model, const State& state, const Data&) const {
