@@ -49,10 +49,8 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
   for (int k = 0; k < n; ++k) {
     const auto i = at(k);
     const int j = model.lower_body(k);
-    const eq::Euler<double> eps_k = eq::euler(state.x.data() + 4 * k);
-    const eq::Mat3<double> R = eq::rotation_matrix(  // body J -> body K
-        j == kGround ? eps_k
-                     : eq::relative_euler_parameters(eq::euler(state.x.data() + 4 * j), eps_k));
+    const eq::Mat3<double> R =  // body J -> body K
+        eq::rotation_matrix(eq::relative_euler(state.x.data(), j, k));
     const bool root = j == kGround;
     const auto jj = at(root ? k : j);
     const eq::Vec3<double> qs = eq::vec(data.qs_b[i]);

@@ -27,6 +27,12 @@ inline Matrix3 eigen(const Mat3<double>& m) {
   r << m.a[0], m.a[1], m.a[2], m.a[3], m.a[4], m.a[5], m.a[6], m.a[7], m.a[8];
   return r;
 }
+/// Euler parameters of body k relative to body j (J = L(K)) from the state's {x}: exactly k's
+/// own for j = kGround, whose frame is the identity.
+inline Euler<double> relative_euler(const double* x, int j, int k) {
+  const Euler<double> eps_k = euler(x + 4 * k);
+  return j == kGround ? eps_k : relative_euler_parameters(euler(x + 4 * j), eps_k);
+}
 /// The upper triangle of a symmetric matrix (an inertia), as the kernel stores it.
 inline Sym3<double> sym(const Matrix3& m) {
   return {{m(0, 0), m(1, 1), m(2, 2), m(0, 1), m(0, 2), m(1, 2)}};

@@ -37,24 +37,15 @@ Vector3 Bushing::translational_force_b(const State& state) const {
                                      eq::vec(state.translation_rate(body_))));
 }
 
-namespace {
-// Euler parameters of K relative to J (J = L(K); exactly eps_K for a root).
-eq::Euler<double> relative_euler(const Model& model, const State& state, int k) {
-  const int j = model.lower_body(k);
-  const eq::Euler<double> eps_k = eq::euler(state.x.data() + 4 * k);
-  return j == kGround ? eps_k
-                      : eq::relative_euler_parameters(eq::euler(state.x.data() + 4 * j), eps_k);
-}
-}  // namespace
-
 Vector3 Bushing::rotation_vector(const State& state, const Model& model) const {
-  return eq::eigen(eq::rotation_vector(relative_euler(model, state, body_)));
+  return eq::eigen(
+      eq::rotation_vector(eq::relative_euler(state.x.data(), model.lower_body(body_), body_)));
 }
 
 void Bushing::apply(const Model& model, const State& state, Data& data) const {
   const int k = body_;
   const int j = model.lower_body(k);
-  const eq::Euler<double> rel = relative_euler(model, state, k);
+  const eq::Euler<double> rel = eq::relative_euler(state.x.data(), j, k);
   const eq::Mat3<double> R = eq::rotation_matrix(rel);               // body J -> body K components
   const eq::Vec3<double> f = eq::vec(translational_force_b(state));  // body J
   eq::Vec3<double> w_rel = eq::vec(state.angular_velocity(k));
