@@ -56,8 +56,9 @@ void Bushing::apply(const Model& model, const State& state, Data& data) const {
   const Vector3 f_inertial =
       j == kGround ? eq::eigen(f) : Vector3(data.R[at(j)].transpose() * eq::eigen(f));
   data.force[at(k)] += f_inertial;
-  data.moment_b[at(k)] += eq::eigen(on_k.moment);
-  data.moment_b[at(k)] += eq::eigen(m);
+  // One read and one write of K's moment: (M' + arm x F) + M, as the kernel adds them.
+  Vector3& moment_k = data.moment_b[at(k)];
+  moment_k = moment_k + eq::eigen(on_k.moment) + eq::eigen(m);
   if (j == kGround) return;
   data.force[at(j)] -= f_inertial;
   // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
