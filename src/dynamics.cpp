@@ -39,10 +39,11 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
         eq::sym(b.inertia), eq::sym(model.inverse_inertia(k)), eq::vec(data.moment_b[i]), w);
     const double inverse_mass = 1.0 / b.mass;
     data.a_G[i] = inverse_mass * data.force[i];
-    data.a_O[i] = eq::eigen(eq::origin_acceleration(
-        inverse_mass, eq::vec(data.R[i] * data.force[i]), alpha, w, eq::vec(b.com)));
-    data.alpha_b[i] = eq::eigen(alpha);
-    data.ydot.segment<3>(3 * k) = data.alpha_b[i];  // Eq. (10)
+    eq::store(data.a_O[i].data(),
+              eq::origin_acceleration(inverse_mass, eq::mat(data.R[i]) * eq::vec(data.force[i]),
+                                      alpha, w, eq::vec(b.com)));
+    eq::store(data.alpha_b[i].data(), alpha);
+    eq::store(data.ydot.data() + 3 * k, alpha);  // Eq. (10)
   }
   // s''_K in body J from a_O_K and J's results.
   const eq::Vec3<double> zero{0.0, 0.0, 0.0};
@@ -59,7 +60,7 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
         root ? zero : eq::vec(state.angular_velocity(j)), eq::vec(state.translation_rate(k)), qs);
     const eq::Vec3<double> sdd = eq::translation_acceleration(
         before_j, root ? zero : eq::vec(data.a_O[jj]), root ? zero : eq::vec(data.alpha_b[jj]), qs);
-    data.ydot.segment<3>(3 * n + 3 * k) = eq::eigen(sdd);
+    eq::store(data.ydot.data() + 3 * n + 3 * k, sdd);
   }
 }
 

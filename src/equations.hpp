@@ -16,6 +16,23 @@ namespace eq {
 
 inline Vec3<double> vec(const Vector3& v) { return {v.x(), v.y(), v.z()}; }
 inline Vector3 eigen(const Vec3<double>& v) { return {v.x, v.y, v.z}; }
+/// Adds (subtracts) v to an Eigen column component by component: an Eigen temporary made from
+/// v would be stored as scalars and loaded as a packet, which stalls store-to-load forwarding.
+inline void add_to(Vector3& target, const Vec3<double>& v) {
+  target.x() += v.x;
+  target.y() += v.y;
+  target.z() += v.z;
+}
+inline void subtract_from(Vector3& target, const Vec3<double>& v) {
+  target.x() -= v.x;
+  target.y() -= v.y;
+  target.z() -= v.z;
+}
+inline void store(double* target, const Vec3<double>& v) {
+  target[0] = v.x;
+  target[1] = v.y;
+  target[2] = v.z;
+}
 inline Euler<double> euler(const double* e) { return {{e[0], e[1], e[2], e[3]}}; }
 inline Euler<double> euler(const Vector4& e) { return euler(e.data()); }
 inline Vector4 eigen(const Euler<double>& e) { return {e.e[0], e.e[1], e.e[2], e.e[3]}; }

@@ -53,17 +53,16 @@ void Bushing::apply(const Model& model, const State& state, Data& data) const {
   const eq::Vec3<double> m = eq::bushing_moment(rotational_stiffness, rotational_damping,
                                                 eq::rotation_vector(rel), w_rel);  // body K
   const eq::ForceAndMoment<double> on_k = eq::bushing_load_on_k(R, f, eq::vec(model.body(k).com));
-  const Vector3 f_inertial =
-      j == kGround ? eq::eigen(f) : Vector3(data.R[at(j)].transpose() * eq::eigen(f));
-  data.force[at(k)] += f_inertial;
-  // One read and one write of K's moment: (M' + arm x F) + M, as the kernel adds them.
-  Vector3& moment_k = data.moment_b[at(k)];
-  moment_k = moment_k + eq::eigen(on_k.moment) + eq::eigen(m);
+  const eq::Vec3<double> f_inertial =
+      j == kGround ? f : eq::transpose_times(eq::mat(data.R[at(j)]), f);
+  eq::add_to(data.force[at(k)], f_inertial);
+  eq::add_to(data.moment_b[at(k)], on_k.moment);  // (M' + arm x F) + M, as the kernel adds them
+  eq::add_to(data.moment_b[at(k)], m);
   if (j == kGround) return;
-  data.force[at(j)] -= f_inertial;
+  eq::subtract_from(data.force[at(j)], f_inertial);
   // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
   const Vector3 arm = model.body(k).joint + state.translation(k) - model.body(j).com;
-  data.moment_b[at(j)] += eq::eigen(eq::bushing_moment_on_j(R, f, m, eq::vec(arm)));
+  eq::add_to(data.moment_b[at(j)], eq::bushing_moment_on_j(R, f, m, eq::vec(arm)));
 }
 
 double Bushing::potential_energy(const Model& model, const State& state, const Data&) const {
