@@ -71,14 +71,15 @@ double Bushing::potential_energy(const Model& model, const State& state, const D
                             eq::vec(rotation_vector(state, model)));
 }
 
-double Bushing::damping_power(const Model& model, const State& state, const Data& data) const {
+double Bushing::damping_power(const Model& model, const State& state, const Data&) const {
   const int k = body_;
   const int j = model.lower_body(k);
-  const Vector3 sd = state.translation_rate(k);
-  Vector3 w_rel_b = state.angular_velocity(k);
+  eq::Vec3<double> w_rel = eq::vec(state.angular_velocity(k));
   if (j != kGround)
-    w_rel_b -= data.R[at(k)] * (data.R[at(j)].transpose() * state.angular_velocity(j));
-  return sd.dot(damping.cwiseProduct(sd)) + rotational_damping * w_rel_b.squaredNorm();
+    w_rel = w_rel - eq::rotation_matrix(eq::relative_euler(state.x.data(), j, k)) *
+                        eq::vec(state.angular_velocity(j));
+  return eq::bushing_damping_power(eq::vec(damping), rotational_damping,
+                                   eq::vec(state.translation_rate(k)), w_rel);
 }
 
 void ConstantForce::apply(const Model&, const State&, Data& data) const {
