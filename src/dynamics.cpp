@@ -8,7 +8,7 @@
 #include "kanedyn/kinematics.hpp"
 
 #include "equations.hpp"
-#include "fused.hpp"
+#include "recursive/fused.hpp"
 
 namespace kanedyn {
 

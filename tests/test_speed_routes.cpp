@@ -25,6 +25,7 @@
 #include "kanedyn/tree_ldlt.hpp"
 
 #include "../src/equations.hpp"
+#include "../src/recursive/fused.hpp"
 
 namespace kanedyn {
 namespace {
@@ -154,7 +155,7 @@ TEST(SpeedRoutes, RotationVectorIsCorrectToRoundOff) {
 
 }  // namespace
 
-// Two lanes of doubles as the fused kernel's number type (src/fused_kernel.inc does the same
+// Two lanes of doubles as the fused kernel's number type (src/recursive/fused_kernel.inc does the same
 // with intrinsics).
 using Pack2 = double __attribute__((vector_size(16)));
 template <>
@@ -415,7 +416,7 @@ TEST(SpeedRoutes, FusedPassEqualsStagedRecursiveRoute) {
       expect_fused_equals_staged(model, random_state(rng, model));
 }
 
-// The fused kernel is compiled for 2, 4 and 8 bodies per SIMD pass (src/fused.hpp) with only
+// The fused kernel is compiled for 2, 4 and 8 bodies per SIMD pass (src/recursive/fused.hpp) with only
 // lane-wise IEEE operations and no FMA, so every width this CPU runs gives the same bits as
 // the 2-lane kernel: at random states (large relative rotations: the scalar rotation-vector
 // fallback) and near rest (small ones: the lanes' series branch).
@@ -446,16 +447,16 @@ TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
   if (widths_run == 0) GTEST_SKIP() << "this CPU runs only the 2-lane kernel";
 }
 
-// Groups of bodies whose constants are equal bit for bit share one copy (src/fused.cpp): a
+// Groups of bodies whose constants are equal bit for bit share one copy (src/recursive/fused.cpp): a
 // chain of identical links needs two (the root's group differs), a link changed by one ulp
 // gets a copy of its own, and the results stay those of the staged route.
 TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
   const auto distinct = [](const Data& d) {
-    return std::set<int>(d.fused_param_group.begin(), d.fused_param_group.end()).size();
+    return std::set<int>(d.fused_plan->param_group.begin(), d.fused_plan->param_group.end()).size();
   };
   const GeneratedSystem chain = chain_model(600, 3);
   Data shared(chain.model, DataOptions{false, false});
-  EXPECT_EQ(shared.fused_param_group.size(), static_cast<size_t>(600 / shared.fused_lanes));
+  EXPECT_EQ(shared.fused_plan->param_group.size(), static_cast<size_t>(600 / shared.fused_lanes));
   EXPECT_EQ(distinct(shared), 2u);
   expect_fused_equals_staged(chain.model, chain.initial);
   for (const double factor : {std::nextafter(1.0, 2.0), 2.0}) {
@@ -469,7 +470,7 @@ TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
   std::mt19937 rng(4);
   const Model tree = random_model(rng, 64, Shape::tree);  // distinct masses: nothing shared
   Data none(tree, DataOptions{false, false});
-  EXPECT_EQ(distinct(none), none.fused_param_group.size());
+  EXPECT_EQ(distinct(none), none.fused_plan->param_group.size());
 }
 
 // Past 4096 bodies pass 1 keeps its results for pass 2 only where pass 2 follows soon (a
@@ -478,13 +479,13 @@ TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
 TEST(SpeedRoutes, LargeModelsKeepOrRecomputeForPassTwo) {
   const GeneratedSystem chain = chain_model(5000, 5), tree = random_tree_model(5000, 5);
   const Data chain_data(chain.model, DataOptions{false, false});
-  EXPECT_TRUE(chain_data.fused_keep);
+  EXPECT_TRUE(chain_data.fused_plan->keep);
   // A chain's pass 2 follows one group later: its scratch is a ring of 4 groups, not 5000
   // bodies' worth.
-  EXPECT_EQ(chain_data.fused_scratch_mask, 3);
+  EXPECT_EQ(chain_data.fused_plan->scratch_mask, 3);
   EXPECT_LT(chain_data.fused_scratch.size(), 2000u);
-  EXPECT_FALSE(Data(tree.model, DataOptions{false, false}).fused_keep);
-  EXPECT_TRUE(Data(random_tree_model(4096, 5).model, DataOptions{false, false}).fused_keep);
+  EXPECT_FALSE(Data(tree.model, DataOptions{false, false}).fused_plan->keep);
+  EXPECT_TRUE(Data(random_tree_model(4096, 5).model, DataOptions{false, false}).fused_plan->keep);
   expect_fused_equals_staged(chain.model, chain.initial);
   expect_fused_equals_staged(tree.model, tree.initial);
 }

@@ -1,5 +1,5 @@
-// The fused kernel with 8 lanes (src/fused.hpp, src/fused_kernel.inc; the equations
-// of src/equations.inc compiled here for this target).
+// The fused kernel with 4 lanes (src/recursive/fused.hpp, src/recursive/fused_kernel.inc; the
+// equations of src/equations.inc compiled here for this target).
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -13,15 +13,15 @@
 
 #if defined(__x86_64__) || defined(__i386__)
 #pragma GCC push_options
-#pragma GCC target("avx512f")
-#define KANEDYN_FUSED_LANES 8
-namespace kanedyn::fused::lanes8 {
-#include "equations.inc"
+#pragma GCC target("avx")
+#define KANEDYN_FUSED_LANES 4
+namespace kanedyn::fused::lanes4 {
+#include "../equations.inc"
 #include "fused_kernel.inc"
-}  // namespace kanedyn::fused::lanes8
+}  // namespace kanedyn::fused::lanes4
 #pragma GCC pop_options
 #else
-namespace kanedyn::fused::lanes8 {
+namespace kanedyn::fused::lanes4 {
 void evaluate(const Args&) {}  // never chosen: widest_supported_lanes() is 2 off x86
-}  // namespace kanedyn::fused::lanes8
+}  // namespace kanedyn::fused::lanes4
 #endif
