@@ -1,6 +1,6 @@
 #include "kanedyn/data.hpp"
 
-#include "fused.hpp"
+#include "recursive/fused.hpp"
 
 namespace kanedyn {
 
@@ -29,6 +29,7 @@ Data::Data(const Model& model, DataOptions opts) : options(opts) {
     vO_w.assign(c, Matrix3::Zero());
     vO_s = vG_w = vG_s = vO_w_dot = vO_s_dot = vG_w_dot = vG_s_dot = vO_w;
   }
+  if (options.partials || options.mass_matrix) load_sum.assign(n, Vector3::Zero());  // Eq. (31)
   F_y = VectorX::Zero(m);
   f = VectorX::Zero(m);
   ydot = VectorX::Zero(m);
@@ -38,11 +39,14 @@ Data::Data(const Model& model, DataOptions opts) : options(opts) {
     A_blocks.assign(at(model.chain_entries()), Matrix6::Zero());
     A_factor = TreeLdlt(model);
     bias_O.assign(n, Vector3::Zero());
-    h_b = load_sum = bias_O;
+    h_b = bias_O;
     subtree_mass.assign(n, 0.0);
     composite.assign(n, Matrix36::Zero());
   }
-  fused_loads = fused::compile(model, *this);
+  fused_lanes = fused::chosen_lanes(options.max_simd_lanes);
+  fused_plan = fused::compile(model, fused_lanes);
+  fused_loads = fused_plan != nullptr;
+  if (fused_plan) fused_scratch.assign(fused_plan->scratch_size, 0.0);
 }
 
 namespace {
@@ -63,8 +67,7 @@ std::size_t Data::memory_bytes() const {
     total += bytes(*v);
   for (const auto* v : {&F_y, &f, &ydot, &xdot}) total += bytes(*v);
   total += bytes(A) + bytes(A_blocks) + bytes(composite) + bytes(subtree_mass);
-  total += bytes(fused_lower) + bytes(fused_ready) + bytes(fused_params) +
-           bytes(fused_param_group) + bytes(fused_scratch);
+  total += (fused_plan ? fused_plan->memory_bytes() : 0) + bytes(fused_scratch);
   return total;
 }
 

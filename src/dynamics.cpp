@@ -7,7 +7,8 @@
 #include "kanedyn/kinematic_equations.hpp"
 #include "kanedyn/kinematics.hpp"
 
-#include "fused.hpp"
+#include "equations.hpp"
+#include "recursive/fused.hpp"
 
 namespace kanedyn {
 
@@ -28,33 +29,38 @@ Method parse_method(const std::string& text) {
 void recursive_accelerations(const Model& model, const State& state, Data& data) {
   const int n = model.num_bodies();
   // Every body is free (no constraint acts), so [V] in [A] = [V]^T[M][V] is invertible and
-  // Eq. (36) is equivalent to Newton-Euler per body: m a_G = F, I alpha + w x I w = M.
+  // Eq. (36) is equivalent to Newton-Euler per body: m a_G = F, I alpha + w x I w = M; the
+  // equations of the fused route (src/equations.inc), a_O in body-K components.
   for (int k = 0; k < n; ++k) {
     const auto i = at(k);
     const BodySpec& b = model.body(k);
-    const Vector3 w = state.angular_velocity(k);
-    data.a_G[i] = data.force[i] / b.mass;
-    data.alpha_b[i] = model.inverse_inertia(k) * (data.moment_b[i] - w.cross(b.inertia * w));
-    // Acceleration of O_K: a_G - d2/dt2([R_K]^T r').
-    data.a_O[i] = data.a_G[i] -
-                  data.R[i].transpose() * (data.alpha_b[i].cross(b.com) + w.cross(w.cross(b.com)));
-    data.ydot.segment<3>(3 * k) = data.alpha_b[i];  // Eq. (10)
+    const eq::Vec3<double> w = eq::vec(state.angular_velocity(k));
+    const eq::Vec3<double> alpha = eq::angular_acceleration(
+        eq::sym(b.inertia), eq::sym(model.inverse_inertia(k)), eq::vec(data.moment_b[i]), w);
+    const double inverse_mass = 1.0 / b.mass;
+    data.a_G[i] = inverse_mass * data.force[i];
+    eq::store(data.a_O[i].data(),
+              eq::origin_acceleration(inverse_mass, eq::mat(data.R[i]) * eq::vec(data.force[i]),
+                                      alpha, w, eq::vec(b.com)));
+    eq::store(data.alpha_b[i].data(), alpha);
+    eq::store(data.ydot.data() + 3 * k, alpha);  // Eq. (10)
   }
-  // s''_K from a_O_K = a_O_J + [R_J]^T(s'' + 2 w'_J x s'dot + alpha'_J x (q'+s')
-  //                                    + w'_J x (w'_J x (q'+s'))).
+  // s''_K in body J from a_O_K and J's results.
+  const eq::Vec3<double> zero{0.0, 0.0, 0.0};
   for (int k = 0; k < n; ++k) {
     const auto i = at(k);
     const int j = model.lower_body(k);
-    auto sdd = data.ydot.segment<3>(3 * n + 3 * k);
-    if (j == kGround) {
-      sdd = data.a_O[i];
-      continue;
-    }
-    const auto jj = at(j);
-    const Vector3 wj = state.angular_velocity(j);
-    const Vector3& qs = data.qs_b[i];
-    sdd = data.R[jj] * (data.a_O[i] - data.a_O[jj]) - 2.0 * wj.cross(state.translation_rate(k)) -
-          data.alpha_b[jj].cross(qs) - wj.cross(wj.cross(qs));
+    const eq::Mat3<double> R =  // body J -> body K
+        eq::rotation_matrix(eq::relative_euler(state.x.data(), j, k));
+    const bool root = j == kGround;
+    const auto jj = at(root ? k : j);
+    const eq::Vec3<double> qs = eq::vec(data.qs_b[i]);
+    const eq::Vec3<double> before_j = eq::translation_acceleration_before_j(
+        eq::transpose_times(R, eq::vec(data.a_O[i])),
+        root ? zero : eq::vec(state.angular_velocity(j)), eq::vec(state.translation_rate(k)), qs);
+    const eq::Vec3<double> sdd = eq::translation_acceleration(
+        before_j, root ? zero : eq::vec(data.a_O[jj]), root ? zero : eq::vec(data.alpha_b[jj]), qs);
+    eq::store(data.ydot.data() + 3 * n + 3 * k, sdd);
   }
 }
 

@@ -2,8 +2,7 @@
 
 #include <cmath>
 
-#include "kanedyn/detail/fast_rotation.hpp"
-#include "kanedyn/rotation.hpp"
+#include "equations.hpp"
 
 namespace kanedyn {
 
@@ -33,65 +32,54 @@ std::string Bushing::validate(const Model& /*model*/) const {
 }
 
 Vector3 Bushing::translational_force_b(const State& state) const {
-  return -stiffness.cwiseProduct(state.translation(body_)) -
-         damping.cwiseProduct(state.translation_rate(body_));
+  return eq::eigen(eq::bushing_force(eq::vec(stiffness), eq::vec(damping),
+                                     eq::vec(state.translation(body_)),
+                                     eq::vec(state.translation_rate(body_))));
 }
 
 Vector3 Bushing::rotation_vector(const State& state, const Model& model) const {
-  const int j = model.lower_body(body_);
-  const Vector4 eps_k = state.euler_parameters(body_);
-  if (j == kGround) return kanedyn::rotation_vector(eps_k);
-  return kanedyn::rotation_vector(relative_euler_parameters(state.euler_parameters(j), eps_k));
+  return eq::eigen(
+      eq::rotation_vector(eq::relative_euler(state.x.data(), model.lower_body(body_), body_)));
 }
 
 void Bushing::apply(const Model& model, const State& state, Data& data) const {
   const int k = body_;
   const int j = model.lower_body(k);
-  const Vector3& com = model.body(k).com;
-  // Translational part: {F'} in body-J components, on K at O_K, reversed on J at O_K.
-  const Vector3 f_b = translational_force_b(state);
-  // Rotational part: M = -kr theta - cr (w_K - w_J), body-K components, -M on J.
-  Vector3 w_rel_b = state.angular_velocity(k);
-  if (j == kGround) {
-    data.force[at(k)] += f_b;
-    data.moment_b[at(k)] += (data.R[at(k)] * f_b).cross(com);  // (O_K - G_K) x F
-    const Vector3 m_b = -rotational_stiffness * detail::rotation_vector(state.euler_parameters(k)) -
-                        rotational_damping * w_rel_b;
-    data.moment_b[at(k)] += m_b;
-    return;
-  }
-  const Matrix3& Rj = data.R[at(j)];
-  const Matrix3 R_rel = data.R[at(k)] * Rj.transpose();  // body J -> body K components
-  const Vector3 f = Rj.transpose() * f_b;                // inertial
-  data.force[at(k)] += f;
-  data.moment_b[at(k)] += (R_rel * f_b).cross(com);
-  data.force[at(j)] -= f;
+  const eq::Euler<double> rel = eq::relative_euler(state.x.data(), j, k);
+  const eq::Mat3<double> R = eq::rotation_matrix(rel);               // body J -> body K components
+  const eq::Vec3<double> f = eq::vec(translational_force_b(state));  // body J
+  eq::Vec3<double> w_rel = eq::vec(state.angular_velocity(k));
+  if (j != kGround) w_rel = w_rel - R * eq::vec(state.angular_velocity(j));
+  const eq::Vec3<double> m = eq::bushing_moment(rotational_stiffness, rotational_damping,
+                                                eq::rotation_vector(rel), w_rel);  // body K
+  const eq::ForceAndMoment<double> on_k = eq::bushing_load_on_k(R, f, eq::vec(model.body(k).com));
+  const eq::Vec3<double> f_inertial =
+      j == kGround ? f : eq::transpose_times(eq::mat(data.R[at(j)]), f);
+  eq::add_to(data.force[at(k)], f_inertial);
+  eq::add_to(data.moment_b[at(k)], on_k.moment);  // (M' + arm x F) + M, as the kernel adds them
+  eq::add_to(data.moment_b[at(k)], m);
+  if (j == kGround) return;
+  eq::subtract_from(data.force[at(j)], f_inertial);
   // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
   const Vector3 arm = model.body(k).joint + state.translation(k) - model.body(j).com;
-  data.moment_b[at(j)] += f_b.cross(arm);
-  w_rel_b -= R_rel * state.angular_velocity(j);
-  const Vector4 rel =
-      detail::relative_euler_parameters(state.x.data() + 4 * j, state.x.data() + 4 * k);
-  const Vector3 m_b =
-      -rotational_stiffness * detail::rotation_vector(rel) - rotational_damping * w_rel_b;
-  data.moment_b[at(k)] += m_b;
-  data.moment_b[at(j)] -= R_rel.transpose() * m_b;
+  eq::add_to(data.moment_b[at(j)], eq::bushing_moment_on_j(R, f, m, eq::vec(arm)));
 }
 
 double Bushing::potential_energy(const Model& model, const State& state, const Data&) const {
-  const Vector3 s = state.translation(body_);
-  const Vector3 theta = rotation_vector(state, model);
-  return 0.5 * s.dot(stiffness.cwiseProduct(s)) + 0.5 * rotational_stiffness * theta.squaredNorm();
+  return eq::bushing_energy(eq::vec(stiffness), rotational_stiffness,
+                            eq::vec(state.translation(body_)),
+                            eq::vec(rotation_vector(state, model)));
 }
 
-double Bushing::damping_power(const Model& model, const State& state, const Data& data) const {
+double Bushing::damping_power(const Model& model, const State& state, const Data&) const {
   const int k = body_;
   const int j = model.lower_body(k);
-  const Vector3 sd = state.translation_rate(k);
-  Vector3 w_rel_b = state.angular_velocity(k);
+  eq::Vec3<double> w_rel = eq::vec(state.angular_velocity(k));
   if (j != kGround)
-    w_rel_b -= data.R[at(k)] * (data.R[at(j)].transpose() * state.angular_velocity(j));
-  return sd.dot(damping.cwiseProduct(sd)) + rotational_damping * w_rel_b.squaredNorm();
+    w_rel = w_rel - eq::rotation_matrix(eq::relative_euler(state.x.data(), j, k)) *
+                        eq::vec(state.angular_velocity(j));
+  return eq::bushing_damping_power(eq::vec(damping), rotational_damping,
+                                   eq::vec(state.translation_rate(k)), w_rel);
 }
 
 void ConstantForce::apply(const Model&, const State&, Data& data) const {
@@ -108,22 +96,6 @@ void compute_resultants(const Model& model, const State& state, Data& data) {
     data.moment_b[at(k)].setZero();
   }
   for (const auto& element : model.forces()) element->apply(model, state, data);
-}
-
-void compute_generalized_forces(const Model& model, Data& data) {
-  const int n = model.num_bodies();
-  data.F_y.setZero();
-  for (int k = 0; k < n; ++k) {
-    const Model::Chain chain = model.chain(k);
-    const size_t o = at(model.chain_offset(k));
-    const Vector3& F = data.force[at(k)];
-    for (int r = 0; r < chain.size; ++r) {  // [v_G_K,y]^T {F_K}, block by block
-      const int c = chain[r];
-      data.F_y.segment<3>(3 * c) += data.vG_w[o + at(r)].transpose() * F;
-      data.F_y.segment<3>(3 * n + 3 * c) += data.vG_s[o + at(r)].transpose() * F;
-    }
-    data.F_y.segment<3>(3 * k) += data.moment_b[at(k)];  // [w'_K,y]^T {M'_K}
-  }
 }
 
 }  // namespace kanedyn

@@ -134,8 +134,10 @@ void compute_force_vector(const Model& model, const State& state, Data& data) {
       data.f);
 }
 
-void compute_generalized_forces_tree(const Model& model, Data& data) {
-  require_blocks(data);
+void compute_generalized_forces(const Model& model, Data& data) {
+  if (data.load_sum.empty())
+    throw std::invalid_argument(
+        "generalized forces need a Data made with DataOptions::partials or mass_matrix");
   generalized_forces(
       model, data,
       [&](int k, Vector3& g, Vector3& m) {
@@ -235,7 +237,7 @@ void kane_equations(const Model& model, const State& state, Data& data) {
     compute_partial_rates(model, state, data);
   }
   compute_resultants(model, state, data);
-  compute_generalized_forces_tree(model, data);
+  compute_generalized_forces(model, data);
   kane_accelerations(model, state, data);
   if (data.options.dense_mass_matrix) dense_mass_matrix(model, data);
 }

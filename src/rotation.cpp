@@ -2,22 +2,12 @@
 
 #include <cmath>
 
+#include "equations.hpp"
+
 namespace kanedyn {
 
 Matrix3 rotation_matrix(const Vector4& eps) {
-  // Eqs. (3)-(4), written out to avoid temporaries.
-  const double e1 = eps[0], e2 = eps[1], e3 = eps[2], e4 = eps[3];
-  Matrix3 r;
-  r(0, 0) = e1 * e1 - e2 * e2 - e3 * e3 + e4 * e4;
-  r(0, 1) = 2.0 * (e1 * e2 + e3 * e4);
-  r(0, 2) = 2.0 * (e1 * e3 - e2 * e4);
-  r(1, 0) = 2.0 * (e1 * e2 - e3 * e4);
-  r(1, 1) = -e1 * e1 + e2 * e2 - e3 * e3 + e4 * e4;
-  r(1, 2) = 2.0 * (e2 * e3 + e1 * e4);
-  r(2, 0) = 2.0 * (e1 * e3 + e2 * e4);
-  r(2, 1) = 2.0 * (e2 * e3 - e1 * e4);
-  r(2, 2) = -e1 * e1 - e2 * e2 + e3 * e3 + e4 * e4;
-  return r;
+  return eq::eigen(eq::rotation_matrix(eq::euler(eps)));  // Eqs. (3)-(4)
 }
 
 Matrix4 euler_matrix(const Vector4& eps) {
@@ -41,11 +31,7 @@ Eigen::Matrix<double, 4, 3> euler_matrix_bar_transpose(const Vector4& eps) {
 }
 
 Vector4 euler_parameter_rates(const Vector4& eps, const Vector3& w_b) {
-  const double e1 = eps[0], e2 = eps[1], e3 = eps[2], e4 = eps[3];
-  const double w1 = w_b[0], w2 = w_b[1], w3 = w_b[2];
-  // Eq. (39) for one body: 1/2 [Ebar'_K]^T {w'_K}, Eq. (41) written out.
-  return {0.5 * (e4 * w1 - e3 * w2 + e2 * w3), 0.5 * (e3 * w1 + e4 * w2 - e1 * w3),
-          0.5 * (-e2 * w1 + e1 * w2 + e4 * w3), -0.5 * (e1 * w1 + e2 * w2 + e3 * w3)};
+  return eq::eigen(eq::euler_parameter_rates(eq::euler(eps), eq::vec(w_b)));  // Eqs. (39), (41)
 }
 
 Vector3 angular_velocity_from_rates(const Vector4& eps, const Vector4& eps_dot) {
@@ -88,29 +74,11 @@ Vector4 euler_parameters_from_matrix(const Matrix3& r) {
 }
 
 Vector4 relative_euler_parameters(const Vector4& eps_j, const Vector4& eps_k) {
-  // [R] is the transpose of the Hamilton-product rotation of (e; e4), so K = J * rel gives
-  // rel = conj(J) * K in Hamilton quaternion algebra.
-  const Vector3 ej = -eps_j.head<3>();
-  const double sj = eps_j[3];
-  const Vector3 ek = eps_k.head<3>();
-  const double sk = eps_k[3];
-  const Vector3 v = sj * ek + sk * ej + ej.cross(ek);
-  return {v.x(), v.y(), v.z(), sj * sk - ej.dot(ek)};
+  return eq::eigen(eq::relative_euler_parameters(eq::euler(eps_j), eq::euler(eps_k)));
 }
 
 Vector3 rotation_vector(const Vector4& eps) {
-  Vector3 v = eps.head<3>();
-  double s = eps[3];
-  if (s < 0) {  // same rotation, angle taken in [0, pi]
-    v = -v;
-    s = -s;
-  }
-  const double vn = v.norm();
-  if (vn < 1e-8) {
-    // theta = 2 atan2(|v|, s) v/|v| ~ (2/s)(1 - |v|^2/(3 s^2)) v for small |v|.
-    return (2.0 / s) * (1.0 - vn * vn / (3.0 * s * s)) * v;
-  }
-  return (2.0 * std::atan2(vn, s) / vn) * v;
+  return eq::eigen(eq::rotation_vector(eq::euler(eps)));
 }
 
 }  // namespace kanedyn

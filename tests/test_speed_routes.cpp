@@ -1,11 +1,12 @@
 // The fast routes of issue 4 against their oracles: block-sparse [A] and {f} against the dense
 // Eqs. (37)-(38), the tree LDL^T against a dense Cholesky, the fused O(N) pass against the
-// staged recursive route and against the Kane route, and the inline rotation vector against
-// the atan2 one.
+// staged recursive route and against the Kane route, the rotation vector against long double,
+// and the equations of src/equations.inc on double against the same on SIMD lanes.
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <random>
 #include <set>
@@ -13,7 +14,6 @@
 #include <vector>
 
 #include "kanedyn/data.hpp"
-#include "kanedyn/detail/fast_rotation.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/generate.hpp"
@@ -23,6 +23,9 @@
 #include "kanedyn/partials.hpp"
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/tree_ldlt.hpp"
+
+#include "../src/equations.hpp"
+#include "../src/recursive/fused.hpp"
 
 namespace kanedyn {
 namespace {
@@ -119,13 +122,12 @@ std::vector<Model> test_models(std::mt19937& rng) {
 
 double max_abs(const MatrixX& m) { return m.cwiseAbs().maxCoeff(); }
 
-TEST(SpeedRoutes, FastRotationVectorIsCorrectToRoundOff) {
-  // The inline rotation vector (sector reduction and a series, no atan2) against the same
-  // formula, 2 atan2(|e|, e4) e / |e|, in long double from the same double inputs. Its
+TEST(SpeedRoutes, RotationVectorIsCorrectToRoundOff) {
+  // The rotation vector (sector reduction and a series, no atan2; src/equations.inc) against
+  // the formula 2 atan2(|e|, e4) e / |e| in long double from the same double inputs. Its
   // roundings (t, the reduced argument, the table angle, the series, phi / |e|, the product
   // with e) add to a few ulp; cancellation in atan(c_k) + atan(r) at the low end of a sector
-  // costs up to 2 ulp more. 8e-16 relative is 4 ulp of the norm; the atan2 form of
-  // rotation.hpp itself is off by up to ~2 ulp.
+  // costs up to 2 ulp more. 8e-16 relative is 4 ulp of the norm.
   std::mt19937 rng(1);
   std::vector<double> angles = {0.0, 1e-300, 1e-12, 1e-8, 1e-3, 0.1, 3.14159, M_PI};
   for (int i = 0; i < 8; ++i)  // sector boundaries of the half angle, (2i+1) pi/24, +- 1e-9
@@ -145,26 +147,76 @@ TEST(SpeedRoutes, FastRotationVectorIsCorrectToRoundOff) {
       const long double scale = n == 0 ? 2.0L / s : 2.0L * std::atan2(n, s) / n;
       const Vector3 expected(static_cast<double>(scale * v[0]), static_cast<double>(scale * v[1]),
                              static_cast<double>(scale * v[2]));
-      const Vector3 fast = detail::rotation_vector(eps);
-      EXPECT_LE((fast - expected).norm(), 8e-16 * expected.norm())
+      EXPECT_LE((rotation_vector(eps) - expected).norm(), 8e-16 * expected.norm())
           << "angle " << angle << " sign " << sign;
-      EXPECT_LE((fast - rotation_vector(eps)).norm(), 1.2e-15 * expected.norm());
     }
   }
 }
 
-TEST(SpeedRoutes, InlineRotationHelpersMatchRotationHpp) {
-  // Same formulas written out: equal to round-off (a few ulp of quantities of order 1).
+}  // namespace
+
+// Two lanes of doubles as the fused kernel's number type (src/recursive/fused_kernel.inc does the same
+// with intrinsics).
+using Pack2 = double __attribute__((vector_size(16)));
+template <>
+struct eq::Lanes<Pack2> {
+  static Pack2 sqrt(const Pack2& v) { return Pack2{std::sqrt(v[0]), std::sqrt(v[1])}; }
+  template <typename Mask>
+  static bool all(const Mask& m) {
+    return m[0] && m[1];
+  }
+};
+
+namespace {
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+TEST(SpeedRoutes, EquationsGiveTheSameBitsOnDoubleAndOnLanes) {
+  // src/equations.inc is instantiated with double by the staged route and with lane packs by
+  // the fused kernel: every lane must give what double gives, bit for bit, also when one lane
+  // takes the rotation vector's large-angle branch and the other the series.
   std::mt19937 rng(2);
-  for (int i = 0; i < 200; ++i) {
-    const Vector4 a = random_unit_quaternion(rng), b = random_unit_quaternion(rng);
-    const Vector3 v = random_vector(rng, -1.0, 1.0);
-    EXPECT_LT((detail::rotation_matrix(a) - rotation_matrix(a)).cwiseAbs().maxCoeff(), 1e-15);
-    EXPECT_LT((detail::rotate(a.data(), v) - rotation_matrix(a) * v).norm(), 1e-15);
-    EXPECT_LT(
-        (detail::relative_euler_parameters(a.data(), b.data()) - relative_euler_parameters(a, b))
-            .norm(),
-        1e-15);
+  const auto lanes = [](double a, double b) { return Pack2{a, b}; };
+  for (int i = 0; i < 400; ++i) {
+    Vector4 e[2], f[2];
+    Vector3 v[2];
+    for (int l = 0; l < 2; ++l) {
+      const double angle = (i + l) % 3 == 0 ? uniform(rng, 0.0, 0.2) : uniform(rng, 0.0, 6.3);
+      e[l] = euler_parameters_from_axis_angle(random_vector(rng, -1.0, 1.0), angle);
+      f[l] = random_unit_quaternion(rng);
+      v[l] = random_vector(rng, -1.0, 1.0);
+    }
+    eq::Euler<Pack2> ep, fp;
+    for (int c = 0; c < 4; ++c) {
+      ep.e[c] = lanes(e[0][c], e[1][c]);
+      fp.e[c] = lanes(f[0][c], f[1][c]);
+    }
+    const eq::Vec3<Pack2> vp{lanes(v[0].x(), v[1].x()), lanes(v[0].y(), v[1].y()),
+                             lanes(v[0].z(), v[1].z())};
+    const eq::Euler<Pack2> rel = eq::relative_euler_parameters(fp, ep);
+    const eq::Mat3<Pack2> r = eq::rotation_matrix(rel);
+    const eq::Vec3<Pack2> turned = eq::rotate(ep, vp), theta = eq::rotation_vector(rel);
+    const eq::Euler<Pack2> rates = eq::euler_parameter_rates(ep, vp);
+    for (int l = 0; l < 2; ++l) {
+      const Vector4 rel1 = relative_euler_parameters(f[l], e[l]);
+      const Matrix3 r1 = rotation_matrix(rel1);
+      const Vector3 theta1 = rotation_vector(rel1);
+      const Vector3 turned1 = eq::eigen(eq::rotate(eq::euler(e[l]), eq::vec(v[l])));
+      const Vector4 rates1 = euler_parameter_rates(e[l], v[l]);
+      for (int c = 0; c < 4; ++c) {
+        EXPECT_TRUE(same_bits(rel.e[c][l], rel1[c]));
+        EXPECT_TRUE(same_bits(rates.e[c][l], rates1[c]));
+      }
+      for (int c = 0; c < 9; ++c) EXPECT_TRUE(same_bits(r.a[c][l], r1(c / 3, c % 3)));
+      for (int c = 0; c < 3; ++c) {
+        const double t[3] = {theta.x[l], theta.y[l], theta.z[l]};
+        const double u[3] = {turned.x[l], turned.y[l], turned.z[l]};
+        EXPECT_TRUE(same_bits(t[c], theta1[c])) << "lane " << l;
+        EXPECT_TRUE(same_bits(u[c], turned1[c]));
+      }
+      // [R]{v} without forming [R] (the kernel's gravity into body axes): Eqs. (3)-(4).
+      EXPECT_LT((turned1 - rotation_matrix(e[l]) * v[l]).norm(), 1e-15);
+    }
   }
 }
 
@@ -199,6 +251,25 @@ TEST(SpeedRoutes, BlockMassMatrixEqualsDenseOracle) {
   }
 }
 
+// Eq. (31) in chain layout, the oracle of compute_generalized_forces: sum over every body's
+// chain of [v_G_K,y]^T {F_K} block by block, plus [w'_K,y]^T {M'_K}. Needs the partials.
+VectorX generalized_forces_from_partials(const Model& model, const Data& data) {
+  const int n = model.num_bodies();
+  VectorX fy = VectorX::Zero(6 * n);
+  for (int k = 0; k < n; ++k) {
+    const Model::Chain chain = model.chain(k);
+    const auto o = static_cast<size_t>(model.chain_offset(k));
+    const Vector3& F = data.force[static_cast<size_t>(k)];
+    for (int r = 0; r < chain.size; ++r) {
+      const int c = chain[r];
+      fy.segment<3>(3 * c) += data.vG_w[o + static_cast<size_t>(r)].transpose() * F;
+      fy.segment<3>(3 * n + 3 * c) += data.vG_s[o + static_cast<size_t>(r)].transpose() * F;
+    }
+    fy.segment<3>(3 * k) += data.moment_b[static_cast<size_t>(k)];
+  }
+  return fy;
+}
+
 TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
   // Eq. (38) and Eq. (31) by subtree sums against the chain-layout forms (sums over every
   // body's chain of [v_G,y]^T blocks). Round-off relative to the size of the largest load
@@ -213,8 +284,7 @@ TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
     compute_resultants(model, state, data);
     compute_force_vector_dense(model, state, data);
     const VectorX f_oracle = data.f;
-    compute_generalized_forces(model, data);
-    const VectorX fy_oracle = data.F_y;
+    const VectorX fy_oracle = generalized_forces_from_partials(model, data);
     double scale = 0.0;
     for (int k = 0; k < model.num_bodies(); ++k) {
       const BodySpec& b = model.body(k);
@@ -228,7 +298,7 @@ TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
                     data.moment_b[static_cast<size_t>(k)].norm(), w.cross(b.inertia * w).norm()});
     }
     compute_force_vector(model, state, data);
-    compute_generalized_forces_tree(model, data);
+    compute_generalized_forces(model, data);
     EXPECT_LT((data.f - f_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
         << "N " << model.num_bodies();
     EXPECT_LT((data.F_y - fy_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
@@ -346,7 +416,7 @@ TEST(SpeedRoutes, FusedPassEqualsStagedRecursiveRoute) {
       expect_fused_equals_staged(model, random_state(rng, model));
 }
 
-// The fused kernel is compiled for 2, 4 and 8 bodies per SIMD pass (src/fused.hpp) with only
+// The fused kernel is compiled for 2, 4 and 8 bodies per SIMD pass (src/recursive/fused.hpp) with only
 // lane-wise IEEE operations and no FMA, so every width this CPU runs gives the same bits as
 // the 2-lane kernel: at random states (large relative rotations: the scalar rotation-vector
 // fallback) and near rest (small ones: the lanes' series branch).
@@ -377,16 +447,16 @@ TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
   if (widths_run == 0) GTEST_SKIP() << "this CPU runs only the 2-lane kernel";
 }
 
-// Groups of bodies whose constants are equal bit for bit share one copy (src/fused.cpp): a
+// Groups of bodies whose constants are equal bit for bit share one copy (src/recursive/fused.cpp): a
 // chain of identical links needs two (the root's group differs), a link changed by one ulp
 // gets a copy of its own, and the results stay those of the staged route.
 TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
   const auto distinct = [](const Data& d) {
-    return std::set<int>(d.fused_param_group.begin(), d.fused_param_group.end()).size();
+    return std::set<int>(d.fused_plan->param_group.begin(), d.fused_plan->param_group.end()).size();
   };
   const GeneratedSystem chain = chain_model(600, 3);
   Data shared(chain.model, DataOptions{false, false});
-  EXPECT_EQ(shared.fused_param_group.size(), static_cast<size_t>(600 / shared.fused_lanes));
+  EXPECT_EQ(shared.fused_plan->param_group.size(), static_cast<size_t>(600 / shared.fused_lanes));
   EXPECT_EQ(distinct(shared), 2u);
   expect_fused_equals_staged(chain.model, chain.initial);
   for (const double factor : {std::nextafter(1.0, 2.0), 2.0}) {
@@ -400,7 +470,7 @@ TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
   std::mt19937 rng(4);
   const Model tree = random_model(rng, 64, Shape::tree);  // distinct masses: nothing shared
   Data none(tree, DataOptions{false, false});
-  EXPECT_EQ(distinct(none), none.fused_param_group.size());
+  EXPECT_EQ(distinct(none), none.fused_plan->param_group.size());
 }
 
 // Past 4096 bodies pass 1 keeps its results for pass 2 only where pass 2 follows soon (a
@@ -409,13 +479,13 @@ TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
 TEST(SpeedRoutes, LargeModelsKeepOrRecomputeForPassTwo) {
   const GeneratedSystem chain = chain_model(5000, 5), tree = random_tree_model(5000, 5);
   const Data chain_data(chain.model, DataOptions{false, false});
-  EXPECT_TRUE(chain_data.fused_keep);
+  EXPECT_TRUE(chain_data.fused_plan->keep);
   // A chain's pass 2 follows one group later: its scratch is a ring of 4 groups, not 5000
   // bodies' worth.
-  EXPECT_EQ(chain_data.fused_scratch_mask, 3);
+  EXPECT_EQ(chain_data.fused_plan->scratch_mask, 3);
   EXPECT_LT(chain_data.fused_scratch.size(), 2000u);
-  EXPECT_FALSE(Data(tree.model, DataOptions{false, false}).fused_keep);
-  EXPECT_TRUE(Data(random_tree_model(4096, 5).model, DataOptions{false, false}).fused_keep);
+  EXPECT_FALSE(Data(tree.model, DataOptions{false, false}).fused_plan->keep);
+  EXPECT_TRUE(Data(random_tree_model(4096, 5).model, DataOptions{false, false}).fused_plan->keep);
   expect_fused_equals_staged(chain.model, chain.initial);
   expect_fused_equals_staged(tree.model, tree.initial);
 }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "kanedyn/model.hpp"
@@ -10,6 +11,10 @@
 #include "kanedyn/types.hpp"
 
 namespace kanedyn {
+
+namespace fused {
+struct Plan;
+}
 
 /// What a Data workspace allocates. The partial velocity blocks and the blocks of [A] take
 /// sum over K of (u_K + 1) blocks each (model.chain_entries()); the O(N) recursive route needs
@@ -74,24 +79,18 @@ struct Data {
   VectorX ydot;  ///< 6N, solution of Eq. (36)
   VectorX xdot;  ///< 7N, Eqs. (39)-(40)
 
-  // Scratch of the O(N) recursive route (body accelerations, inertial / body components).
+  // Scratch of the staged O(N) recursive route: a_G inertial; a_O and alpha_b body-K
+  // components.
   std::vector<Vector3> a_G, a_O, alpha_b;
 
-  // The fused O(N) route (forward_dynamics with Method::recursive, src/fused.cpp): per-body
-  // constants compiled from the Model, loads grouped per body, in a layout private to src/.
+  // The fused O(N) route (forward_dynamics with Method::recursive, src/recursive/fused.hpp).
   bool fused_loads = false;  ///< every force element is a known type (else staged)
   int fused_lanes = 0;       ///< bodies per SIMD pass of the kernel chosen: 2, 4 or 8
-  /// pass 1 keeps its results for pass 2 (small models, chain-like large ones), or pass 2
-  /// redoes them (large bushy trees)
-  bool fused_keep = false;
-  std::vector<int> fused_lower;      ///< L(K) per body, padded to whole SIMD groups
-  std::vector<int> fused_ready;      ///< per group: the last group holding a child
-  std::vector<double> fused_params;  ///< constants, lane-interleaved per group of bodies
-  /// per group: which group of constants in fused_params is its own (groups whose constants
-  /// are equal bit for bit, e.g. along a chain of identical links, share one)
-  std::vector<int> fused_param_group;
-  std::vector<double> fused_scratch;  ///< per-body loads and accelerations, same layout
-  int fused_scratch_mask = 0;         ///< group g's scratch is slot g & mask (a ring)
+  /// The route compiled from the Model for that width: per-body constants with the loads
+  /// grouped per body, in a layout private to src/; immutable, shared by copies of this Data.
+  /// Null when fused_loads is false.
+  std::shared_ptr<const fused::Plan> fused_plan;
+  std::vector<double> fused_scratch;  ///< per-body loads and accelerations of one evaluation
 
   // Scratch of the Kane route (src/kane.cpp): per body.
   std::vector<Vector3> bias_O;    ///< velocity-dependent part of a_O_K, inertial

@@ -27,7 +27,7 @@ void recursive_accelerations(const Model& model, const State& state, Data& data)
 /// {y dot} and {x dot} into data.ydot, data.xdot. No heap allocation.
 /// Method::recursive works with any Data (DataOptions{false, false} is enough); when every
 /// force element is a Bushing, ConstantForce or ConstantTorque it runs one fused pass over the
-/// bodies (src/fused.cpp) that fills only ydot and xdot, otherwise it runs
+/// bodies (src/recursive/fused.cpp) that fills only ydot and xdot, otherwise it runs
 /// compute_kinematics, compute_resultants and recursive_accelerations. Method::kane needs
 /// DataOptions::mass_matrix (throws std::invalid_argument otherwise) and leaves the
 /// kinematics, resultants, A_blocks, A_factor and f in data (not the dense data.A).

@@ -85,8 +85,10 @@ class ConstantTorque final : public ForceElement {
 /// element, into data.force / data.moment_b. Needs compute_kinematics() first.
 void compute_resultants(const Model& model, const State& state, Data& data);
 
-/// Eq. (31): {F_y} = sum_K [v_G_K,y]^T {F_K} + [w'_K,y]^T {M'_K}, into data.F_y.
-/// Needs the resultants and the partials (compute_partials_*).
+/// Eq. (31): {F_y} = sum_K [v_G_K,y]^T {F_K} + [w'_K,y]^T {M'_K}, into data.F_y, O(N): by
+/// subtree sums of the loads, the inward pass of Eq. (38) (compute_force_vector, src/kane.cpp).
+/// Needs compute_kinematics(), compute_resultants() and a Data with DataOptions::partials or
+/// DataOptions::mass_matrix (throws std::invalid_argument otherwise).
 void compute_generalized_forces(const Model& model, Data& data);
 
 }  // namespace kanedyn

@@ -22,10 +22,6 @@ void compute_mass_matrix(const Model& model, Data& data);
 /// compute_resultants() and DataOptions::mass_matrix.
 void compute_force_vector(const Model& model, const State& state, Data& data);
 
-/// Eq. (31), {F_y}, into data.F_y by the same inward pass as compute_force_vector(), O(N).
-/// Needs compute_kinematics(), compute_resultants() and DataOptions::mass_matrix.
-void compute_generalized_forces_tree(const Model& model, Data& data);
-
 /// The dense 6N x 6N [A] in the speed order of Eq. (1), into data.A, from data.A_blocks.
 void dense_mass_matrix(const Model& model, Data& data);
 
@@ -46,9 +42,9 @@ void compute_force_vector_dense(const Model& model, const State& state, Data& da
 void kane_accelerations(const Model& model, const State& state, Data& data);
 
 /// Everything of the Kane route at one state, for output and teaching: kinematics, partials
-/// and their rates (when DataOptions::partials), resultants, {F_y} (Eq. 31), [A] (blocks, and
-/// the dense data.A when DataOptions::dense_mass_matrix), {f}, the factor and {y dot}.
-/// Needs DataOptions::mass_matrix.
+/// and their rates (when DataOptions::partials), resultants, {F_y} (Eq. 31,
+/// compute_generalized_forces), [A] (blocks, and the dense data.A when
+/// DataOptions::dense_mass_matrix), {f}, the factor and {y dot}. Needs DataOptions::mass_matrix.
 void kane_equations(const Model& model, const State& state, Data& data);
 
 }  // namespace kanedyn

@@ -33,7 +33,8 @@ Vector4 euler_parameters_from_matrix(const Matrix3& r);
 Vector4 relative_euler_parameters(const Vector4& eps_j, const Vector4& eps_k);
 
 /// Rotation vector theta (angle in [0, pi] times unit axis) of the rotation eps; its
-/// components are the same in both frames the rotation relates.
+/// components are the same in both frames the rotation relates. Without atan2 (a series after
+/// reducing the half angle), to a few ulp; the bushings and their energy use the same.
 Vector3 rotation_vector(const Vector4& eps);
 
 }  // namespace kanedyn

@@ -1,6 +1,9 @@
-// The fused kernel with 8 lanes (src/fused.hpp, src/fused_kernel.inc).
+// The fused kernel with 8 lanes (src/recursive/fused.hpp, src/recursive/fused_kernel.inc; the
+// equations of src/equations.inc compiled here for this target).
+#include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <type_traits>
 
 #include "fused.hpp"
 
@@ -19,6 +22,7 @@
 #endif
 #define KANEDYN_FUSED_LANES 8
 namespace kanedyn::fused::lanes8 {
+#include "../equations.inc"
 #include "fused_kernel.inc"
 }  // namespace kanedyn::fused::lanes8
 #if defined(__clang__)

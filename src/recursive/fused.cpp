@@ -1,5 +1,5 @@
-// The fused O(N) route: the per-body tables of the kernels (src/fused_kernel.inc) and the
-// choice of SIMD width (src/fused.hpp).
+// The fused O(N) route: its plan (the per-body tables of the kernels, src/recursive/
+// fused_kernel.inc) and the choice of SIMD width (src/recursive/fused.hpp).
 #include "fused.hpp"
 
 #include <algorithm>
@@ -15,26 +15,26 @@ namespace {
 
 size_t at(long long i) { return static_cast<size_t>(i); }
 
-/// Keeps one copy of each distinct group of constants (equal bit for bit) in
-/// data.fused_params and points every group of bodies at its copy (data.fused_param_group).
+/// Keeps one copy of each distinct group of constants (equal bit for bit) in plan.params and
+/// points every group of bodies at its copy (plan.param_group).
 /// Along a chain of identical links every group but the first has the same constants, so
 /// past the caches the kernel streams about a third less memory per body; bodies that differ
 /// keep their own (one int per group more).
-void share_equal_param_groups(int groups, int lanes, Data& data) {
+void share_equal_param_groups(int groups, int lanes, Plan& plan) {
   const size_t size = at(kParamFields) * at(lanes);
   std::vector<double> unique;
-  // The groups seen so far, as views of their bytes in data.fused_params (kept until the end).
+  // The groups seen so far, as views of their bytes in plan.params (kept until the end).
   std::unordered_map<std::string_view, int> index;
-  data.fused_param_group.assign(at(groups), 0);
+  plan.param_group.assign(at(groups), 0);
   for (int g = 0; g < groups; ++g) {
-    const double* p = data.fused_params.data() + at(g) * size;
+    const double* p = plan.params.data() + at(g) * size;
     const std::string_view bytes(reinterpret_cast<const char*>(p), size * sizeof(double));
     const auto [it, added] = index.emplace(bytes, static_cast<int>(unique.size() / size));
     if (added) unique.insert(unique.end(), p, p + size);
-    data.fused_param_group[at(g)] = it->second;
+    plan.param_group[at(g)] = it->second;
   }
   unique.shrink_to_fit();
-  data.fused_params = std::move(unique);
+  plan.params = std::move(unique);
 }
 
 }  // namespace
@@ -50,21 +50,28 @@ int widest_supported_lanes() {
 #endif
 }
 
-bool compile(const Model& model, Data& data) {
+int chosen_lanes(int max_simd_lanes) {
+  return std::min(widest_supported_lanes(), max_simd_lanes >= 8 ? 8 : max_simd_lanes >= 4 ? 4 : 2);
+}
+
+size_t Plan::memory_bytes() const {
+  return lower.capacity() * sizeof(int) + ready.capacity() * sizeof(int) +
+         params.capacity() * sizeof(double) + param_group.capacity() * sizeof(int);
+}
+
+std::shared_ptr<const Plan> compile(const Model& model, int kLanes) {
   const int n = model.num_bodies();
-  const int kLanes = std::min(widest_supported_lanes(), data.options.max_simd_lanes >= 8   ? 8
-                                                        : data.options.max_simd_lanes >= 4 ? 4
-                                                                                           : 2);
-  data.fused_lanes = kLanes;
+  auto plan = std::make_shared<Plan>();
+  plan->lanes = kLanes;
   const int groups = (n + kLanes - 1) / kLanes;
   const auto padded = at(groups) * kLanes;
-  data.fused_lower.assign(padded, kGround);
-  data.fused_ready.assign(at(groups), 0);
-  for (int g = 0; g < groups; ++g) data.fused_ready[at(g)] = g;
-  data.fused_params.assign(at(groups) * kParamFields * kLanes, 0.0);
+  plan->lower.assign(padded, kGround);
+  plan->ready.assign(at(groups), 0);
+  for (int g = 0; g < groups; ++g) plan->ready[at(g)] = g;
+  plan->params.assign(at(groups) * kParamFields * kLanes, 0.0);
   const auto param = [&](int k, int field) -> double& {
-    return data
-        .fused_params[at(k / kLanes) * kParamFields * kLanes + at(field) * kLanes + at(k % kLanes)];
+    return plan
+        ->params[at(k / kLanes) * kParamFields * kLanes + at(field) * kLanes + at(k % kLanes)];
   };
   const auto set3 = [&](int k, int field, const Vector3& v) {
     for (int i = 0; i < 3; ++i) param(k, field + i) = v[i];
@@ -82,9 +89,9 @@ bool compile(const Model& model, Data& data) {
     }
     const BodySpec& b = model.body(k);
     const int j = b.lower_body;
-    data.fused_lower[at(k)] = j;
+    plan->lower[at(k)] = j;
     if (j != kGround)  // J's loads are complete once K's group has done pass 1
-      data.fused_ready[at(j / kLanes)] = std::max(data.fused_ready[at(j / kLanes)], k / kLanes);
+      plan->ready[at(j / kLanes)] = std::max(plan->ready[at(j / kLanes)], k / kLanes);
     param(k, kInvMass) = 1.0 / b.mass;
     set_symmetric(k, kInertia, b.inertia);
     set_symmetric(k, kInvInertia, model.inverse_inertia(k));
@@ -108,45 +115,45 @@ bool compile(const Model& model, Data& data) {
     } else if (const auto* torque = dynamic_cast<const ConstantTorque*>(element.get())) {
       for (int i = 0; i < 3; ++i) param(k, kMoment + i) += torque->value[i];
     } else {
-      return false;
+      return nullptr;
     }
   }
-  share_equal_param_groups(groups, kLanes, data);
+  share_equal_param_groups(groups, kLanes, *plan);
   // Pass 1 keeps its intermediate results for pass 2 (~9% fewer instructions) when they are
   // still in cache for pass 2: in a small model, or where pass 2 of every group comes soon
   // after its pass 1 (a chain: one group later). Otherwise (a large bushy tree, whose bodies'
   // children are spread over the later groups) pass 2 gathers and recomputes them, which moves
   // less memory (docs/performance-internal.md).
   int lag = 0;  // the most groups between a group's pass 1 and its pass 2
-  for (int g = 0; g < groups; ++g) lag = std::max(lag, data.fused_ready[at(g)] - g);
+  for (int g = 0; g < groups; ++g) lag = std::max(lag, plan->ready[at(g)] - g);
   const bool near = lag * kLanes <= kKeepLag;
-  data.fused_keep = n <= kKeepLimit || near;
+  plan->keep = n <= kKeepLimit || near;
   // The scratch of group g lives in slot g mod 2^k. Group g's slot is written by its pass 1 and
   // by its children's (groups up to g + lag), read by its pass 2 and its children's (by group
   // g + 2 lag at the latest, pass 2 running in group order), so 2 lag + 2 slots suffice: where
   // the lag is short (a chain: 1) the scratch stays a few kilobytes at any N.
   int slots = 1;
   while (slots < (near ? 2 * lag + 2 : groups)) slots *= 2;
-  data.fused_scratch_mask = slots - 1;
-  data.fused_scratch.assign(
-      at(std::min(slots, groups)) * (data.fused_keep ? kScratchFields : kAccelFields) * kLanes,
-      0.0);
-  return true;
+  plan->scratch_mask = slots - 1;
+  plan->scratch_size =
+      at(std::min(slots, groups)) * (plan->keep ? kScratchFields : kAccelFields) * at(kLanes);
+  return plan;
 }
 
 void forward_dynamics(const Model& model, const State& state, Data& data) {
-  const int lanes = data.fused_lanes;
-  const int stride = (data.fused_keep ? kScratchFields : kAccelFields) * lanes;
+  const Plan& plan = *data.fused_plan;
+  const int lanes = plan.lanes;
+  const int stride = (plan.keep ? kScratchFields : kAccelFields) * lanes;
   const Args args{model.num_bodies(),
                   state.x.data(),
                   state.y.data(),
-                  data.fused_lower.data(),
-                  data.fused_ready.data(),
-                  data.fused_params.data(),
-                  data.fused_param_group.data(),
+                  plan.lower.data(),
+                  plan.ready.data(),
+                  plan.params.data(),
+                  plan.param_group.data(),
                   data.fused_scratch.data(),
                   stride,
-                  data.fused_scratch_mask,
+                  plan.scratch_mask,
                   data.ydot.data(),
                   data.xdot.data()};
   switch (lanes) {

@@ -1,15 +1,18 @@
-// The fused O(N) route of forward_dynamics(Method::recursive). Private to the library.
+// The fused O(N) route of forward_dynamics(Method::recursive) as a compiled plan. Private to
+// the library.
 //
-// The kernel (src/fused_kernel.inc) evaluates kLanes bodies at once with GCC vector
+// The kernel (src/recursive/fused_kernel.inc) evaluates kLanes bodies at once with GCC vector
 // extensions. It is compiled once per SIMD width: 2 lanes (SSE2, any x86-64; or the
 // generic 16-byte vectors elsewhere), 4 (AVX) and 8 (AVX-512F), the wider ones under
-// `#pragma GCC target`, each in its own translation unit (src/fused_lanes2.cpp,
+// `#pragma GCC target`, each in its own translation unit (src/recursive/fused_lanes2.cpp,
 // fused_lanes4.cpp, fused_lanes8.cpp), and compile() picks the widest the running CPU has.
 // The kernel uses no FMA and no reassociation, so every width gives the same bits (tested).
-// The layout of the tables in Data depends on the width chosen (Data::fused_lanes).
+// The layout of the plan's tables depends on the width chosen (Plan::lanes).
 #pragma once
 
 #include <cstddef>
+#include <memory>
+#include <vector>
 
 #include "kanedyn/data.hpp"
 #include "kanedyn/model.hpp"
@@ -17,15 +20,36 @@
 
 namespace kanedyn::fused {
 
-/// Fills data.fused_* from the model: per-body constants with the loads grouped per body, for
-/// the widest kernel that options.simd allows and the CPU runs. Returns false (and leaves the
-/// route unused) when a force element is not a Bushing, ConstantForce or ConstantTorque.
-bool compile(const Model& model, Data& data);
+/// The fused route compiled from a Model for one SIMD width: per-body constants with the loads
+/// grouped per body, the body order of the passes and the shape of the scratch. Built once by
+/// compile(), never changed after; Data owns it (Data::fused_plan) and keeps the scratch the
+/// evaluations write (Data::fused_scratch, scratch_size doubles).
+struct Plan {
+  int lanes = 2;                 // bodies per SIMD pass
+  std::vector<int> lower;        // L(K) per body, padded to whole SIMD groups
+  std::vector<int> ready;        // per group: the last group holding a child
+  std::vector<double> params;    // Param fields per distinct group of constants
+  std::vector<int> param_group;  // per group of bodies: its group of constants in params
+  /// pass 1 keeps its results for pass 2 (small models, chain-like large ones), or pass 2
+  /// redoes them (large bushy trees)
+  bool keep = false;
+  int scratch_mask = 0;     // group g's scratch is slot g & scratch_mask (a ring, 2^k slots)
+  size_t scratch_size = 0;  // doubles of scratch the evaluations need
 
-/// {y dot} and {x dot} into data.ydot, data.xdot. Needs compile() to have returned true.
+  size_t memory_bytes() const;
+};
+
+/// The widest kernel that max_simd_lanes allows and the CPU runs: 2, 4 or 8.
+int chosen_lanes(int max_simd_lanes);
+
+/// The plan of the model for that many lanes; null when a force element is not a Bushing,
+/// ConstantForce or ConstantTorque (the staged route is then taken).
+std::shared_ptr<const Plan> compile(const Model& model, int lanes);
+
+/// {y dot} and {x dot} into data.ydot, data.xdot. Needs data.fused_plan.
 void forward_dynamics(const Model& model, const State& state, Data& data);
 
-/// Up to this many bodies pass 1 keeps its intermediate results for pass 2 (Data::fused_keep);
+/// Up to this many bodies pass 1 keeps its intermediate results for pass 2 (Plan::keep);
 /// beyond, it does so when no group's pass 2 comes more than kKeepLag bodies after its pass 1.
 constexpr int kKeepLimit = 4096;
 constexpr int kKeepLag = 64;
