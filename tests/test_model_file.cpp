@@ -789,8 +789,9 @@ TEST(ModelFile, NonRegularFilesAreRefusedNotReadForever) {
 #endif
 
 /// In a death-test child: parses `text` with the address space capped 32 MB above what the
-/// process uses, and exits 0 if that gave the out-of-memory ModelFileError.
-[[noreturn]] void load_with_little_memory(const std::string& text) {
+/// process uses, and exits 0 if that gave the out-of-memory ModelFileError. (Unused under the
+/// sanitizers.)
+[[noreturn, maybe_unused]] void load_with_little_memory(const std::string& text) {
   std::ifstream statm("/proc/self/statm");
   long pages = 0;
   statm >> pages;
