@@ -1,4 +1,4 @@
-// The fast routes of issue 4 against their oracles: block-sparse [A] and {f} against the dense
+// The fast routes against their oracles: block-sparse [A] and {f} against the dense
 // Eqs. (37)-(38), the tree LDL^T against a dense Cholesky, the fused O(N) pass against the
 // staged recursive route and against the Kane route, the rotation vector against long double,
 // and the equations of src/equations.inc on double against the same on SIMD lanes.
@@ -155,8 +155,8 @@ TEST(SpeedRoutes, RotationVectorIsCorrectToRoundOff) {
 
 }  // namespace
 
-// Two lanes of doubles as the fused kernel's number type (src/recursive/fused_kernel.inc does the same
-// with intrinsics).
+// Two lanes of doubles as the fused kernel's number type (src/recursive/fused_kernel.inc does the
+// same with intrinsics).
 using Pack2 = double __attribute__((vector_size(16)));
 template <>
 struct eq::Lanes<Pack2> {
@@ -416,8 +416,8 @@ TEST(SpeedRoutes, FusedPassEqualsStagedRecursiveRoute) {
       expect_fused_equals_staged(model, random_state(rng, model));
 }
 
-// The fused kernel is compiled for 2, 4 and 8 bodies per SIMD pass (src/recursive/fused.hpp) with only
-// lane-wise IEEE operations and no FMA, so every width this CPU runs gives the same bits as
+// The fused kernel is compiled for 2, 4 and 8 bodies per SIMD pass (src/recursive/fused.hpp) with
+// only lane-wise IEEE operations and no FMA, so every width this CPU runs gives the same bits as
 // the 2-lane kernel: at random states (large relative rotations: the scalar rotation-vector
 // fallback) and near rest (small ones: the lanes' series branch).
 TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
@@ -447,9 +447,9 @@ TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
   if (widths_run == 0) GTEST_SKIP() << "this CPU runs only the 2-lane kernel";
 }
 
-// Groups of bodies whose constants are equal bit for bit share one copy (src/recursive/fused.cpp): a
-// chain of identical links needs two (the root's group differs), a link changed by one ulp
-// gets a copy of its own, and the results stay those of the staged route.
+// Groups of bodies whose constants are equal bit for bit share one copy (src/recursive/fused.cpp):
+// a chain of identical links needs two (the root's group differs), a link changed by one ulp gets a
+// copy of its own, and the results stay those of the staged route.
 TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
   const auto distinct = [](const Data& d) {
     return std::set<int>(d.fused_plan->param_group.begin(), d.fused_plan->param_group.end()).size();
@@ -491,7 +491,7 @@ TEST(SpeedRoutes, LargeModelsKeepOrRecomputeForPassTwo) {
 }
 
 TEST(SpeedRoutes, RecursiveAndKaneRoutesAgreeOnLargeTreesAndDeepChains) {
-  // Two algorithms for Eq. (36) (issue 4: 1e-10 relative). The Kane route's error is the
+  // Two algorithms for Eq. (36), required to agree to 1e-10 relative. The Kane route's error is the
   // condition of [A] times round-off; for these models cond(A) stays below ~1e5.
   std::mt19937 rng(9);
   std::vector<Model> models = test_models(rng);

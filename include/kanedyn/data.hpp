@@ -1,4 +1,4 @@
-// Data: the workspace of one evaluation (GUIDE: "Data"). Every intermediate result of the
+// Data: the workspace of one evaluation. Every intermediate result of the
 // notes lives here, allocated once per Model, so the evaluation path never touches the heap.
 #pragma once
 
