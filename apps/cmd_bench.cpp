@@ -1,4 +1,4 @@
-// `kanedyn bench MODEL [--method recursive|kane] [--reps R] [--json]`: how long one forward
+// `kanedyn bench MODEL [--route recursive|assembled] [--reps R] [--json]`: how long one forward
 // dynamics evaluation ({y dot} and {x dot}) takes at the model's initial state, in the manner of
 // MuJoCo's testspeed. Evaluations are timed in batches long enough for the clock (about 50 us);
 // the median and the minimum of the per-batch averages are reported.
@@ -21,7 +21,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 struct BenchResult {
-  Method method;
+  Route route;
   double median_ns = 0.0;  ///< median over batches of ns per evaluation
   double min_ns = 0.0;     ///< minimum over batches
   long reps = 0;           ///< evaluations timed
@@ -33,20 +33,21 @@ double elapsed_ns(Clock::time_point since) {
   return std::chrono::duration<double, std::nano>(Clock::now() - since).count();
 }
 
-/// Times forward_dynamics(method) at `state`. reps <= 0: about 2 s worth, at most 100,000.
-BenchResult time_method(const Model& model, const State& state, Method method, long reps,
-                        int max_lanes) {
-  // Only what the route needs: the Kane route's block-sparse [A], no partials, no dense [A].
-  Data data(model, method == Method::kane ? DataOptions{false, true, false, max_lanes}
-                                          : DataOptions{false, false, false, max_lanes});
-  forward_dynamics(model, state, data, method);  // warm-up (first touch of the workspace)
+/// Times forward_dynamics(route) at `state`. reps <= 0: about 2 s worth, at most 100,000.
+BenchResult time_route(const Model& model, const State& state, Route route, long reps,
+                       int max_lanes) {
+  // Only what the route needs: the assembled route's block-sparse [A], no partials, no dense [A].
+  DataOptions options = DataOptions::recursive_only(max_lanes);
+  options.kane_terms = route == Route::assembled;  // the assembled route's scratch, no dense [A]
+  Data data(model, options);
+  forward_dynamics(model, state, data, route);  // warm-up (first touch of the workspace)
   if (!data.ydot.allFinite())
     throw std::runtime_error("the equations of motion are not finite at the initial state");
   // A first estimate of the time per evaluation, over at least 1 ms.
   long count = 0;
   const auto start = Clock::now();
   do {
-    forward_dynamics(model, state, data, method);
+    forward_dynamics(model, state, data, route);
     ++count;
   } while (elapsed_ns(start) < 1e6);
   const double estimate = elapsed_ns(start) / static_cast<double>(count);
@@ -59,18 +60,18 @@ BenchResult time_method(const Model& model, const State& state, Method method, l
   for (long b = 0; b < batches; ++b) {
     const long size = reps / batches + (b < reps % batches ? 1 : 0);
     const auto t0 = Clock::now();
-    for (long i = 0; i < size; ++i) forward_dynamics(model, state, data, method);
+    for (long i = 0; i < size; ++i) forward_dynamics(model, state, data, route);
     per_eval.push_back(elapsed_ns(t0) / static_cast<double>(size));
   }
   std::sort(per_eval.begin(), per_eval.end());
   const size_t m = per_eval.size();
   BenchResult r;
-  r.method = method;
+  r.route = route;
   r.median_ns = m % 2 ? per_eval[m / 2] : 0.5 * (per_eval[m / 2 - 1] + per_eval[m / 2]);
   r.min_ns = per_eval.front();
   r.reps = reps;
   r.batch = (reps + batches - 1) / batches;
-  r.lanes = data.fused_loads ? data.fused_lanes : 0;
+  r.lanes = data.single_pass() ? data.simd_lanes() : 0;
   return r;
 }
 
@@ -79,13 +80,13 @@ void print_text(const io::ModelFile& file, const std::vector<BenchResult>& resul
   std::printf("model: %s", file.path.c_str());
   if (!file.model.name().empty()) std::printf(" (%s)", file.model.name().c_str());
   std::printf(", N = %d\nforward dynamics (ydot and xdot) at the initial state\n\n", n);
-  std::printf("%-10s %11s %7s %15s %13s %15s %12s\n", "method", "evaluations", "batch",
+  std::printf("%-10s %11s %7s %15s %13s %15s %12s\n", "route", "evaluations", "batch",
               "median ns/eval", "min ns/eval", "median ns/body", "min ns/body");
   for (const BenchResult& r : results)
-    std::printf("%-10s %11ld %7ld %15.1f %13.1f %15.2f %12.2f\n", to_string(r.method).c_str(),
+    std::printf("%-10s %11ld %7ld %15.1f %13.1f %15.2f %12.2f\n", to_string(r.route).c_str(),
                 r.reps, r.batch, r.median_ns, r.min_ns, r.median_ns / n, r.min_ns / n);
   for (const BenchResult& r : results)
-    if (r.method == Method::recursive && r.lanes > 0)
+    if (r.route == Route::recursive && r.lanes > 0)
       std::printf("\nrecursive: %d bodies per SIMD pass (%s)\n", r.lanes,
                   r.lanes == 8   ? "AVX-512F"
                   : r.lanes == 4 ? "AVX"
@@ -99,7 +100,7 @@ void print_json(const io::ModelFile& file, const std::vector<BenchResult>& resul
   out["N"] = file.model.num_bodies();
   out["results"] = Json::array();
   for (const BenchResult& r : results)
-    out["results"].push_back({{"method", to_string(r.method)},
+    out["results"].push_back({{"route", to_string(r.route)},
                               {"ns_per_eval_median", r.median_ns},
                               {"ns_per_eval_min", r.min_ns},
                               {"reps", r.reps}});
@@ -111,17 +112,19 @@ void add_bench(CLI::App& app) {
       "bench", "Time forward-dynamics evaluations at the model's initial state (ns per eval)");
   struct Options {
     std::string path;
-    std::vector<std::string> methods;
+    std::vector<std::string> routes;
     long reps = 0;
     int simd_lanes = 8;
     bool json = false;
   };
   auto opt = std::make_shared<Options>();
   cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
-  cmd->add_option("--method", opt->methods, "recursive | kane (repeatable; default: both)")
-      ->check(CLI::IsMember({"recursive", "kane"}));
+  cmd->add_option("--route,--method", opt->routes,
+                  "recursive | assembled (repeatable; default: both; --method and kane are the "
+                  "older spellings)")
+      ->check(CLI::IsMember({"recursive", "assembled", "kane"}));
   cmd->add_option("--reps", opt->reps,
-                  "evaluations to time per method (default: about 2 s worth, at most 100000)")
+                  "evaluations to time per route (default: about 2 s worth, at most 100000)")
       ->check(CLI::PositiveNumber);
   cmd->add_option(
          "--simd-lanes", opt->simd_lanes,
@@ -129,38 +132,37 @@ void add_bench(CLI::App& app) {
          "8; the widest this CPU runs up to this is used; every width gives the same bits)")
       ->check(CLI::IsMember({2, 4, 8}));
   cmd->add_flag("--json", opt->json,
-                "print {\"model\", \"N\", \"results\": [{\"method\", \"ns_per_eval_median\", "
+                "print {\"model\", \"N\", \"results\": [{\"route\", \"ns_per_eval_median\", "
                 "\"ns_per_eval_min\", \"reps\"}]}");
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
-    std::vector<Method> methods;
-    for (const std::string& m : opt->methods) {
-      const Method method = parse_method(m);
-      if (std::find(methods.begin(), methods.end(), method) == methods.end())
-        methods.push_back(method);
+    std::vector<Route> routes;
+    for (const std::string& m : opt->routes) {
+      const Route route = parse_route(m);
+      if (std::find(routes.begin(), routes.end(), route) == routes.end()) routes.push_back(route);
     }
-    const bool kane_fits = file.model.has_flat_chains();
-    if (methods.empty()) {
-      // By default both routes; the Kane route only where it can be built.
-      methods = {Method::recursive};
-      if (kane_fits)
-        methods.push_back(Method::kane);
+    const bool assembled_fits = file.model.has_flat_chains();
+    if (routes.empty()) {
+      // By default both routes; the assembled route only where it can be built.
+      routes = {Route::recursive};
+      if (assembled_fits)
+        routes.push_back(Route::assembled);
       else
         std::fprintf(stderr,
-                     "kanedyn: note: %s: the Kane route is not built for %lld chain "
+                     "kanedyn: note: %s: the assembled route is not built for %lld chain "
                      "entries (more than %lld); timing the recursive route alone\n",
                      opt->path.c_str(), file.model.chain_entries(), Model::kMaxFlatChainEntries);
-    } else if (!kane_fits &&
-               std::find(methods.begin(), methods.end(), Method::kane) != methods.end()) {
+    } else if (!assembled_fits &&
+               std::find(routes.begin(), routes.end(), Route::assembled) != routes.end()) {
       throw std::runtime_error(
           opt->path + ": the model's " + std::to_string(file.model.num_bodies()) + " bodies have " +
           std::to_string(file.model.chain_entries()) + " chain entries, more than the " +
           std::to_string(Model::kMaxFlatChainEntries) +
-          " for which the Kane route is built; use --method recursive");
+          " for which the assembled route is built; use --route recursive");
     }
     std::vector<BenchResult> results;
-    for (const Method method : methods)
-      results.push_back(time_method(file.model, file.initial, method, opt->reps, opt->simd_lanes));
+    for (const Route route : routes)
+      results.push_back(time_route(file.model, file.initial, route, opt->reps, opt->simd_lanes));
     if (opt->json)
       print_json(file, results);
     else

@@ -43,10 +43,10 @@ void print_tables(const io::ModelFile& file, const Data& data) {
   std::printf("\n");
   for (int i = 0; i < 6 * n; ++i) {
     std::printf("%-7s", speed_label(n, i).c_str());
-    for (int j = 0; j < 6 * n; ++j) std::printf(" % 10.4g", data.A(i, j));
+    for (int j = 0; j < 6 * n; ++j) std::printf(" % 10.4g", data.kane.A(i, j));
     std::printf("\n");
   }
-  print_column("{f} (Eq. 38)", data.f, speed_label, n);
+  print_column("{f} (Eq. 38)", data.kane.f, speed_label, n);
   print_column("{y dot} (Eq. 36)", data.ydot, speed_label, n);
   print_column("{x dot} (Eqs. 39-40)", data.xdot, coordinate_label, n);
 }
@@ -70,9 +70,10 @@ void print_json(const io::ModelFile& file, const Data& data) {
     return a;
   };
   Json a = Json::array();
-  for (Eigen::Index i = 0; i < data.A.rows(); ++i) a.push_back(vec(data.A.row(i).transpose()));
+  for (Eigen::Index i = 0; i < data.kane.A.rows(); ++i)
+    a.push_back(vec(data.kane.A.row(i).transpose()));
   out["A"] = std::move(a);
-  out["f"] = vec(data.f);
+  out["f"] = vec(data.kane.f);
   out["ydot"] = vec(data.ydot);
   out["xdot"] = vec(data.xdot);
   std::cout << out.dump() << "\n";
@@ -99,9 +100,8 @@ void add_eom(CLI::App& app) {
                                std::to_string(kMaxEomBodies) +
                                " bodies it prints; `kanedyn bench` and `kanedyn simulate` run "
                                "models of any size");
-    Data data(file.model);
+    Data data(file.model, DataOptions{.partials = false});  // [A] dense, as printed
     kane_equations(file.model, file.initial, data);
-    compute_xdot(file.model, file.initial, data.xdot);
     if (!data.ydot.allFinite())
       throw std::runtime_error(opt->path + ": the equations of motion are not finite");
     if (opt->json)

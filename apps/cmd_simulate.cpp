@@ -36,11 +36,11 @@ struct Options {
   std::string model;
   std::string out;
   double t_end = kDefaultTEnd, dt_out = kDefaultDtOut;
-  std::string integrator = "dopri5", method = "recursive";
+  std::string integrator = "dopri5", route = "recursive";
   double rtol = 1e-8, atol = 1e-10, step = kDefaultRk4Step;
   // Which flags were given (they win over the model file's `simulation:` section).
   CLI::Option *t_end_opt = nullptr, *dt_out_opt = nullptr, *integrator_opt = nullptr,
-              *method_opt = nullptr, *rtol_opt = nullptr, *atol_opt = nullptr, *step_opt = nullptr;
+              *route_opt = nullptr, *rtol_opt = nullptr, *atol_opt = nullptr, *step_opt = nullptr;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -157,8 +157,8 @@ SimulationSettings settings_from(const Options& o, const io::SimulationSection& 
   const bool integrator_flag = o.integrator_opt->count() > 0;
   s.integrator =
       parse_integrator(integrator_flag ? o.integrator : file.integrator.value_or(o.integrator));
-  const bool method_flag = o.method_opt->count() > 0;
-  s.method = parse_method(method_flag ? o.method : file.method.value_or(o.method));
+  const bool route_flag = o.route_opt->count() > 0;
+  s.route = parse_route(route_flag ? o.route : file.route.value_or(o.route));
   return s;
 }
 
@@ -181,11 +181,10 @@ void print_summary(const io::ModelFile& file, const SimulationSettings& s,
               format("%.6g", s.t_start).c_str(), format("%.6g", st.t_reached).c_str(),
               to_string(st.status).c_str());
   if (s.integrator == Integrator::dopri5)
-    std::printf("  integrator dopri5 (rtol %.3g, atol %.3g), method %s\n", s.rtol, s.atol,
-                to_string(s.method).c_str());
+    std::printf("  integrator dopri5 (rtol %.3g, atol %.3g), route %s\n", s.rtol, s.atol,
+                to_string(s.route).c_str());
   else
-    std::printf("  integrator rk4 (step <= %.3g), method %s\n", s.step,
-                to_string(s.method).c_str());
+    std::printf("  integrator rk4 (step <= %.3g), route %s\n", s.step, to_string(s.route).c_str());
   std::printf("  steps: %ld accepted, %ld rejected; %ld derivative evaluations; wall time %.3g s\n",
               st.steps_accepted, st.steps_rejected, st.evaluations, st.wall_seconds);
   std::printf("  energy: %.10g -> %.10g (%s change %.3g)\n", st.energy_initial, st.energy_final,
@@ -401,9 +400,11 @@ void add_simulate(CLI::App& app) {
   o->step_opt = cmd->add_option("--step", o->step,
                                 "rk4 step; output intervals are split evenly (default 1e-3)")
                     ->check(positive_number());
-  o->method_opt = cmd->add_option("--method", o->method,
-                                  "recursive (O(N), default) or kane (assemble and solve Eq. 36)")
-                      ->check(CLI::IsMember({"recursive", "kane"}));
+  o->route_opt =
+      cmd->add_option("--route,--method", o->route,
+                      "recursive (O(N), default) or assembled (assemble [A] and {f}, Eqs. 37-38, "
+                      "and solve Eq. 36); --method and kane are the older spellings")
+          ->check(CLI::IsMember({"recursive", "assembled", "kane"}));
   cmd->add_option(
       "--out,-o", o->out,
       "trajectory CSV (default: the model file's name with .csv, in the current folder)");

@@ -16,12 +16,17 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/kinematic_equations.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/partials.hpp"
+#include "kanedyn/testing/generate.hpp"
+#include "kanedyn/testing/oracles.hpp"
+
+#include "../src/assembled.hpp"
+#include "../src/staged.hpp"
+#include "../src/workspace.hpp"
 
 namespace kanedyn {
 namespace {
@@ -76,6 +81,10 @@ void run(benchmark::State& bench, const System& system, DataOptions options, con
 
 void nothing(const Model&, const State&, Data&) {}
 
+void kinematics(const Model& model, const State& state, Data& data) {
+  compute_kinematics(model, state, data);
+}
+
 void loads(const Model& model, const State& state, Data& data) {
   compute_kinematics(model, state, data);
   compute_resultants(model, state, data);
@@ -83,9 +92,9 @@ void loads(const Model& model, const State& state, Data& data) {
 
 void register_all() {
   static const std::vector<System> all = systems();
-  const DataOptions recursive{false, false};
-  const DataOptions kane{false, true, false};
-  const DataOptions with_partials{true, true, false};
+  const DataOptions recursive = DataOptions::recursive_only();
+  const DataOptions kane{.partials = false, .dense_mass_matrix = false};
+  const DataOptions with_partials{.dense_mass_matrix = false};
   for (const System& s : all) {
     const auto add = [&](const std::string& stage, DataOptions options, Stage prepare, Stage work) {
       benchmark::RegisterBenchmark(
@@ -97,52 +106,56 @@ void register_all() {
           });
     };
     // The recursive route.
-    add("kinematics", recursive, nothing, compute_kinematics);
-    add("resultants", recursive, compute_kinematics, compute_resultants);
+    add("kinematics", recursive, nothing, kinematics);
+    add("resultants", recursive, kinematics,
+        [](const Model& m, const State& x, Data& d) { compute_resultants(m, x, d); });
     add("recursive_staged", recursive, nothing, [](const Model& m, const State& x, Data& d) {
-      loads(m, x, d);
-      recursive_accelerations(m, x, d);
-      compute_xdot(m, x, d.xdot);
+      detail::staged_forward_dynamics(m, x, d, Route::recursive);
     });
     add("recursive_fused", recursive, nothing, [](const Model& m, const State& x, Data& d) {
-      forward_dynamics(m, x, d, Method::recursive);
+      forward_dynamics(m, x, d, Route::recursive);
     });
     // The same at each SIMD width this CPU runs (recursive_fused takes the widest).
     for (const int lanes : {2, 4, 8}) {
-      if (Data(*s.model, DataOptions{false, false, false, lanes}).fused_lanes != lanes) continue;
-      add("recursive_fused_lanes" + std::to_string(lanes), DataOptions{false, false, false, lanes},
+      if (Data(*s.model, DataOptions::recursive_only(lanes)).simd_lanes() != lanes) continue;
+      add("recursive_fused_lanes" + std::to_string(lanes), DataOptions::recursive_only(lanes),
           nothing, [](const Model& m, const State& x, Data& d) {
-            forward_dynamics(m, x, d, Method::recursive);
+            forward_dynamics(m, x, d, Route::recursive);
           });
     }
     // The Kane route, where [A] fits (a chain's [A] is dense: O(N^3) to factor).
     const Model& model = *s.model;
     if (model.chain_entries() > 200000 || factor_cost(model) > 3e7) continue;
     if (model.chain_entries() <= 20000)
-      add("partials", with_partials, compute_kinematics,
+      add("partials", with_partials, kinematics,
           [](const Model& m, const State& x, Data& d) { compute_partials_recursive(m, x, d); });
-    add("mass_matrix_blocks", kane, compute_kinematics,
-        [](const Model& m, const State&, Data& d) { compute_mass_matrix(m, d); });
-    add("force_vector", kane, loads, compute_force_vector);
+    add("mass_matrix_blocks", kane, kinematics, [](const Model& m, const State&, Data& d) {
+      assembled::mass_matrix(m, d.kinematics, workspace(d).assembled);
+    });
+    add("force_vector", kane, loads, [](const Model& m, const State& x, Data& d) {
+      detail::Workspace& w = workspace(d);
+      assembled::force_vector(m, x, d.kinematics, d.loads, w.assembled, w.load_sum, d.kane.f);
+    });
     add(
         "tree_ldlt_factor", kane,
         [](const Model& m, const State& x, Data& d) {
           compute_kinematics(m, x, d);
-          compute_mass_matrix(m, d);
-        },
-        [](const Model& m, const State&, Data& d) { d.A_factor.compute(m, d.A_blocks); });
-    add(
-        "tree_ldlt_solve", kane,
-        [](const Model& m, const State& x, Data& d) {
-          loads(m, x, d);
-          kane_accelerations(m, x, d);
+          assembled::mass_matrix(m, d.kinematics, workspace(d).assembled);
         },
         [](const Model& m, const State&, Data& d) {
-          d.ydot = d.f;
-          d.A_factor.solve_in_place(m, d.ydot);
+          detail::AssembledScratch& a = workspace(d).assembled;
+          a.factor.compute(m, a.A_blocks);
         });
-    add("kane", kane, nothing,
-        [](const Model& m, const State& x, Data& d) { forward_dynamics(m, x, d, Method::kane); });
+    add(
+        "tree_ldlt_solve", kane,
+        [](const Model& m, const State& x, Data& d) { kane_equations(m, x, d); },
+        [](const Model& m, const State&, Data& d) {
+          d.ydot = d.kane.f;
+          workspace(d).assembled.factor.solve_in_place(m, d.ydot);
+        });
+    add("kane", kane, nothing, [](const Model& m, const State& x, Data& d) {
+      forward_dynamics(m, x, d, Route::assembled);
+    });
     if (model.num_bodies() <= 64)
       add(
           "mass_matrix_dense_oracle", DataOptions{},
@@ -150,7 +163,9 @@ void register_all() {
             compute_kinematics(m, x, d);
             compute_partials_recursive(m, x, d);
           },
-          [](const Model& m, const State&, Data& d) { compute_mass_matrix_dense(m, d); });
+          [](const Model& m, const State&, Data& d) {
+            benchmark::DoNotOptimize(oracles::mass_matrix_term_by_term(m, d).data());
+          });
   }
 }
 

@@ -112,7 +112,7 @@ void simulate_share(benchmark::State& st) {
   const io::ModelFile& file = eight_body();
   const Model& model = file.model;
   const std::vector<State> states = trajectory_states(file);
-  Data data(model, DataOptions{false, false});  // what simulate() allocates for this route
+  Data data(model, DataOptions::recursive_only());  // what simulate() allocates for this route
   const std::string path = csv_path();
   std::vector<double> a_times, b_times, a_cpu, b_cpu;
   SimulationStats stats;
@@ -176,7 +176,7 @@ void csv_row(benchmark::State& st) {
   const io::ModelFile& file = eight_body();
   const Model& model = file.model;
   const std::vector<State> states = trajectory_states(file);
-  Data data(model, DataOptions{false, false});
+  Data data(model, DataOptions::recursive_only());
   const std::string path = csv_path();
   {
     io::TrajectoryWriter writer(model, path);

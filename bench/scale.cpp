@@ -28,8 +28,8 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/testing/generate.hpp"
 
 namespace {
 
@@ -58,16 +58,16 @@ double peak_rss_since_exec_mb() {
 
 // Median and minimum ns per evaluation over batches of about 2 ms (at least one evaluation).
 std::pair<double, double> time_evaluations(const Model& model, const State& state, Data& data) {
-  forward_dynamics(model, state, data, Method::recursive);
+  forward_dynamics(model, state, data, Route::recursive);
   auto t0 = Clock::now();
-  forward_dynamics(model, state, data, Method::recursive);
+  forward_dynamics(model, state, data, Route::recursive);
   const double once = seconds_since(t0);
   const int batch = std::max(1, static_cast<int>(2e-3 / once));
   const int batches = std::clamp(static_cast<int>(1.0 / (once * batch)), 15, 200);
   std::vector<double> ns;
   for (int b = 0; b < batches; ++b) {
     t0 = Clock::now();
-    for (int i = 0; i < batch; ++i) forward_dynamics(model, state, data, Method::recursive);
+    for (int i = 0; i < batch; ++i) forward_dynamics(model, state, data, Route::recursive);
     ns.push_back(seconds_since(t0) * 1e9 / batch);
   }
   std::sort(ns.begin(), ns.end());
@@ -95,7 +95,7 @@ double rk4_steps(const Model& model, const State& initial, Data& data, int steps
         stage.x = state.x + (c[i] * h) * kx[i - 1];
         stage.y = state.y + (c[i] * h) * ky[i - 1];
       }
-      forward_dynamics(model, stage, data, Method::recursive);
+      forward_dynamics(model, stage, data, Route::recursive);
       kx[i] = data.xdot;
       ky[i] = data.ydot;
     }
@@ -227,10 +227,10 @@ int load_file(const std::string& path, int n) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   const double file_mb = static_cast<double>(in.tellg()) / 1e6;
   const GeneratedSystem g = chain_model(n);
-  Data data(file.model, DataOptions{false, false});
-  forward_dynamics(file.model, file.initial, data, Method::recursive);
-  Data reference(g.model, DataOptions{false, false});
-  forward_dynamics(g.model, g.initial, reference, Method::recursive);
+  Data data(file.model, DataOptions::recursive_only());
+  forward_dynamics(file.model, file.initial, data, Route::recursive);
+  Data reference(g.model, DataOptions::recursive_only());
+  forward_dynamics(g.model, g.initial, reference, Route::recursive);
   const double difference = (data.ydot - reference.ydot).norm() / reference.ydot.norm();
   std::printf(
       "model file %s (%.1f MB): N = %d loaded in %.2f s (CPU %.2f s), peak RSS %.1f MB; ydot "
@@ -283,17 +283,17 @@ int main(int argc, char** argv) {
   if (quick) sizes = {64, 1024, 16384};
   if (files_only) sizes.clear();
   std::printf(
-      "%s, O(N) route (forward_dynamics, Method::recursive, DataOptions{false, false}), "
+      "%s, O(N) route (forward_dynamics, Route::recursive, DataOptions::recursive_only()), "
       "%d bodies per SIMD pass\n\n",
       trees ? "random trees (seed 1)" : "chains",
-      Data(chain_model(8).model, DataOptions{false, false, false, lanes}).fused_lanes);
+      Data(chain_model(8).model, DataOptions::recursive_only(lanes)).simd_lanes());
   std::printf("%8s %10s %12s %12s %14s %13s %14s %s\n", "N", "build ms", "median ns/b", "min ns/b",
               "Data bytes/b", "peak RSS MB", "RK4 ns/step/b", "RK4 check");
   for (const int n : sizes) {
     auto t0 = Clock::now();
     const GeneratedSystem g = trees ? random_tree_model(n, 1) : chain_model(n);
     const double build_ms = seconds_since(t0) * 1e3;
-    Data data(g.model, DataOptions{false, false, false, lanes});
+    Data data(g.model, DataOptions::recursive_only(lanes));
     const auto [median, min] = time_evaluations(g.model, g.initial, data);
     State end;
     double step = 1e300;  // the fastest of 3 runs of 5 steps

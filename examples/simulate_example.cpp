@@ -14,12 +14,13 @@ int main(int argc, char** argv) {
   kanedyn::SimulationSettings settings;  // dopri5, rtol 1e-8, atol 1e-10
   settings.t_end = 3.0;
   settings.dt_out = 0.5;
-  const kanedyn::SimulationStats stats = kanedyn::simulate(
-      file.model, file.initial, settings,
-      [&](double t, const kanedyn::State& state, kanedyn::Data& data) {
-        const double energy = kanedyn::total_energy(file.model, state, data);
-        std::printf("t = %.2f  body 1 G_z = %.5f m  energy = %.6f J\n", t, data.p_G[0].z(), energy);
-      });
+  const kanedyn::SimulationStats stats =
+      kanedyn::simulate(file.model, file.initial, settings,
+                        [&](double t, const kanedyn::State& state, kanedyn::Data& data) {
+                          const double energy = kanedyn::total_energy(file.model, state, data);
+                          std::printf("t = %.2f  body 1 G_z = %.5f m  energy = %.6f J\n", t,
+                                      data.kinematics.p_G[0].z(), energy);
+                        });
   std::printf("%ld steps, %ld evaluations: %s\n", stats.steps_accepted, stats.evaluations,
               stats.ok() ? "completed" : stats.message.c_str());
   return stats.ok() ? 0 : 1;

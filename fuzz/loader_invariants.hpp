@@ -73,8 +73,8 @@ inline std::string check_model_file(const io::ModelFile& file) {
     DataOptions options;
     options.dense_mass_matrix = false;
     Data data(model, options);
-    forward_dynamics(model, state, data, Method::recursive);
-    forward_dynamics(model, state, data, Method::kane);
+    forward_dynamics(model, state, data, Route::recursive);
+    forward_dynamics(model, state, data, Route::assembled);
   }
   return "";
 }

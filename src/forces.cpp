@@ -11,8 +11,12 @@ size_t at(int i) { return static_cast<size_t>(i); }
 }  // namespace
 
 std::string ForceElement::validate(const Model& /*model*/) const { return ""; }
-double ForceElement::potential_energy(const Model&, const State&, const Data&) const { return 0.0; }
-double ForceElement::damping_power(const Model&, const State&, const Data&) const { return 0.0; }
+double ForceElement::potential_energy(const Model&, const State&, const Kinematics&) const {
+  return 0.0;
+}
+double ForceElement::damping_power(const Model&, const State&, const Kinematics&) const {
+  return 0.0;
+}
 
 Bushing::Bushing(int body, Vector3 k, Vector3 c, double kr, double cr)
     : stiffness(std::move(k)),
@@ -42,7 +46,8 @@ Vector3 Bushing::rotation_vector(const State& state, const Model& model) const {
       eq::rotation_vector(eq::relative_euler(state.x.data(), model.lower_body(body_), body_)));
 }
 
-void Bushing::apply(const Model& model, const State& state, Data& data) const {
+void Bushing::apply(const Model& model, const State& state, const Kinematics& kin,
+                    Loads& loads) const {
   const int k = body_;
   const int j = model.lower_body(k);
   const eq::Euler<double> rel = eq::relative_euler(state.x.data(), j, k);
@@ -54,24 +59,24 @@ void Bushing::apply(const Model& model, const State& state, Data& data) const {
                                                 eq::rotation_vector(rel), w_rel);  // body K
   const eq::ForceAndMoment<double> on_k = eq::bushing_load_on_k(R, f, eq::vec(model.body(k).com));
   const eq::Vec3<double> f_inertial =
-      j == kGround ? f : eq::transpose_times(eq::mat(data.R[at(j)]), f);
-  eq::add_to(data.force[at(k)], f_inertial);
-  eq::add_to(data.moment_b[at(k)], on_k.moment);  // (M' + arm x F) + M, as the kernel adds them
-  eq::add_to(data.moment_b[at(k)], m);
+      j == kGround ? f : eq::transpose_times(eq::mat(kin.R[at(j)]), f);
+  eq::add_to(loads.force[at(k)], f_inertial);
+  eq::add_to(loads.moment_b[at(k)], on_k.moment);  // (M' + arm x F) + M, as the kernel adds them
+  eq::add_to(loads.moment_b[at(k)], m);
   if (j == kGround) return;
-  eq::subtract_from(data.force[at(j)], f_inertial);
+  eq::subtract_from(loads.force[at(j)], f_inertial);
   // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
   const Vector3 arm = model.body(k).joint + state.translation(k) - model.body(j).com;
-  eq::add_to(data.moment_b[at(j)], eq::bushing_moment_on_j(R, f, m, eq::vec(arm)));
+  eq::add_to(loads.moment_b[at(j)], eq::bushing_moment_on_j(R, f, m, eq::vec(arm)));
 }
 
-double Bushing::potential_energy(const Model& model, const State& state, const Data&) const {
+double Bushing::potential_energy(const Model& model, const State& state, const Kinematics&) const {
   return eq::bushing_energy(eq::vec(stiffness), rotational_stiffness,
                             eq::vec(state.translation(body_)),
                             eq::vec(rotation_vector(state, model)));
 }
 
-double Bushing::damping_power(const Model& model, const State& state, const Data&) const {
+double Bushing::damping_power(const Model& model, const State& state, const Kinematics&) const {
   const int k = body_;
   const int j = model.lower_body(k);
   eq::Vec3<double> w_rel = eq::vec(state.angular_velocity(k));
@@ -82,20 +87,25 @@ double Bushing::damping_power(const Model& model, const State& state, const Data
                                    eq::vec(state.translation_rate(k)), w_rel);
 }
 
-void ConstantForce::apply(const Model&, const State&, Data& data) const {
-  data.force[at(body())] += value;
+void ConstantForce::apply(const Model&, const State&, const Kinematics&, Loads& loads) const {
+  loads.force[at(body())] += value;
 }
 
-void ConstantTorque::apply(const Model&, const State&, Data& data) const {
-  data.moment_b[at(body())] += value;
+void ConstantTorque::apply(const Model&, const State&, const Kinematics&, Loads& loads) const {
+  loads.moment_b[at(body())] += value;
+}
+
+void compute_resultants(const Model& model, const State& state, const Kinematics& kin,
+                        Loads& loads) {
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    loads.force[at(k)] = model.body(k).mass * model.gravity();
+    loads.moment_b[at(k)].setZero();
+  }
+  for (const auto& element : model.forces()) element->apply(model, state, kin, loads);
 }
 
 void compute_resultants(const Model& model, const State& state, Data& data) {
-  for (int k = 0; k < model.num_bodies(); ++k) {
-    data.force[at(k)] = model.body(k).mass * model.gravity();
-    data.moment_b[at(k)].setZero();
-  }
-  for (const auto& element : model.forces()) element->apply(model, state, data);
+  compute_resultants(model, state, data.kinematics, data.loads);
 }
 
 }  // namespace kanedyn

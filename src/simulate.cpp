@@ -125,14 +125,14 @@ void validate_settings(const SimulationSettings& s) {
 
 void validate_settings(const Model& model, const SimulationSettings& s) {
   validate_settings(s);
-  if (s.method == Method::kane && !model.has_flat_chains())
+  if (s.route == Route::assembled && !model.has_flat_chains())
     throw std::invalid_argument(
         "simulate: the model's " + std::to_string(model.num_bodies()) + " bodies have " +
         std::to_string(model.chain_entries()) +
         " chain entries (the sum of u_K + 1), more than the " +
         std::to_string(Model::kMaxFlatChainEntries) +
-        " for which the Kane route's partial velocity blocks and [A] are built; use method "
-        "recursive, the O(N) route, which has no such limit");
+        " for which the assembled route's blocks of [A] are built; use the recursive route, "
+        "O(N), which has no such limit");
 }
 
 double rk4_step_limit(const Model& model, int* force_index) {
@@ -183,7 +183,9 @@ class Run {
         s_(settings),
         observer_(observer),
         n_(model.num_bodies()),
-        data_(model, settings.method == Method::kane ? DataOptions{} : DataOptions{false, false}),
+        data_(model, settings.route == Route::assembled
+                         ? DataOptions{.partials = false, .dense_mass_matrix = false}
+                         : DataOptions::recursive_only()),
         work_(model),
         out_state_(model),
         z_(VectorX::Zero(13 * n_)),
@@ -232,7 +234,7 @@ class Run {
     copy(z.data(), 7 * n_, work_.x.data());
     copy(z.data() + 7 * n_, 6 * n_, work_.y.data());
     for (int k = 0; k < n_; ++k) work_.euler_parameters(k).normalize();
-    forward_dynamics(model_, work_, data_, s_.method);
+    forward_dynamics(model_, work_, data_, s_.route);
     copy(data_.xdot.data(), 7 * n_, dz.data());
     copy(data_.ydot.data(), 6 * n_, dz.data() + 7 * n_);
   }

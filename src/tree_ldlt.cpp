@@ -51,7 +51,7 @@ TreeLdlt::TreeLdlt(const Model& model) {
     throw ModelError("model: " + std::to_string(model.chain_entries()) +
                      " chain entries are too many for the block-sparse [A] (limit " +
                      std::to_string(Model::kMaxFlatChainEntries) +
-                     "); use the recursive route with DataOptions{false, false}");
+                     "); use the recursive route (DataOptions::recursive_only())");
   int max_depth = 0;
   for (int k = 0; k < model.num_bodies(); ++k) max_depth = std::max(max_depth, model.depth(k));
   factor_.assign(at(model.chain_entries()), Matrix6::Zero());

@@ -71,7 +71,7 @@ TEST(SimulateCommand, WritesTheTrajectoryTheLibraryComputes) {
     ASSERT_LT(row, rows.size());
     EXPECT_EQ(parse(rows[row][0]), t);
     EXPECT_EQ(parse(rows[row][1 + 16 * 7 + 11]), st.angular_velocity(7)[1]);  // left_forearm.w2
-    EXPECT_EQ(parse(rows[row][3]), data.p_G[0].z());                          // torso.z
+    EXPECT_EQ(parse(rows[row][3]), data.kinematics.p_G[0].z());               // torso.z
     EXPECT_EQ(parse(rows[row].back()), energy);
     ++row;
   });
@@ -95,6 +95,41 @@ TEST(SimulateCommand, FlagsWinOverTheModelFilesSimulationSection) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("integrator dopri5 (rtol 1e-08, atol 1e-10)"), std::string::npos) << r.out;
   EXPECT_EQ(read_csv(dir / "other.csv").size(), 5u);
+}
+
+TEST(SimulateCommand, TheRouteComesFromTheFlagOrTheFile) {
+  const fs::path dir = temp_dir("cli_route");
+  std::string text = slurp(kExamples + "/eight_body.yaml");
+  text = text.substr(0, text.find("simulation:"));
+  const auto write = [&](const std::string& section) {
+    std::ofstream(dir / "m.yaml") << text << "simulation:\n  t_end: 0.02\n" << section;
+  };
+  write("  route: assembled\n");
+  Result r = run_in(dir, "simulate m.yaml");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("route assembled"), std::string::npos) << r.out;
+  r = run_in(dir, "simulate m.yaml --route recursive");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("route recursive"), std::string::npos) << r.out;
+  // The older spellings: `method: kane` in the file, --method kane on the command line.
+  write("  method: kane\n");
+  r = run_in(dir, "simulate m.yaml");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("route assembled"), std::string::npos) << r.out;
+  write("");
+  r = run_in(dir, "simulate m.yaml --method kane");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("route assembled"), std::string::npos) << r.out;
+  write("  route: assembled\n  method: recursive\n");
+  r = run_in(dir, "simulate m.yaml");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("simulation.method: give `route` or its older spelling `method`, not both"),
+            std::string::npos)
+      << r.err;
+  write("  route: kane\n");  // the new key takes the new names only
+  r = run_in(dir, "simulate m.yaml");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("simulation.route"), std::string::npos) << r.err;
 }
 
 TEST(SimulateCommand, FailureKeepsThePartialFileAndExitsNonzero) {
@@ -293,7 +328,7 @@ TEST(SimulateCommand, SettingsTheModelCannotRunFailBeforeTheRun) {
                        "16822900 chain entries"),
             std::string::npos)
       << r.err;
-  EXPECT_NE(r.err.find("use method recursive"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("use the recursive route"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("DataOptions"), std::string::npos) << r.err;
   EXPECT_EQ(files_left(dir, {"long.yaml"}), std::vector<std::string>{});
   // eom prints the dense [A]: refused past 1000 bodies, naming the file.
@@ -305,7 +340,7 @@ TEST(SimulateCommand, SettingsTheModelCannotRunFailBeforeTheRun) {
   // bench: the Kane route only where it can be built (by default it is left out, saying so).
   r = run_in(dir, "bench long.yaml --reps 3 --method kane");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("use --method recursive"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("use --route recursive"), std::string::npos) << r.err;
   r = run_in(dir, "bench long.yaml --reps 3 --json");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("timing the recursive route alone"), std::string::npos) << r.err;

@@ -16,10 +16,10 @@
 
 #include "file_support.hpp"
 #include "kanedyn/energy.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
+#include "kanedyn/testing/generate.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -76,7 +76,7 @@ TEST(TrajectoryCsv, RowsRoundTripAndFinishRenames) {
     const auto& r = rows[1];
     const size_t o = 1 + 16 * static_cast<size_t>(k);
     for (int i = 0; i < 3; ++i) {
-      EXPECT_EQ(parse(r[o + i]), data.p_G[static_cast<size_t>(k)][i]);
+      EXPECT_EQ(parse(r[o + i]), data.kinematics.p_G[static_cast<size_t>(k)][i]);
       EXPECT_EQ(parse(r[o + 7 + i]), state.translation(k)[i]);
       EXPECT_EQ(parse(r[o + 10 + i]), state.angular_velocity(k)[i]);
       EXPECT_EQ(parse(r[o + 13 + i]), state.translation_rate(k)[i]);
@@ -89,7 +89,7 @@ TEST(TrajectoryCsv, EnergyOfTheKinematicsIsTotalEnergy) {
   // The command writes total_energy_of_kinematics (the kinematics simulate() computed for
   // the observer) where it wrote total_energy before: the same value, bit for bit.
   const Model model = eight_body(Vector3(0, 0, -9.81), true, 1.0);
-  Data a(model), b(model, DataOptions{false, false});
+  Data a(model), b(model, DataOptions::recursive_only());
   for (unsigned seed = 1; seed <= 20; ++seed) {
     const State state = moving_state(model, seed);
     const double reference = total_energy(model, state, a);
@@ -127,7 +127,7 @@ std::vector<State> some_states(const Model& model, int rows) {
 /// used to compute on its own thread.
 std::string inline_writer_bytes(const Model& model, const std::vector<State>& states,
                                 const std::string& path) {
-  Data data(model, DataOptions{false, false});
+  Data data(model, DataOptions::recursive_only());
   io::TrajectoryWriter writer(model, path);
   for (size_t i = 0; i < states.size(); ++i) {
     compute_kinematics(model, states[i], data);
@@ -300,7 +300,7 @@ TEST(TrajectoryCsv, ARowWithANonFiniteNumberIsRefused) {
               std::string::npos)
         << e.what();
   }
-  data.p_G[2].y() = std::numeric_limits<double>::infinity();
+  data.kinematics.p_G[2].y() = std::numeric_limits<double>::infinity();
   try {
     writer.write_row(0.2, state, data, 1.0);
     ADD_FAILURE() << "an infinite position was written";

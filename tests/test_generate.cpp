@@ -1,5 +1,5 @@
-// Generated systems (include/kanedyn/generate.hpp): sizes, topology, mass properties, bushings,
-// determinism and the documented ranges of the initial state.
+// Generated systems (include/kanedyn/testing/generate.hpp): sizes, topology, mass properties,
+// bushings, determinism and the documented ranges of the initial state.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,8 +9,8 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/rotation.hpp"
+#include "kanedyn/testing/generate.hpp"
 
 namespace kanedyn {
 namespace {
@@ -166,7 +166,7 @@ TEST(Generate, RejectsEmptySystems) {
 TEST(Generate, InitialStateEvaluatesToFiniteAccelerations) {
   for (const GeneratedSystem& g : {chain_model(16), random_tree_model(16, 2)}) {
     Data data(g.model);
-    forward_dynamics(g.model, g.initial, data, Method::recursive);
+    forward_dynamics(g.model, g.initial, data, Route::recursive);
     EXPECT_TRUE(data.ydot.allFinite());
     EXPECT_GT(data.ydot.cwiseAbs().maxCoeff(), 0.0);
   }

@@ -70,8 +70,8 @@ struct Precession {
     lambda = (kC - kA) / kA * w0.z();
     Data data(model);
     compute_kinematics(model, initial, data);
-    pG0 = data.p_G[0];
-    vG0 = data.v_G[0];
+    pG0 = data.kinematics.p_G[0];
+    vG0 = data.kinematics.v_G[0];
   }
   static Model make_model() {
     BodySpec b;
@@ -95,8 +95,8 @@ struct Precession {
     Data data(model);
     compute_kinematics(model, state, data);
     const double ew = (state.angular_velocity(0) - angular_velocity(t)).cwiseAbs().maxCoeff();
-    const double eR = (data.R[0] - rotation(t)).cwiseAbs().maxCoeff();
-    const double ep = (data.p_G[0] - (pG0 + vG0 * t)).cwiseAbs().maxCoeff();
+    const double eR = (data.kinematics.R[0] - rotation(t)).cwiseAbs().maxCoeff();
+    const double ep = (data.kinematics.p_G[0] - (pG0 + vG0 * t)).cwiseAbs().maxCoeff();
     return std::max({ew, eR, ep});
   }
 };
@@ -106,13 +106,13 @@ struct SystemOde {
   const Model& model;
   State state;
   Data data;
-  explicit SystemOde(const Model& m) : model(m), state(m), data(m, DataOptions{false, false}) {}
+  explicit SystemOde(const Model& m) : model(m), state(m), data(m, DataOptions::recursive_only()) {}
   OdeFunction function() {
     return [this](double, const VectorX& z, VectorX& dz) {
       const int n = model.num_bodies();
       state.x = z.head(7 * n);
       state.y = z.tail(6 * n);
-      forward_dynamics(model, state, data, Method::recursive);
+      forward_dynamics(model, state, data, Route::recursive);
       dz << data.xdot, data.ydot;
     };
   }
@@ -548,12 +548,12 @@ TEST(Simulate, AllocatesOnlyDuringSetup) {
   const auto sys = test::eight_body_model();
   State initial(sys);
   initial.angular_velocity(0) = Vector3(0.5, -0.3, 1.0);
-  auto count = [&](double t_end, Integrator integrator, Method method) {
+  auto count = [&](double t_end, Integrator integrator, Route method) {
     SimulationSettings s;
     s.t_end = t_end;
     s.dt_out = t_end / 4;
     s.integrator = integrator;
-    s.method = method;
+    s.route = method;
     g_allocations = 0;
     g_count_allocations = true;
     const auto stats = simulate(sys, initial, s);
@@ -562,7 +562,7 @@ TEST(Simulate, AllocatesOnlyDuringSetup) {
     return std::make_pair(g_allocations.load(), stats.steps_accepted);
   };
   for (const Integrator integrator : {Integrator::dopri5, Integrator::rk4})
-    for (const Method method : {Method::recursive, Method::kane}) {
+    for (const Route method : {Route::recursive, Route::assembled}) {
       const auto [short_allocs, short_steps] = count(0.1, integrator, method);
       const auto [long_allocs, long_steps] = count(1.0, integrator, method);
       EXPECT_GT(long_steps, 5 * short_steps);

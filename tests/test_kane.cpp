@@ -26,7 +26,10 @@
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/partials.hpp"
 #include "kanedyn/rotation.hpp"
+#include "kanedyn/testing/oracles.hpp"
 #include "test_support.hpp"
+
+#include "../src/workspace.hpp"
 
 namespace kanedyn {
 namespace {
@@ -53,19 +56,18 @@ TEST(Kane, MassMatrixSymmetricPositiveDefinite) {
     Data data(model);
     const State state = test::random_state(model, rng);
     kane_equations(model, state, data);
-    const double scale = inf_norm(data.A);
-    // data.A is mirrored from its lower blocks, so its symmetry proves nothing. Eq. (37) term
-    // by term (compute_mass_matrix_dense) forms block (I, J) and block (J, I) as separate
+    const double scale = inf_norm(data.kane.A);
+    // data.kane.A is mirrored from its lower blocks, so its symmetry proves nothing. Eq. (37) term
+    // by term (oracles::mass_matrix_term_by_term) forms block (I, J) and block (J, I) as separate
     // products: symmetric only if the partial velocities make it so. Round-off of sums of
     // ~6N products of O(|A|) terms: 1e-14 relative.
-    const MatrixX assembled = data.A;
-    compute_mass_matrix_dense(model, data);  // needs the partials kane_equations computed
-    EXPECT_LT(inf_norm(data.A - data.A.transpose()), 1e-14 * scale);
-    EXPECT_LT(inf_norm(data.A - assembled), 1e-12 * scale);
-    data.A = assembled;
-    EXPECT_EQ(data.A_factor.info(), Eigen::Success);
-    EXPECT_EQ(Eigen::LLT<MatrixX>(data.A).info(), Eigen::Success);
-    const Eigen::SelfAdjointEigenSolver<MatrixX> eig(data.A, Eigen::EigenvaluesOnly);
+    // needs the partials kane_equations computed
+    const MatrixX term_by_term = oracles::mass_matrix_term_by_term(model, data);
+    EXPECT_LT(inf_norm(term_by_term - term_by_term.transpose()), 1e-14 * scale);
+    EXPECT_LT(inf_norm(data.kane.A - term_by_term), 1e-12 * scale);
+    EXPECT_EQ(workspace(data).assembled.factor.info(), Eigen::Success);
+    EXPECT_EQ(Eigen::LLT<MatrixX>(data.kane.A).info(), Eigen::Success);
+    const Eigen::SelfAdjointEigenSolver<MatrixX> eig(data.kane.A, Eigen::EigenvaluesOnly);
     // Smallest eigenvalue: positive, and well above the round-off of the eigensolver
     // (6N eps |A| ~ 1e-13 |A|), so "positive" is not an accident of rounding.
     EXPECT_GT(eig.eigenvalues().minCoeff(), 1e-10 * scale) << "N " << model.num_bodies();
@@ -89,7 +91,7 @@ TEST(Kane, SingleFreeBodyWithoutComOffset) {
     MatrixX expected = MatrixX::Zero(6, 6);
     expected.topLeftCorner<3, 3>() = b.inertia;
     expected.bottomRightCorner<3, 3>() = b.mass * Matrix3::Identity();
-    EXPECT_LT(inf_norm(data.A - expected), 1e-14);
+    EXPECT_LT(inf_norm(data.kane.A - expected), 1e-14);
   }
 }
 
@@ -117,15 +119,16 @@ TEST(Kane, MassMatrixAndForceVectorEqualDenseEquations) {
       const MatrixX w = angular_velocity_selection(n, k);
       const Vector3 om = state.angular_velocity(k);
       a += b.mass * v.transpose() * v + w.transpose() * b.inertia * w;
-      const Vector3 inertial = data.force[i] - b.mass * vdot * state.y;
-      const Vector3 gyro = data.moment_b[i] - om.cross(b.inertia * om);
+      const Vector3 inertial = data.loads.force[i] - b.mass * vdot * state.y;
+      const Vector3 gyro = data.loads.moment_b[i] - om.cross(b.inertia * om);
       f += v.transpose() * inertial + w.transpose() * gyro;
-      fy += v.transpose() * data.force[i] + w.transpose() * data.moment_b[i];  // Eq. (31)
+      fy +=
+          v.transpose() * data.loads.force[i] + w.transpose() * data.loads.moment_b[i];  // Eq. (31)
       f_scale = std::max({f_scale, test::max_abs(v) * inertial.norm(), gyro.norm()});
     }
-    EXPECT_LT(inf_norm(data.A - a), 1e-12 * inf_norm(a)) << "N " << n;
-    EXPECT_LT(test::max_abs(data.f - f), 1e-12 * f_scale) << "N " << n;
-    EXPECT_LT(test::max_abs(data.F_y - fy), 1e-12 * f_scale) << "N " << n;
+    EXPECT_LT(inf_norm(data.kane.A - a), 1e-12 * inf_norm(a)) << "N " << n;
+    EXPECT_LT(test::max_abs(data.kane.f - f), 1e-12 * f_scale) << "N " << n;
+    EXPECT_LT(test::max_abs(data.kane.F_y - fy), 1e-12 * f_scale) << "N " << n;
   }
 }
 
@@ -143,12 +146,12 @@ TEST(Kane, GeneralizedForcesPassThePowerCheck) {
       double power = 0.0, scale = 0.0;
       for (int k = 0; k < model.num_bodies(); ++k) {
         const auto i = static_cast<size_t>(k);
-        const double pf = data.force[i].dot(data.v_G[i]);
-        const double pm = data.moment_b[i].dot(state.angular_velocity(k));
+        const double pf = data.loads.force[i].dot(data.kinematics.v_G[i]);
+        const double pm = data.loads.moment_b[i].dot(state.angular_velocity(k));
         power += pf + pm;
         scale += std::abs(pf) + std::abs(pm);
       }
-      EXPECT_NEAR(data.F_y.dot(state.y), power, 1e-12 * scale) << "N " << model.num_bodies();
+      EXPECT_NEAR(data.kane.F_y.dot(state.y), power, 1e-12 * scale) << "N " << model.num_bodies();
     }
   }
 }
@@ -162,9 +165,10 @@ TEST(Kane, SolutionSatisfiesEquation36) {
     Data data(model);
     const State state = test::random_state(model, rng);
     kane_equations(model, state, data);
-    const VectorX r = data.A * data.ydot - data.f;
-    const double tol = 4.0 * model.num_speeds() * std::numeric_limits<double>::epsilon() *
-                       (inf_norm(data.A) * test::max_abs(data.ydot) + test::max_abs(data.f));
+    const VectorX r = data.kane.A * data.ydot - data.kane.f;
+    const double tol =
+        4.0 * model.num_speeds() * std::numeric_limits<double>::epsilon() *
+        (inf_norm(data.kane.A) * test::max_abs(data.ydot) + test::max_abs(data.kane.f));
     EXPECT_LT(test::max_abs(r), tol) << "N " << model.num_bodies();
   }
 }
@@ -178,8 +182,8 @@ TEST(Kane, KaneAndRecursiveRoutesAgree) {
   for (const Model& model : loaded_models(41, 100)) {
     Data dk(model), dr(model);
     const State state = test::random_state(model, rng);
-    forward_dynamics(model, state, dk, Method::kane);
-    forward_dynamics(model, state, dr, Method::recursive);
+    forward_dynamics(model, state, dk, Route::assembled);
+    forward_dynamics(model, state, dr, Route::recursive);
     EXPECT_LE((dk.ydot - dr.ydot).norm(), 1e-10 * dr.ydot.norm()) << "N " << model.num_bodies();
     EXPECT_EQ(dk.xdot, dr.xdot);
   }
@@ -193,7 +197,7 @@ TEST(Kane, KinematicEquations) {
   for (const Model& model : loaded_models(43, 10)) {
     Data data(model);
     const State state = test::random_state(model, rng);
-    forward_dynamics(model, state, data, Method::kane);
+    forward_dynamics(model, state, data, Route::assembled);
     const int n = model.num_bodies();
     ASSERT_EQ(data.xdot.size(), 7 * n);
     for (int k = 0; k < n; ++k) {
@@ -226,11 +230,11 @@ TEST(Kane, KaneEquationsEqualNewtonEulerPerBody) {
       const Vector3 alpha = angular_velocity_partial(model, k) * data.ydot;  // Eq. (10)
       EXPECT_EQ(alpha, angular_acceleration_b(data.ydot, k));
       const Vector3 w = state.angular_velocity(k);
-      const double f_scale = data.force[i].norm() + b.mass * a_g.norm() + 1.0;
-      EXPECT_LT((b.mass * a_g - data.force[i]).norm(), 1e-11 * f_scale) << "body " << k;
+      const double f_scale = data.loads.force[i].norm() + b.mass * a_g.norm() + 1.0;
+      EXPECT_LT((b.mass * a_g - data.loads.force[i]).norm(), 1e-11 * f_scale) << "body " << k;
       const Vector3 euler = b.inertia * alpha + w.cross(b.inertia * w);
-      const double m_scale = data.moment_b[i].norm() + (b.inertia * alpha).norm() + 1.0;
-      EXPECT_LT((euler - data.moment_b[i]).norm(), 1e-11 * m_scale) << "body " << k;
+      const double m_scale = data.loads.moment_b[i].norm() + (b.inertia * alpha).norm() + 1.0;
+      EXPECT_LT((euler - data.loads.moment_b[i]).norm(), 1e-11 * m_scale) << "body " << k;
     }
   }
 }

@@ -62,11 +62,13 @@ TEST(Kinematics, RecursivePositionsEqualDirectSum) {
     const DirectPositions direct = direct_positions(model, state);
     for (int k = 0; k < model.num_bodies(); ++k) {
       const auto i = static_cast<size_t>(k);
-      EXPECT_LT((data.p_O[i] - direct.p_O[i]).norm(), 1e-12) << "body " << k;
-      EXPECT_LT((data.p_G[i] - direct.p_G[i]).norm(), 1e-12) << "body " << k;
-      EXPECT_LT((data.R[i] - reference_rotation(state.euler_parameters(k))).cwiseAbs().maxCoeff(),
+      EXPECT_LT((data.kinematics.p_O[i] - direct.p_O[i]).norm(), 1e-12) << "body " << k;
+      EXPECT_LT((data.kinematics.p_G[i] - direct.p_G[i]).norm(), 1e-12) << "body " << k;
+      EXPECT_LT((data.kinematics.R[i] - reference_rotation(state.euler_parameters(k)))
+                    .cwiseAbs()
+                    .maxCoeff(),
                 1e-14);
-      EXPECT_EQ(data.qs_b[i], Vector3(model.body(k).joint + state.translation(k)));
+      EXPECT_EQ(data.kinematics.qs_b[i], Vector3(model.body(k).joint + state.translation(k)));
     }
   }
 }
@@ -85,11 +87,11 @@ TEST(Kinematics, EightBodyPositionsAsWrittenInTheNotes) {
   auto sp = [&](int body) { return Vector3(s.translation(body - 1)); };
   const Vector3 p_o8 =
       q(1) + sp(1) + R(1).transpose() * (q(7) + sp(7)) + R(7).transpose() * (q(8) + sp(8));
-  EXPECT_LT((data.p_O[7] - p_o8).norm(), 1e-13);
-  EXPECT_LT((data.p_G[7] - (p_o8 + R(8).transpose() * model.body(7).com)).norm(), 1e-13);
+  EXPECT_LT((data.kinematics.p_O[7] - p_o8).norm(), 1e-13);
+  EXPECT_LT((data.kinematics.p_G[7] - (p_o8 + R(8).transpose() * model.body(7).com)).norm(), 1e-13);
   const Vector3 p_o3 =
       q(1) + sp(1) + R(1).transpose() * (q(2) + sp(2)) + R(2).transpose() * (q(3) + sp(3));
-  EXPECT_LT((data.p_O[2] - p_o3).norm(), 1e-13);
+  EXPECT_LT((data.kinematics.p_O[2] - p_o3).norm(), 1e-13);
 }
 
 // xdot written here from Eqs. (39)-(41): eps_dot per body, s' dot = y2.
@@ -121,10 +123,12 @@ TEST(Kinematics, VelocitiesEqualFiniteDifferenceOfPositions) {
     compute_kinematics(model, test::advance(state, xdot, no_ydot, -h), dm);
     for (int k = 0; k < model.num_bodies(); ++k) {
       const auto i = static_cast<size_t>(k);
-      const Vector3 fd_o = (dp.p_O[i] - dm.p_O[i]) / (2 * h);
-      const Vector3 fd_g = (dp.p_G[i] - dm.p_G[i]) / (2 * h);
-      EXPECT_LT((data.v_O[i] - fd_o).norm(), 1e-7) << "body " << k << " of " << model.num_bodies();
-      EXPECT_LT((data.v_G[i] - fd_g).norm(), 1e-7) << "body " << k << " of " << model.num_bodies();
+      const Vector3 fd_o = (dp.kinematics.p_O[i] - dm.kinematics.p_O[i]) / (2 * h);
+      const Vector3 fd_g = (dp.kinematics.p_G[i] - dm.kinematics.p_G[i]) / (2 * h);
+      EXPECT_LT((data.kinematics.v_O[i] - fd_o).norm(), 1e-7)
+          << "body " << k << " of " << model.num_bodies();
+      EXPECT_LT((data.kinematics.v_G[i] - fd_g).norm(), 1e-7)
+          << "body " << k << " of " << model.num_bodies();
     }
   }
 }
@@ -142,8 +146,8 @@ TEST(Kinematics, VelocitiesEqualPartialVelocityTimesSpeeds) {
       const auto i = static_cast<size_t>(k);
       const Vector3 vg = partial_velocity(model, data, k, Point::G) * state.y;
       const Vector3 vo = partial_velocity(model, data, k, Point::O) * state.y;
-      EXPECT_LT((vg - data.v_G[i]).norm(), 1e-12) << "body " << k;
-      EXPECT_LT((vo - data.v_O[i]).norm(), 1e-12) << "body " << k;
+      EXPECT_LT((vg - data.kinematics.v_G[i]).norm(), 1e-12) << "body " << k;
+      EXPECT_LT((vo - data.kinematics.v_O[i]).norm(), 1e-12) << "body " << k;
       // {w'_K} = [w'_K,y]{y} (Eq. 7).
       EXPECT_EQ(Vector3(angular_velocity_partial(model, k) * state.y),
                 Vector3(state.angular_velocity(k)));
@@ -162,10 +166,10 @@ TEST(Kinematics, RootAttachmentAndZeroState) {
     Vector3 p = Vector3::Zero();
     for (int c = k; c != kGround; c = model.lower_body(c)) p += model.body(c).joint;
     const auto i = static_cast<size_t>(k);
-    EXPECT_LT((data.p_O[i] - p).norm(), 1e-15);
-    EXPECT_LT((data.p_G[i] - p - model.body(k).com).norm(), 1e-15);
-    EXPECT_EQ(data.v_O[i], Vector3::Zero());
-    EXPECT_EQ(data.v_G[i], Vector3::Zero());
+    EXPECT_LT((data.kinematics.p_O[i] - p).norm(), 1e-15);
+    EXPECT_LT((data.kinematics.p_G[i] - p - model.body(k).com).norm(), 1e-15);
+    EXPECT_EQ(data.kinematics.v_O[i], Vector3::Zero());
+    EXPECT_EQ(data.kinematics.v_G[i], Vector3::Zero());
   }
 }
 

@@ -292,7 +292,7 @@ simulation:
   EXPECT_EQ(sim.rtol, 1e-9);
   EXPECT_EQ(sim.atol, 1e-12);
   EXPECT_EQ(sim.step, 0.001);
-  EXPECT_EQ(sim.method, "kane");
+  EXPECT_EQ(sim.route, "kane");
 }
 
 TEST(ModelFile, DefaultsWhenOptionalKeysAreAbsent) {
@@ -309,7 +309,7 @@ bodies:
   EXPECT_EQ(f.initial.x, State(1).x);
   EXPECT_EQ(f.initial.y, State(1).y);
   EXPECT_FALSE(f.simulation.t_end || f.simulation.dt_out || f.simulation.integrator ||
-               f.simulation.rtol || f.simulation.atol || f.simulation.step || f.simulation.method);
+               f.simulation.rtol || f.simulation.atol || f.simulation.step || f.simulation.route);
 }
 
 // ---- Rotations ----------------------------------------------------------------------------

@@ -14,8 +14,8 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/kane.hpp"
+#include "kanedyn/testing/generate.hpp"
 
 namespace {
 std::atomic<bool>& counting = alloc_counter::counting;
@@ -99,8 +99,8 @@ TEST(NoAlloc, ForwardDynamicsBothMethods) {
   for (const GeneratedSystem& g : {chain_model(40), random_tree_model(57, 3)}) {
     const Model model = with_constant_loads(g.model);
     State state = g.initial;
-    for (const Method method : {Method::recursive, Method::kane}) {
-      Data data(model, method == Method::kane ? DataOptions{} : DataOptions{false, false});
+    for (const Route method : {Route::recursive, Route::assembled}) {
+      Data data(model, method == Route::assembled ? DataOptions{} : DataOptions::recursive_only());
       forward_dynamics(model, state, data, method);  // the first call may allocate
       const long count = count_allocations([&] {
         for (int i = 0; i < 20; ++i) {
@@ -134,19 +134,19 @@ TEST(NoAlloc, StagedRecursiveRouteForAnUnknownElement) {
    public:
     std::string type() const override { return "test-drag"; }
     int body() const override { return 0; }
-    void apply(const Model&, const State&, Data& data) const override {
-      data.force[0] -= 0.5 * data.v_G[0];
+    void apply(const Model&, const State&, const Kinematics& kin, Loads& loads) const override {
+      loads.force[0] -= 0.5 * kin.v_G[0];
     }
   };
   const GeneratedSystem g = chain_model(12);
   std::vector<std::shared_ptr<const ForceElement>> forces = g.model.forces();
   forces.push_back(std::make_shared<Drag>());
   const Model model(g.model.bodies(), g.model.gravity(), forces);
-  Data data(model, DataOptions{false, false});
-  ASSERT_FALSE(data.fused_loads);
-  forward_dynamics(model, g.initial, data, Method::recursive);
+  Data data(model, DataOptions::recursive_only());
+  ASSERT_FALSE(data.single_pass());
+  forward_dynamics(model, g.initial, data, Route::recursive);
   const long count = count_allocations([&] {
-    for (int i = 0; i < 5; ++i) forward_dynamics(model, g.initial, data, Method::recursive);
+    for (int i = 0; i < 5; ++i) forward_dynamics(model, g.initial, data, Route::recursive);
   });
   EXPECT_EQ(count, 0);
 }

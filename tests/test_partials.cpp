@@ -95,7 +95,7 @@ TEST(Partials, EightBodyBlockPatternsOfTheNotes) {
     compute(model, state, data);
     const MatrixX v = partial_velocity(model, data, 7, Point::G);  // body 8
     auto RT = [&](int body) -> Matrix3 {
-      return data.R[static_cast<size_t>(body - 1)].transpose();
+      return data.kinematics.R[static_cast<size_t>(body - 1)].transpose();
     };
     auto qs = [&](int body) -> Matrix3 {
       return skew(model.body(body - 1).joint + state.translation(body - 1));
@@ -147,8 +147,10 @@ TEST(Partials, PartialVelocityIsDerivativeOfVelocityWithRespectToY) {
         const auto kk = static_cast<size_t>(k);
         const Vector3 col_g = partial_velocity(model, data, k, Point::G).col(i);
         const Vector3 col_o = partial_velocity(model, data, k, Point::O).col(i);
-        EXPECT_LT((0.5 * (dp.v_G[kk] - dm.v_G[kk]) - col_g).norm(), 1e-12) << k << " " << i;
-        EXPECT_LT((0.5 * (dp.v_O[kk] - dm.v_O[kk]) - col_o).norm(), 1e-12) << k << " " << i;
+        EXPECT_LT((0.5 * (dp.kinematics.v_G[kk] - dm.kinematics.v_G[kk]) - col_g).norm(), 1e-12)
+            << k << " " << i;
+        EXPECT_LT((0.5 * (dp.kinematics.v_O[kk] - dm.kinematics.v_O[kk]) - col_o).norm(), 1e-12)
+            << k << " " << i;
       }
     }
   }
@@ -200,11 +202,11 @@ TEST(Partials, RatesOfRootsAndEightBodyExample) {
   compute_kinematics(model, state, data);
   compute_partial_rates(model, state, data);
   EXPECT_TRUE(partial_velocity_rate(model, data, 0, Point::O).isZero(0.0));
-  const MatrixX expected = -data.R[0].transpose() * skew(state.angular_velocity(0)) *
+  const MatrixX expected = -data.kinematics.R[0].transpose() * skew(state.angular_velocity(0)) *
                            skew(model.body(0).com) * angular_velocity_selection(8, 0);
   EXPECT_LT(test::max_abs(partial_velocity_rate(model, data, 0, Point::G) - expected), 1e-14);
   // [v_O2,y dot] = -R_1^T(w~_1(q~_2 + s~_2) + s'dot~_2)[w'_1,y] + R_1^T w~_1 [1 v'_O2,y].
-  const Matrix3 r1t = data.R[0].transpose();
+  const Matrix3 r1t = data.kinematics.R[0].transpose();
   const Matrix3 w1 = skew(state.angular_velocity(0));
   const MatrixX expected2 = -r1t *
                                 (w1 * skew(model.body(1).joint + state.translation(1)) +

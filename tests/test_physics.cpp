@@ -18,7 +18,7 @@
 namespace kanedyn {
 namespace {
 
-constexpr Method kMethods[] = {Method::kane, Method::recursive};
+constexpr Route kMethods[] = {Route::assembled, Route::recursive};
 
 // Mass-centre accelerations from ydot (Eq. 33): a_G = [v_G,y] ydot + [v_G,y dot] y. Needs a
 // Data in which kane_equations() (partials and their rates) has run at `state`.
@@ -36,7 +36,7 @@ struct Evaluated {
   Data data;
   VectorX ydot, xdot;
 };
-Evaluated evaluate(const Model& model, const State& state, Method method) {
+Evaluated evaluate(const Model& model, const State& state, Route method) {
   Evaluated e{Data(model), VectorX(), VectorX()};
   forward_dynamics(model, state, e.data, method);
   e.ydot = e.data.ydot;
@@ -68,19 +68,20 @@ TEST(Physics, TorqueFreeBodyConservesEnergyAndAngularMomentum) {
     ASSERT_GT(b.com.norm(), 0.0);
     const Model model({b});
     const State state = test::random_state(model, rng, 1.0, 3.0, 2.0);
-    for (const Method method : kMethods) {
+    for (const Route method : kMethods) {
       Evaluated e = evaluate(model, state, method);
       const std::vector<Vector3> a = mass_centre_accelerations(model, state, e.data, e.ydot);
       const Vector3 w = state.angular_velocity(0);
       const Vector3 wdot = e.ydot.head<3>();
-      const Vector3& v = e.data.v_G[0];
+      const Vector3& v = e.data.kinematics.v_G[0];
       const double de = b.mass * v.dot(a[0]) + w.dot(b.inertia * wdot);
       const double e_scale = b.mass * v.norm() * a[0].norm() + w.norm() * (b.inertia * wdot).norm();
       EXPECT_LT(std::abs(de), 1e-12 * (e_scale + 1.0)) << to_string(method);
-      const Vector3 dh = b.mass * e.data.p_G[0].cross(a[0]) +
-                         e.data.R[0].transpose() * (w.cross(b.inertia * w) + b.inertia * wdot);
-      const double h_scale =
-          b.mass * e.data.p_G[0].norm() * a[0].norm() + (b.inertia * w).norm() * w.norm();
+      const Vector3 dh =
+          b.mass * e.data.kinematics.p_G[0].cross(a[0]) +
+          e.data.kinematics.R[0].transpose() * (w.cross(b.inertia * w) + b.inertia * wdot);
+      const double h_scale = b.mass * e.data.kinematics.p_G[0].norm() * a[0].norm() +
+                             (b.inertia * w).norm() * w.norm();
       EXPECT_LT(dh.norm(), 1e-12 * (h_scale + 1.0)) << to_string(method);
       // G moves uniformly: a_G = 0 (no force at all).
       EXPECT_LT(a[0].norm(), 1e-12 * (w.squaredNorm() * b.com.norm() + 1.0));
@@ -98,7 +99,7 @@ TEST(Physics, TorqueFreeBodyFiniteDifferenceOfInvariants) {
   for (int i = 0; i < 10; ++i) {
     const Model model({random_body(rng, "free", kGround)});
     const State state = test::random_state(model, rng, 1.0, 3.0, 2.0);
-    for (const Method method : kMethods) {
+    for (const Route method : kMethods) {
       Data data(model);
       forward_dynamics(model, state, data, method);
       const State sp = test::advance(state, data.xdot, data.ydot, h);
@@ -124,7 +125,7 @@ TEST(Physics, FreeFall) {
     const Model model({random_body(rng, "falling", kGround)}, g);
     State state = test::random_state(model, rng);
     state.angular_velocity(0).setZero();
-    for (const Method method : kMethods) {
+    for (const Route method : kMethods) {
       Evaluated e = evaluate(model, state, method);
       EXPECT_LT((e.ydot.tail<3>() - g).norm(), 1e-13) << to_string(method);
       EXPECT_LT(e.ydot.head<3>().norm(), 1e-13) << to_string(method);
@@ -136,7 +137,7 @@ TEST(Physics, FreeFall) {
     const BodySpec b = random_body(rng, "spinning", kGround);
     const Model model({b}, g);
     const State state = test::random_state(model, rng, 0.3, 3.0, 1.0);
-    for (const Method method : kMethods) {
+    for (const Route method : kMethods) {
       Evaluated e = evaluate(model, state, method);
       const std::vector<Vector3> a = mass_centre_accelerations(model, state, e.data, e.ydot);
       EXPECT_LT((a[0] - g).norm(), 1e-12) << to_string(method);
@@ -165,7 +166,7 @@ TEST(Physics, BushingStaticEquilibriumSingleBody) {
   const Model model({b}, g, {bushing});
   State state(model);
   state.translation(0) = b.mass * g.cwiseQuotient(k);
-  for (const Method method : kMethods) {
+  for (const Route method : kMethods) {
     Data data(model);
     forward_dynamics(model, state, data, method);
     EXPECT_LT(data.ydot.norm(), 1e-12) << to_string(method);
@@ -174,7 +175,7 @@ TEST(Physics, BushingStaticEquilibriumSingleBody) {
   // equilibrium part), so by hand m a_G = -diag(k) d.
   const Vector3 d(0.01, -0.02, 0.005);
   state.translation(0) += d;
-  Evaluated e = evaluate(model, state, Method::kane);
+  Evaluated e = evaluate(model, state, Route::assembled);
   const std::vector<Vector3> a = mass_centre_accelerations(model, state, e.data, e.ydot);
   EXPECT_LT((a[0] + k.cwiseProduct(d) / b.mass).norm(), 1e-12);
 }
@@ -206,7 +207,7 @@ TEST(Physics, BushingStaticEquilibriumTwoBodyChain) {
   State state(model);
   state.translation(0) = (b1.mass + b2.mass) * g.cwiseQuotient(k1);
   state.translation(1) = b2.mass * g / k2;
-  for (const Method method : kMethods) {
+  for (const Route method : kMethods) {
     Data data(model);
     forward_dynamics(model, state, data, method);
     EXPECT_LT(data.ydot.norm(), 1e-12) << to_string(method) << " " << data.ydot.transpose();
@@ -214,7 +215,7 @@ TEST(Physics, BushingStaticEquilibriumTwoBodyChain) {
   // The wrong split (each bushing carrying only its own body) is not an equilibrium.
   state.translation(0) = b1.mass * g.cwiseQuotient(k1);
   Data data(model);
-  forward_dynamics(model, state, data, Method::kane);
+  forward_dynamics(model, state, data, Route::assembled);
   EXPECT_GT(data.ydot.norm(), 1.0);
 }
 
@@ -233,7 +234,7 @@ TEST(Physics, EnergyRateEqualsMinusDampingPower) {
   for (int i = 0; i < 40; ++i) {
     const Model model = i == 0 ? test::eight_body_model() : test::random_tree(rng, opt);
     const State state = test::random_state(model, rng);
-    for (const Method method : kMethods) {
+    for (const Route method : kMethods) {
       Data data(model);
       forward_dynamics(model, state, data, method);
       const VectorX xdot = data.xdot, ydot = data.ydot;
@@ -269,7 +270,7 @@ TEST(Physics, MomentumBalanceOfFloatingSystem) {
     const Model model = test::random_tree(rng, opt);
     const State state = test::random_state(model, rng);
     const Vector3 g = model.gravity();
-    for (const Method method : kMethods) {
+    for (const Route method : kMethods) {
       Evaluated e = evaluate(model, state, method);
       const std::vector<Vector3> a = mass_centre_accelerations(model, state, e.data, e.ydot);
       Vector3 dp = Vector3::Zero(), dh = Vector3::Zero(), torque = Vector3::Zero();
@@ -280,11 +281,11 @@ TEST(Physics, MomentumBalanceOfFloatingSystem) {
         const Vector3 w = state.angular_velocity(k);
         const Vector3 wdot = e.ydot.segment<3>(3 * k);
         dp += b.mass * a[kk];
-        dh += b.mass * e.data.p_G[kk].cross(a[kk]) +
-              e.data.R[kk].transpose() * (w.cross(b.inertia * w) + b.inertia * wdot);
-        torque += e.data.p_G[kk].cross(b.mass * g);
-        scale += b.mass * a[kk].norm() * (1.0 + e.data.p_G[kk].norm()) + (b.inertia * wdot).norm() +
-                 (b.inertia * w).norm() * w.norm();
+        dh += b.mass * e.data.kinematics.p_G[kk].cross(a[kk]) +
+              e.data.kinematics.R[kk].transpose() * (w.cross(b.inertia * w) + b.inertia * wdot);
+        torque += e.data.kinematics.p_G[kk].cross(b.mass * g);
+        scale += b.mass * a[kk].norm() * (1.0 + e.data.kinematics.p_G[kk].norm()) +
+                 (b.inertia * wdot).norm() + (b.inertia * w).norm() * w.norm();
       }
       EXPECT_LT((dp - model.total_mass() * g).norm(), 1e-11 * scale) << to_string(method);
       EXPECT_LT((dh - torque).norm(), 1e-11 * scale) << to_string(method);

@@ -155,12 +155,12 @@ TEST(Simulate, KaneAndRecursiveRoutesGiveTheSameTrajectory) {
   const State initial = moving_state(model, 9);
   std::vector<State> states[2];
   int route = 0;
-  for (const Method method : {Method::recursive, Method::kane}) {
+  for (const Route method : {Route::recursive, Route::assembled}) {
     SimulationSettings s;
     s.integrator = Integrator::rk4;  // fixed steps: the same sequence of evaluations
     s.t_end = 1.0;
     s.dt_out = 0.25;
-    s.method = method;
+    s.route = method;
     simulate(model, initial, s,
              [&](double, const State& st, Data&) { states[route].push_back(st); });
     ++route;
@@ -183,9 +183,9 @@ class NanBelow final : public ForceElement {
   NanBelow(int k, double floor) : k_(k), floor_(floor) {}
   std::string type() const override { return "nan-below"; }
   int body() const override { return k_; }
-  void apply(const Model&, const State&, Data& data) const override {
-    if (data.p_G[static_cast<size_t>(k_)].z() < floor_)
-      data.force[static_cast<size_t>(k_)].x() = std::nan("");
+  void apply(const Model&, const State&, const Kinematics& kin, Loads& loads) const override {
+    if (kin.p_G[static_cast<size_t>(k_)].z() < floor_)
+      loads.force[static_cast<size_t>(k_)].x() = std::nan("");
   }
 
  private:
@@ -370,17 +370,17 @@ TEST(Simulate, TheKaneRouteIsRefusedUpFrontWhereItCannotBeBuilt) {
   const Model model(std::move(bodies), Vector3::Zero(), {});
   ASSERT_FALSE(model.has_flat_chains());
   SimulationSettings s;
-  s.method = Method::kane;
+  s.route = Route::assembled;
   try {
     validate_settings(model, s);
     ADD_FAILURE() << "accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("16822900 chain entries"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("use method recursive"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("use the recursive route"), std::string::npos) << e.what();
   }
-  s.method = Method::recursive;
+  s.route = Route::recursive;
   EXPECT_NO_THROW(validate_settings(model, s));
-  s.method = Method::kane;
+  s.route = Route::assembled;
   EXPECT_THROW(simulate(model, State(model), s), std::invalid_argument);
 }
 
@@ -499,7 +499,7 @@ TEST(Examples, DoublePendulumBushingsActAsJoints) {
   const auto stats =
       run_example("double_pendulum.yaml", 2.0, [&](double, const State& st, Data& data) {
         for (int k = 0; k < 2; ++k) stretch = std::max(stretch, st.translation(k).norm());
-        height_min = std::min(height_min, data.p_G[1].z());
+        height_min = std::min(height_min, data.kinematics.p_G[1].z());
       });
   ASSERT_TRUE(stats.ok()) << stats.message;
   EXPECT_LT(stretch, 1e-3);
@@ -513,7 +513,7 @@ TEST(Examples, Chain64HangsUnderGravity) {
   EXPECT_EQ(file.model.depth(63), 63);
   double end_z0 = 0.0, end_z = 0.0;
   const auto stats = run_example("chain64.yaml", 0.1, [&](double t, const State&, Data& data) {
-    (t == 0.0 ? end_z0 : end_z) = data.p_G[63].z();
+    (t == 0.0 ? end_z0 : end_z) = data.kinematics.p_G[63].z();
   });
   ASSERT_TRUE(stats.ok()) << stats.message;
   EXPECT_LT(end_z, end_z0);  // released from rest: the free end falls

@@ -16,16 +16,19 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/kinematic_equations.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/partials.hpp"
 #include "kanedyn/rotation.hpp"
+#include "kanedyn/testing/generate.hpp"
+#include "kanedyn/testing/oracles.hpp"
 #include "kanedyn/tree_ldlt.hpp"
 
 #include "../src/equations.hpp"
 #include "../src/recursive/fused.hpp"
+#include "../src/staged.hpp"
+#include "../src/workspace.hpp"
 
 namespace kanedyn {
 namespace {
@@ -231,11 +234,9 @@ TEST(SpeedRoutes, BlockMassMatrixEqualsDenseOracle) {
     Data data(model);
     compute_kinematics(model, state, data);
     compute_partials_recursive(model, state, data);
-    compute_mass_matrix_dense(model, data);
-    const MatrixX oracle = data.A;
-    compute_mass_matrix(model, data);
-    dense_mass_matrix(model, data);
-    EXPECT_LT(max_abs(data.A - oracle), 1e-12 * max_abs(oracle)) << "N " << model.num_bodies();
+    const MatrixX oracle = oracles::mass_matrix_term_by_term(model, data);
+    kane_equations(model, state, data);
+    EXPECT_LT(max_abs(data.kane.A - oracle), 1e-12 * max_abs(oracle)) << "N " << model.num_bodies();
     // Blocks outside the chains are exactly zero in both.
     for (int a = 0; a < model.num_bodies(); ++a)
       for (int b = 0; b < model.num_bodies(); ++b) {
@@ -243,11 +244,11 @@ TEST(SpeedRoutes, BlockMassMatrixEqualsDenseOracle) {
         for (int p = 0; p < 2; ++p)
           for (int q = 0; q < 2; ++q) {
             const int n = model.num_bodies();
-            const Matrix3 block = data.A.block<3, 3>(3 * n * p + 3 * a, 3 * n * q + 3 * b);
+            const Matrix3 block = data.kane.A.block<3, 3>(3 * n * p + 3 * a, 3 * n * q + 3 * b);
             EXPECT_TRUE(block.isZero(0.0));
           }
       }
-    EXPECT_EQ(data.A, data.A.transpose());
+    EXPECT_EQ(data.kane.A, data.kane.A.transpose());
   }
 }
 
@@ -259,13 +260,14 @@ VectorX generalized_forces_from_partials(const Model& model, const Data& data) {
   for (int k = 0; k < n; ++k) {
     const Model::Chain chain = model.chain(k);
     const auto o = static_cast<size_t>(model.chain_offset(k));
-    const Vector3& F = data.force[static_cast<size_t>(k)];
+    const Vector3& F = data.loads.force[static_cast<size_t>(k)];
     for (int r = 0; r < chain.size; ++r) {
       const int c = chain[r];
-      fy.segment<3>(3 * c) += data.vG_w[o + static_cast<size_t>(r)].transpose() * F;
-      fy.segment<3>(3 * n + 3 * c) += data.vG_s[o + static_cast<size_t>(r)].transpose() * F;
+      fy.segment<3>(3 * c) += data.partials.vG_w[o + static_cast<size_t>(r)].transpose() * F;
+      fy.segment<3>(3 * n + 3 * c) +=
+          data.partials.vG_s[o + static_cast<size_t>(r)].transpose() * F;
     }
-    fy.segment<3>(3 * k) += data.moment_b[static_cast<size_t>(k)];
+    fy.segment<3>(3 * k) += data.loads.moment_b[static_cast<size_t>(k)];
   }
   return fy;
 }
@@ -282,8 +284,7 @@ TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
     compute_partials_recursive(model, state, data);
     compute_partial_rates(model, state, data);
     compute_resultants(model, state, data);
-    compute_force_vector_dense(model, state, data);
-    const VectorX f_oracle = data.f;
+    const VectorX f_oracle = oracles::force_vector_term_by_term(model, state, data);
     const VectorX fy_oracle = generalized_forces_from_partials(model, data);
     double scale = 0.0;
     for (int k = 0; k < model.num_bodies(); ++k) {
@@ -292,16 +293,15 @@ TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
       const MatrixX v = partial_velocity(model, data, k, Point::G);
       const MatrixX vdot = partial_velocity_rate(model, data, k, Point::G);
       const double lever = max_abs(v);
-      scale =
-          std::max({scale, lever * data.force[static_cast<size_t>(k)].norm(),
-                    lever * b.mass * (vdot * state.y).norm(),
-                    data.moment_b[static_cast<size_t>(k)].norm(), w.cross(b.inertia * w).norm()});
+      scale = std::max({scale, lever * data.loads.force[static_cast<size_t>(k)].norm(),
+                        lever * b.mass * (vdot * state.y).norm(),
+                        data.loads.moment_b[static_cast<size_t>(k)].norm(),
+                        w.cross(b.inertia * w).norm()});
     }
-    compute_force_vector(model, state, data);
-    compute_generalized_forces(model, data);
-    EXPECT_LT((data.f - f_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
+    kane_equations(model, state, data);  // the same state: the same partials and loads
+    EXPECT_LT((data.kane.f - f_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
         << "N " << model.num_bodies();
-    EXPECT_LT((data.F_y - fy_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
+    EXPECT_LT((data.kane.F_y - fy_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
         << "N " << model.num_bodies();
   }
 }
@@ -376,18 +376,16 @@ TEST(SpeedRoutes, KaneEquationsFillTheDenseMatrixAndSolveEquation36) {
     const State state = random_state(rng, model);
     Data data(model);
     kane_equations(model, state, data);
-    compute_mass_matrix_dense(model, data);  // needs the partials kane_equations computed
-    const MatrixX oracle = data.A;
-    kane_equations(model, state, data);
-    EXPECT_LT(max_abs(data.A - oracle), 1e-12 * max_abs(oracle));
-    const VectorX residual = data.A * data.ydot - data.f;
+    const MatrixX oracle = oracles::mass_matrix_term_by_term(model, data);
+    EXPECT_LT(max_abs(data.kane.A - oracle), 1e-12 * max_abs(oracle));
+    const VectorX residual = data.kane.A * data.ydot - data.kane.f;
     // Backward stable elimination: |A ydot - f| ~ 6N eps (|A| |ydot| + |f|).
     EXPECT_LT(residual.cwiseAbs().maxCoeff(),
               1e-14 * model.num_speeds() *
-                  (max_abs(data.A) * data.ydot.cwiseAbs().maxCoeff() + max_abs(data.f)));
-    Data lean(model, DataOptions{false, true, false});
+                  (max_abs(data.kane.A) * data.ydot.cwiseAbs().maxCoeff() + max_abs(data.kane.f)));
+    Data lean(model, DataOptions{.partials = false, .dense_mass_matrix = false});
     kane_equations(model, state, lean);
-    EXPECT_EQ(lean.A.size(), 0);
+    EXPECT_EQ(lean.kane.A.size(), 0);
     EXPECT_EQ(lean.ydot, data.ydot);  // the same operations without the extras
   }
 }
@@ -396,14 +394,11 @@ TEST(SpeedRoutes, KaneEquationsFillTheDenseMatrixAndSolveEquation36) {
 // relative Euler parameters vs the staged one in inertial components. Round-off of chains
 // of transformations: 1e-12 relative to |ydot|.
 void expect_fused_equals_staged(const Model& model, const State& state) {
-  Data fused(model, DataOptions{false, false});
-  ASSERT_TRUE(fused.fused_loads);
-  forward_dynamics(model, state, fused, Method::recursive);
-  Data staged(model, DataOptions{false, false});
-  compute_kinematics(model, state, staged);
-  compute_resultants(model, state, staged);
-  recursive_accelerations(model, state, staged);
-  compute_xdot(model, state, staged.xdot);
+  Data fused(model, DataOptions::recursive_only());
+  ASSERT_TRUE(fused.single_pass());
+  forward_dynamics(model, state, fused, Route::recursive);
+  Data staged(model, DataOptions::recursive_only());
+  detail::staged_forward_dynamics(model, state, staged, Route::recursive);
   EXPECT_LE((fused.ydot - staged.ydot).norm(), 1e-12 * staged.ydot.norm())
       << "N " << model.num_bodies();
   EXPECT_EQ(fused.xdot, staged.xdot);  // the same expressions, exactly
@@ -429,18 +424,18 @@ TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
       near_rest.euler_parameters(k) =
           Vector4(random_vector(rng, -0.02, 0.02).homogeneous()).normalized();
     for (const State& state : {random_state(rng, model), near_rest}) {
-      Data base(model, DataOptions{false, false, false, 2});
-      ASSERT_EQ(base.fused_lanes, 2);
-      forward_dynamics(model, state, base, Method::recursive);
+      Data base(model, DataOptions::recursive_only(2));
+      ASSERT_EQ(base.simd_lanes(), 2);
+      forward_dynamics(model, state, base, Route::recursive);
       for (int cap : {4, 8}) {
-        Data wide(model, DataOptions{false, false, false, cap});
-        ASSERT_TRUE(wide.fused_lanes == 2 || wide.fused_lanes == 4 || wide.fused_lanes == 8);
-        ASSERT_LE(wide.fused_lanes, cap);
-        if (wide.fused_lanes == 2) continue;  // the CPU has no wider kernel
+        Data wide(model, DataOptions::recursive_only(cap));
+        ASSERT_TRUE(wide.simd_lanes() == 2 || wide.simd_lanes() == 4 || wide.simd_lanes() == 8);
+        ASSERT_LE(wide.simd_lanes(), cap);
+        if (wide.simd_lanes() == 2) continue;  // the CPU has no wider kernel
         ++widths_run;
-        forward_dynamics(model, state, wide, Method::recursive);
-        EXPECT_EQ(wide.ydot, base.ydot) << "lanes " << wide.fused_lanes;
-        EXPECT_EQ(wide.xdot, base.xdot) << "lanes " << wide.fused_lanes;
+        forward_dynamics(model, state, wide, Route::recursive);
+        EXPECT_EQ(wide.ydot, base.ydot) << "lanes " << wide.simd_lanes();
+        EXPECT_EQ(wide.xdot, base.xdot) << "lanes " << wide.simd_lanes();
       }
     }
   }
@@ -452,25 +447,28 @@ TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
 // copy of its own, and the results stay those of the staged route.
 TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
   const auto distinct = [](const Data& d) {
-    return std::set<int>(d.fused_plan->param_group.begin(), d.fused_plan->param_group.end()).size();
+    return std::set<int>(workspace(d).plan->param_group.begin(),
+                         workspace(d).plan->param_group.end())
+        .size();
   };
   const GeneratedSystem chain = chain_model(600, 3);
-  Data shared(chain.model, DataOptions{false, false});
-  EXPECT_EQ(shared.fused_plan->param_group.size(), static_cast<size_t>(600 / shared.fused_lanes));
+  Data shared(chain.model, DataOptions::recursive_only());
+  EXPECT_EQ(workspace(shared).plan->param_group.size(),
+            static_cast<size_t>(600 / shared.simd_lanes()));
   EXPECT_EQ(distinct(shared), 2u);
   expect_fused_equals_staged(chain.model, chain.initial);
   for (const double factor : {std::nextafter(1.0, 2.0), 2.0}) {
     std::vector<BodySpec> bodies = chain.model.bodies();
     bodies[300].mass *= factor;
     const Model changed(bodies, chain.model.gravity(), chain.model.forces(), "changed");
-    Data own(changed, DataOptions{false, false});
+    Data own(changed, DataOptions::recursive_only());
     EXPECT_EQ(distinct(own), 3u) << factor;
     expect_fused_equals_staged(changed, chain.initial);
   }
   std::mt19937 rng(4);
   const Model tree = random_model(rng, 64, Shape::tree);  // distinct masses: nothing shared
-  Data none(tree, DataOptions{false, false});
-  EXPECT_EQ(distinct(none), none.fused_plan->param_group.size());
+  Data none(tree, DataOptions::recursive_only());
+  EXPECT_EQ(distinct(none), workspace(none).plan->param_group.size());
 }
 
 // Past 4096 bodies pass 1 keeps its results for pass 2 only where pass 2 follows soon (a
@@ -478,14 +476,15 @@ TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
 // them. Both codings give the staged route's results.
 TEST(SpeedRoutes, LargeModelsKeepOrRecomputeForPassTwo) {
   const GeneratedSystem chain = chain_model(5000, 5), tree = random_tree_model(5000, 5);
-  const Data chain_data(chain.model, DataOptions{false, false});
-  EXPECT_TRUE(chain_data.fused_plan->keep);
+  const Data chain_data(chain.model, DataOptions::recursive_only());
+  EXPECT_TRUE(workspace(chain_data).plan->keep);
   // A chain's pass 2 follows one group later: its scratch is a ring of 4 groups, not 5000
   // bodies' worth.
-  EXPECT_EQ(chain_data.fused_plan->scratch_mask, 3);
-  EXPECT_LT(chain_data.fused_scratch.size(), 2000u);
-  EXPECT_FALSE(Data(tree.model, DataOptions{false, false}).fused_plan->keep);
-  EXPECT_TRUE(Data(random_tree_model(4096, 5).model, DataOptions{false, false}).fused_plan->keep);
+  EXPECT_EQ(workspace(chain_data).plan->scratch_mask, 3);
+  EXPECT_LT(workspace(chain_data).fused_scratch.size(), 2000u);
+  EXPECT_FALSE(workspace(Data(tree.model, DataOptions::recursive_only())).plan->keep);
+  EXPECT_TRUE(
+      workspace(Data(random_tree_model(4096, 5).model, DataOptions::recursive_only())).plan->keep);
   expect_fused_equals_staged(chain.model, chain.initial);
   expect_fused_equals_staged(tree.model, tree.initial);
 }
@@ -499,9 +498,10 @@ TEST(SpeedRoutes, RecursiveAndKaneRoutesAgreeOnLargeTreesAndDeepChains) {
   for (int n : {50, 100, 200}) models.push_back(random_model(rng, n, Shape::chain));
   for (const Model& model : models) {
     const State state = random_state(rng, model);
-    Data kane(model, DataOptions{false, true, false}), rec(model, DataOptions{false, false});
-    forward_dynamics(model, state, kane, Method::kane);
-    forward_dynamics(model, state, rec, Method::recursive);
+    Data kane(model, DataOptions{.partials = false, .dense_mass_matrix = false}),
+        rec(model, DataOptions::recursive_only());
+    forward_dynamics(model, state, kane, Route::assembled);
+    forward_dynamics(model, state, rec, Route::recursive);
     EXPECT_LE((kane.ydot - rec.ydot).norm(), 1e-10 * rec.ydot.norm()) << "N " << model.num_bodies();
     EXPECT_EQ(kane.xdot, rec.xdot);
   }
@@ -513,8 +513,8 @@ class Spring final : public ForceElement {
   explicit Spring(int body) : body_(body) {}
   std::string type() const override { return "test-spring"; }
   int body() const override { return body_; }
-  void apply(const Model&, const State&, Data& data) const override {
-    data.force[static_cast<size_t>(body_)] -= 100.0 * data.p_G[static_cast<size_t>(body_)];
+  void apply(const Model&, const State&, const Kinematics& kin, Loads& loads) const override {
+    loads.force[static_cast<size_t>(body_)] -= 100.0 * kin.p_G[static_cast<size_t>(body_)];
   }
 
  private:
@@ -528,14 +528,14 @@ TEST(SpeedRoutes, UnknownForceElementTakesTheStagedRoute) {
   forces.push_back(std::make_shared<Spring>(3));
   const Model model(base.bodies(), base.gravity(), forces);
   const State state = random_state(rng, model);
-  Data rec(model, DataOptions{false, false}), kane(model);
-  EXPECT_FALSE(rec.fused_loads);
-  forward_dynamics(model, state, rec, Method::recursive);
-  forward_dynamics(model, state, kane, Method::kane);
+  Data rec(model, DataOptions::recursive_only()), kane(model);
+  EXPECT_FALSE(rec.single_pass());
+  forward_dynamics(model, state, rec, Route::recursive);
+  forward_dynamics(model, state, kane, Route::assembled);
   EXPECT_LE((kane.ydot - rec.ydot).norm(), 1e-10 * rec.ydot.norm());
   // ...and the spring does act: without it the accelerations differ.
-  Data plain(base, DataOptions{false, false});
-  forward_dynamics(base, state, plain, Method::recursive);
+  Data plain(base, DataOptions::recursive_only());
+  forward_dynamics(base, state, plain, Route::recursive);
   EXPECT_GT((plain.ydot - rec.ydot).norm(), 1e-3 * rec.ydot.norm());
 }
 
@@ -543,9 +543,9 @@ TEST(SpeedRoutes, KaneRouteNeedsTheMassMatrixOption) {
   std::mt19937 rng(11);
   const Model model = random_model(rng, 3, Shape::tree);
   const State state = random_state(rng, model);
-  Data data(model, DataOptions{false, false});
-  EXPECT_THROW(forward_dynamics(model, state, data, Method::kane), std::invalid_argument);
-  EXPECT_NO_THROW(forward_dynamics(model, state, data, Method::recursive));
+  Data data(model, DataOptions::recursive_only());
+  EXPECT_THROW(forward_dynamics(model, state, data, Route::assembled), std::invalid_argument);
+  EXPECT_NO_THROW(forward_dynamics(model, state, data, Route::recursive));
 }
 
 TEST(SpeedRoutes, DeepChainWithoutFlatChainStorage) {
@@ -590,7 +590,11 @@ TEST(SpeedRoutes, DeepChainWithoutFlatChainStorage) {
       EXPECT_FALSE(model.on_chain(k + 1, k));
     }
   }
-  EXPECT_THROW(Data data(model), ModelError);
+  // Data(model) leaves out what the model's size does not allow; asked for, it is refused.
+  EXPECT_FALSE(Data(model).options().partials);
+  EXPECT_FALSE(Data(model).options().kane_terms);
+  EXPECT_THROW(Data(model, DataOptions{}), ModelError);
+  EXPECT_THROW(Data(model, DataOptions{.partials = false}), ModelError);
   State state(model);
   for (int k = 0; k < n; ++k) {
     const Vector4 e = random_unit_quaternion(rng);

@@ -23,9 +23,9 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/rotation.hpp"
+#include "kanedyn/testing/generate.hpp"
 #include "peer.hpp"
 
 namespace {
@@ -387,11 +387,12 @@ int main(int argc, char** argv) {
     const int n = c.model.num_bodies();
     const peers::System sys = describe(c);
     // The reference: kanedyn's recursive route (the Kane route is checked against it too).
-    const kanedyn::DataOptions recursive_options{.partials = false, .mass_matrix = false};
-    kanedyn::DataOptions kane_options;  // blocks of [A] and their LDL^T, no dense copy
+    const kanedyn::DataOptions recursive_options = kanedyn::DataOptions::recursive_only();
+    kanedyn::DataOptions kane_options;  // the assembled route, no partials, no dense [A]
+    kane_options.partials = false;
     kane_options.dense_mass_matrix = false;
     kanedyn::Data ref_data(c.model, recursive_options);
-    kanedyn::forward_dynamics(c.model, c.state, ref_data, kanedyn::Method::recursive);
+    kanedyn::forward_dynamics(c.model, c.state, ref_data, kanedyn::Route::recursive);
     const std::vector<peers::BodyMotion> reference =
         kanedyn_motion(c.model, c.state, ref_data.ydot);
 
@@ -429,10 +430,10 @@ int main(int argc, char** argv) {
       std::vector<peers::BodyMotion> motion;
       double first = 0;
       if (!col.info) {
-        const kanedyn::Method method =
-            col.key == "kane" ? kanedyn::Method::kane : kanedyn::Method::recursive;
+        const kanedyn::Route method =
+            col.key == "kane" ? kanedyn::Route::assembled : kanedyn::Route::recursive;
         slot.data = std::make_unique<kanedyn::Data>(
-            c.model, method == kanedyn::Method::kane ? kane_options : recursive_options);
+            c.model, method == kanedyn::Route::assembled ? kane_options : recursive_options);
         kanedyn::Data& data = *slot.data;
         slot.runner.run_batch = [&c, &data, method](long count) {
           for (long b = 0; b < count; ++b)

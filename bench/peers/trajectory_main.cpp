@@ -26,9 +26,9 @@
 
 #include "describe.hpp"
 #include "kanedyn/data.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/simulate.hpp"
+#include "kanedyn/testing/generate.hpp"
 #include "peer.hpp"
 
 namespace {
@@ -210,10 +210,10 @@ Trajectory run_kanedyn(const Case& c, double t_end, double dt_out, double rtol) 
         for (int k = 0; k < n; ++k) {
           peers::BodyPose& p = poses[static_cast<size_t>(k)];
           const auto i = static_cast<size_t>(k);
-          const Matrix3 Rt = data.R[i].transpose();  // body-K components -> inertial
+          const Matrix3 Rt = data.kinematics.R[i].transpose();  // body-K components -> inertial
           for (int r = 0; r < 3; ++r) {
-            p.p_G[static_cast<size_t>(r)] = data.p_G[i][r];
-            p.v_G[static_cast<size_t>(r)] = data.v_G[i][r];
+            p.p_G[static_cast<size_t>(r)] = data.kinematics.p_G[i][r];
+            p.v_G[static_cast<size_t>(r)] = data.kinematics.v_G[i][r];
             for (int col = 0; col < 3; ++col) p.R[static_cast<size_t>(3 * r + col)] = Rt(r, col);
           }
           const Vector3 w = Rt * state.angular_velocity(k);

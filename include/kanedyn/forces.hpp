@@ -10,8 +10,8 @@
 
 namespace kanedyn {
 
-/// One force element. apply() adds its loads to data.force (at G_K, inertial) and
-/// data.moment_b (body components) of the bodies it acts on. It may read the state and the
+/// One force element. apply() adds its loads to data.loads.force (at G_K, inertial) and
+/// data.loads.moment_b (body components) of the bodies it acts on. It may read the state and the
 /// kinematics already in data (R, p_O, p_G; see compute_kinematics). It must not allocate.
 class ForceElement {
  public:
@@ -20,12 +20,14 @@ class ForceElement {
   virtual int body() const = 0;          ///< the body K it is attached to
   /// Checks parameters against the model; returns "" or a message naming the problem.
   virtual std::string validate(const Model& model) const;
-  virtual void apply(const Model& model, const State& state, Data& data) const = 0;
+  virtual void apply(const Model& model, const State& state, const Kinematics& kin,
+                     Loads& loads) const = 0;
   /// Potential energy stored in the element (0 for constant loads, which are not conservative
   /// in general and are left out of the energy).
-  virtual double potential_energy(const Model& model, const State& state, const Data& data) const;
+  virtual double potential_energy(const Model& model, const State& state,
+                                  const Kinematics& kin) const;
   /// Power removed from the system by the element's damping (>= 0).
-  virtual double damping_power(const Model& model, const State& state, const Data& data) const;
+  virtual double damping_power(const Model& model, const State& state, const Kinematics& kin) const;
 };
 
 /// Spring-damper between body K and J = L(K) (or the inertial frame).
@@ -40,9 +42,12 @@ class Bushing final : public ForceElement {
   std::string type() const override { return "bushing"; }
   int body() const override { return body_; }
   std::string validate(const Model& model) const override;
-  void apply(const Model& model, const State& state, Data& data) const override;
-  double potential_energy(const Model& model, const State& state, const Data& data) const override;
-  double damping_power(const Model& model, const State& state, const Data& data) const override;
+  void apply(const Model& model, const State& state, const Kinematics& kin,
+             Loads& loads) const override;
+  double potential_energy(const Model& model, const State& state,
+                          const Kinematics& kin) const override;
+  double damping_power(const Model& model, const State& state,
+                       const Kinematics& kin) const override;
 
   /// {F'} in body-J components; theta of K relative to J.
   Vector3 translational_force_b(const State& state) const;
@@ -61,7 +66,8 @@ class ConstantForce final : public ForceElement {
   ConstantForce(int body, Vector3 value) : value(std::move(value)), body_(body) {}
   std::string type() const override { return "force"; }
   int body() const override { return body_; }
-  void apply(const Model& model, const State& state, Data& data) const override;
+  void apply(const Model& model, const State& state, const Kinematics& kin,
+             Loads& loads) const override;
   Vector3 value;
 
  private:
@@ -74,7 +80,8 @@ class ConstantTorque final : public ForceElement {
   ConstantTorque(int body, Vector3 value) : value(std::move(value)), body_(body) {}
   std::string type() const override { return "torque"; }
   int body() const override { return body_; }
-  void apply(const Model& model, const State& state, Data& data) const override;
+  void apply(const Model& model, const State& state, const Kinematics& kin,
+             Loads& loads) const override;
   Vector3 value;
 
  private:
@@ -82,13 +89,16 @@ class ConstantTorque final : public ForceElement {
 };
 
 /// Per-body resultants {F_K} (at G_K, inertial) and {M'_K} (body) of gravity and every force
-/// element, into data.force / data.moment_b. Needs compute_kinematics() first.
+/// element, into data.loads. Needs data.kinematics of the state (compute_kinematics).
 void compute_resultants(const Model& model, const State& state, Data& data);
+/// The same into loads, from kin.
+void compute_resultants(const Model& model, const State& state, const Kinematics& kin,
+                        Loads& loads);
 
-/// Eq. (31): {F_y} = sum_K [v_G_K,y]^T {F_K} + [w'_K,y]^T {M'_K}, into data.F_y, O(N): by
-/// subtree sums of the loads, the inward pass of Eq. (38) (compute_force_vector, src/kane.cpp).
-/// Needs compute_kinematics(), compute_resultants() and a Data with DataOptions::partials or
-/// DataOptions::mass_matrix (throws std::invalid_argument otherwise).
+/// Eq. (31): {F_y} = sum_K [v_G_K,y]^T {F_K} + [w'_K,y]^T {M'_K}, into data.kane.F_y, O(N): by
+/// subtree sums of the loads, the inward pass of Eq. (38). Needs data.kinematics and
+/// data.loads of one state, and a Data with DataOptions::kane_terms (throws
+/// std::invalid_argument otherwise).
 void compute_generalized_forces(const Model& model, Data& data);
 
 }  // namespace kanedyn

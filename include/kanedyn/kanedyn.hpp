@@ -5,7 +5,6 @@
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/generate.hpp"
 #include "kanedyn/integrate.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"

@@ -10,7 +10,9 @@
 namespace kanedyn {
 
 /// [v_O_K,y] by Eqs. (18)-(20) from the lower body's matrix, and [v_G_K,y] by Eq. (21).
-/// Needs compute_positions(); fills data.vO_*, data.vG_*.
+/// Needs data.kinematics (compute_positions() at least); fills the first four arrays of
+/// data.partials. Every function here needs DataOptions::partials (throws
+/// std::invalid_argument otherwise).
 void compute_partials_recursive(const Model& model, const State& state, Data& data);
 
 /// The same matrices directly from the chain, Eqs. (22)-(27): block at L^{r+1}(K) of the y1

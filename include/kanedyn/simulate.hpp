@@ -28,7 +28,7 @@ struct SimulationSettings {
   /// this, so every output time is reached by a step (no interpolation).
   double step = 1e-3;
   double max_step = std::numeric_limits<double>::infinity();  ///< dopri5: step cap
-  Method method = Method::recursive;  ///< how forward_dynamics solves for {y dot}
+  Route route = Route::recursive;  ///< how forward_dynamics solves for {y dot}
   /// Rescale every eps_K to unit norm after each accepted step (and in every output state).
   /// The initial state is normalized in any case.
   bool project_euler_parameters = true;
@@ -91,7 +91,7 @@ struct SimulationStats {
 /// dt_out or rk4 step below the resolution of the times (t + h == t).
 void validate_settings(const SimulationSettings& settings);
 
-/// The same, and that settings.method can run on this model (the Kane route builds partial
+/// The same, and that settings.route can run on this model (the Kane route builds partial
 /// velocity blocks for every chain entry: Model::kMaxFlatChainEntries at most).
 void validate_settings(const Model& model, const SimulationSettings& settings);
 

@@ -13,10 +13,6 @@
 
 namespace kanedyn {
 
-using Vector6 = Eigen::Matrix<double, 6, 1>;
-using Matrix6 = Eigen::Matrix<double, 6, 6>;
-using Matrix36 = Eigen::Matrix<double, 3, 6>;
-
 /// A = L^T D L with L unit block lower triangular in body order (L_{K,I} nonzero only for I an
 /// ancestor of K: the sparsity of A itself) and D block diagonal with SPD 6x6 blocks. Blocks are
 /// in chain layout: entry model.chain_offset(k) + r is block (K, L^r(K)); r = 0 the diagonal.

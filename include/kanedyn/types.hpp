@@ -12,6 +12,9 @@ using Matrix3 = Eigen::Matrix3d;
 using Matrix4 = Eigen::Matrix4d;
 using VectorX = Eigen::VectorXd;
 using MatrixX = Eigen::MatrixXd;
+using Vector6 = Eigen::Matrix<double, 6, 1>;  ///< one body's speeds (w'_K, s'_K dot)
+using Matrix6 = Eigen::Matrix<double, 6, 6>;  ///< one body pair's block of [A]
+using Matrix36 = Eigen::Matrix<double, 3, 6>;
 
 /// Index of the inertial frame R in lower_body(); body indices are 0-based (body K of the
 /// notes is index K-1).

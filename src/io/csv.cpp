@@ -167,7 +167,7 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
     }
   };
   for (int k = 0; k < model_.num_bodies(); ++k) {
-    put(data.p_G[static_cast<size_t>(k)]);
+    put(data.kinematics.p_G[static_cast<size_t>(k)]);
     put(state.euler_parameters(k));
     put(state.translation(k));
     put(state.angular_velocity(k));
@@ -241,7 +241,7 @@ void TrajectoryWriter::finish() {
 struct BackgroundTrajectoryWriter::Impl {
   Impl(const Model& model, std::string path)
       : writer(model, std::move(path)),
-        data(model, DataOptions{false, false}),
+        data(model, DataOptions::recursive_only()),
         state(model),
         nx(static_cast<size_t>(model.num_coordinates())),
         ny(static_cast<size_t>(model.num_speeds())) {

@@ -970,7 +970,7 @@ std::shared_ptr<const ForceElement> read_force(const Reader& r, const Field& f,
 
 SimulationSection read_simulation(const Reader& r, const Field& f) {
   const Mapping m = r.mapping(f);
-  m.allow({"t_end", "dt_out", "integrator", "rtol", "atol", "step", "method"});
+  m.allow({"t_end", "dt_out", "integrator", "rtol", "atol", "step", "route", "method"});
   SimulationSection s;
   if (auto v = m.get("t_end")) s.t_end = r.positive(*v);
   if (auto v = m.get("dt_out")) s.dt_out = r.positive(*v);
@@ -978,7 +978,12 @@ SimulationSection read_simulation(const Reader& r, const Field& f) {
   if (auto v = m.get("rtol")) s.rtol = r.positive(*v);
   if (auto v = m.get("atol")) s.atol = r.positive(*v);
   if (auto v = m.get("step")) s.step = r.positive(*v);
-  if (auto v = m.get("method")) s.method = r.choice(*v, {"recursive", "kane"}, "method");
+  if (auto v = m.get("route")) s.route = r.choice(*v, {"recursive", "assembled"}, "route");
+  // The older spelling: `method: kane` is the assembled route.
+  if (auto v = m.get("method")) {
+    if (s.route) r.fail(*v, "give `route` or its older spelling `method`, not both");
+    s.route = r.choice(*v, {"recursive", "assembled", "kane"}, "method");
+  }
   return s;
 }
 

@@ -2,6 +2,8 @@
 // fused_kernel.inc) and the choice of SIMD width (src/recursive/fused.hpp).
 #include "fused.hpp"
 
+#include "../workspace.hpp"
+
 #include <algorithm>
 #include <string_view>
 #include <unordered_map>
@@ -141,21 +143,14 @@ std::shared_ptr<const Plan> compile(const Model& model, int kLanes) {
 }
 
 void forward_dynamics(const Model& model, const State& state, Data& data) {
-  const Plan& plan = *data.fused_plan;
+  detail::Workspace& w = workspace(data);
+  const Plan& plan = *w.plan;
   const int lanes = plan.lanes;
   const int stride = (plan.keep ? kScratchFields : kAccelFields) * lanes;
-  const Args args{model.num_bodies(),
-                  state.x.data(),
-                  state.y.data(),
-                  plan.lower.data(),
-                  plan.ready.data(),
-                  plan.params.data(),
-                  plan.param_group.data(),
-                  data.fused_scratch.data(),
-                  stride,
-                  plan.scratch_mask,
-                  data.ydot.data(),
-                  data.xdot.data()};
+  const Args args{model.num_bodies(),      state.x.data(),         state.y.data(),
+                  plan.lower.data(),       plan.ready.data(),      plan.params.data(),
+                  plan.param_group.data(), w.fused_scratch.data(), stride,
+                  plan.scratch_mask,       data.ydot.data(),       data.xdot.data()};
   switch (lanes) {
     case 8:
       lanes8::evaluate(args);

@@ -1,4 +1,4 @@
-// The fused O(N) route of forward_dynamics(Method::recursive) as a compiled plan. Private to
+// The fused O(N) route of forward_dynamics(Route::recursive) as a compiled plan. Private to
 // the library.
 //
 // The kernel (src/recursive/fused_kernel.inc) evaluates kLanes bodies at once with GCC vector
@@ -22,8 +22,8 @@ namespace kanedyn::fused {
 
 /// The fused route compiled from a Model for one SIMD width: per-body constants with the loads
 /// grouped per body, the body order of the passes and the shape of the scratch. Built once by
-/// compile(), never changed after; Data owns it (Data::fused_plan) and keeps the scratch the
-/// evaluations write (Data::fused_scratch, scratch_size doubles).
+/// compile(), never changed after; a Data keeps it in its private workspace (src/workspace.hpp)
+/// with the scratch the evaluations write (scratch_size doubles).
 struct Plan {
   int lanes = 2;                 // bodies per SIMD pass
   std::vector<int> lower;        // L(K) per body, padded to whole SIMD groups
@@ -46,7 +46,7 @@ int chosen_lanes(int max_simd_lanes);
 /// ConstantForce or ConstantTorque (the staged route is then taken).
 std::shared_ptr<const Plan> compile(const Model& model, int lanes);
 
-/// {y dot} and {x dot} into data.ydot, data.xdot. Needs data.fused_plan.
+/// {y dot} and {x dot} into data.ydot, data.xdot. Needs the plan in data's workspace.
 void forward_dynamics(const Model& model, const State& state, Data& data);
 
 /// Up to this many bodies pass 1 keeps its intermediate results for pass 2 (Plan::keep);

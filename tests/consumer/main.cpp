@@ -12,7 +12,7 @@ int main() {
   const Model model({a, b}, Vector3(0, 0, -9.81));
   const State state(model);
   Data data(model);
-  forward_dynamics(model, state, data, Method::kane);
+  forward_dynamics(model, state, data, Route::assembled);
   // No force element holds anything: every body falls freely, the root's s'' is g.
   const double err = std::abs(data.ydot[3 * model.num_bodies() + 2] + 9.81);
   std::printf("consumer: root s''_z = %.6f\n", data.ydot[3 * model.num_bodies() + 2]);

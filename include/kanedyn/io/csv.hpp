@@ -37,7 +37,7 @@ class TrajectoryWriter {
   TrajectoryWriter(const TrajectoryWriter&) = delete;
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
 
-  /// Appends one row: t, per body the mass centre G_K (data.p_G, inertial: needs
+  /// Appends one row: t, per body the mass centre G_K (data.kinematics.p_G, inertial: needs
   /// compute_kinematics at this state), eps_K, s'_K, w'_K, s'_K dot, then energy. Numbers
   /// are written in the shortest form that reads back as the same double (std::to_chars).
   /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails,

@@ -34,8 +34,10 @@ struct SimulationSection {
   std::optional<double> dt_out;
   std::optional<std::string> integrator;  ///< "dopri5" | "rk4"
   std::optional<double> rtol, atol;
-  std::optional<double> step;         ///< fixed step for rk4
-  std::optional<std::string> method;  ///< "recursive" | "kane"
+  std::optional<double> step;  ///< fixed step for rk4
+  /// "recursive" | "assembled" (key `route`; the older key `method` also gives "kane", the
+  /// assembled route)
+  std::optional<std::string> route;
 };
 
 /// What a model file holds.

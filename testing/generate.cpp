@@ -1,4 +1,4 @@
-#include "kanedyn/generate.hpp"
+#include "kanedyn/testing/generate.hpp"
 
 #include <cstdint>
 #include <memory>
