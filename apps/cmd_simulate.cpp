@@ -90,6 +90,9 @@ class SignalGuard {
 
 const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : "SIGTERM"; }
 
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
 // ---------------------------------------------------------------------------------------------
 // Progress: a bar on stderr, only when stderr is a terminal and the run has lasted a second.
 
@@ -117,8 +120,6 @@ class Progress {
   }
 
  private:
-  using Clock = std::chrono::steady_clock;
-  static double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
   void draw(double t, double elapsed) {
     const double span = t_end_ - t_start_;
     const double fraction = span > 0.0 ? std::clamp((t - t_start_) / span, 0.0, 1.0) : 1.0;
@@ -209,7 +210,7 @@ void warn_rk4_stability(const Model& model, const SimulationSettings& s) {
   int index = -1;
   const double limit = rk4_step_limit(model, &index);
   // The step taken: each output interval split evenly into steps no longer than s.step.
-  const double h = s.dt_out / std::max(1.0, std::ceil(s.dt_out / s.step - 1e-9));
+  const double h = s.dt_out / static_cast<double>(rk4_substeps(s.dt_out, s.step));
   if (!(h > limit) || index < 0) return;
   const int body = model.forces()[static_cast<size_t>(index)]->body();
   warn("the rk4 step " + format("%.3g", h) + " exceeds the stability limit of about " +
@@ -273,8 +274,6 @@ class StepWatch {
   }
 
  private:
-  using Clock = std::chrono::steady_clock;
-  static double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
   static constexpr double kWindowSeconds = 2.0;
   static constexpr double kCollapsedFraction = 1e-3;
   double t_end_, dt_out_;

@@ -41,7 +41,7 @@ Vector3 Bushing::translational_force_b(const State& state) const {
                                      eq::vec(state.translation_rate(body_))));
 }
 
-Vector3 Bushing::rotation_vector(const State& state, const Model& model) const {
+Vector3 Bushing::rotation_vector(const Model& model, const State& state) const {
   return eq::eigen(
       eq::rotation_vector(eq::relative_euler(state.x.data(), model.lower_body(body_), body_)));
 }
@@ -73,7 +73,7 @@ void Bushing::apply(const Model& model, const State& state, const Kinematics& ki
 double Bushing::potential_energy(const Model& model, const State& state, const Kinematics&) const {
   return eq::bushing_energy(eq::vec(stiffness), rotational_stiffness,
                             eq::vec(state.translation(body_)),
-                            eq::vec(rotation_vector(state, model)));
+                            eq::vec(rotation_vector(model, state)));
 }
 
 double Bushing::damping_power(const Model& model, const State& state, const Kinematics&) const {

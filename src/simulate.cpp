@@ -172,6 +172,11 @@ double rk4_step_limit(const Model& model, int* force_index) {
   return limit;
 }
 
+long rk4_substeps(double span, double step) {
+  // validate_settings keeps span / step far below the range of long.
+  return std::max(1L, static_cast<long>(std::ceil(span / step - 1e-9)));
+}
+
 namespace {
 
 /// Everything one run needs, allocated once.
@@ -338,8 +343,7 @@ class Run {
     while (!outputs_done()) {
       const double t_next = output_time(next_output_);
       const double span = t_next - t;
-      // validate_settings keeps span / step far below the range of long.
-      const long substeps = std::max(1L, static_cast<long>(std::ceil(span / s_.step - 1e-9)));
+      const long substeps = rk4_substeps(span, s_.step);
       const double h = span / static_cast<double>(substeps);
       for (long i = 0; i < substeps; ++i) {
         const double t_new = i + 1 == substeps ? t_next : t + h;

@@ -51,7 +51,7 @@ class Bushing final : public ForceElement {
 
   /// {F'} in body-J components; theta of K relative to J.
   Vector3 translational_force_b(const State& state) const;
-  Vector3 rotation_vector(const State& state, const Model& model) const;
+  Vector3 rotation_vector(const Model& model, const State& state) const;
 
   Vector3 stiffness, damping;
   double rotational_stiffness, rotational_damping;

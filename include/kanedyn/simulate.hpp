@@ -101,6 +101,11 @@ void validate_settings(const Model& model, const SimulationSettings& settings);
 /// bushings. Sets force_index to that bushing's index in model.forces() (-1 if none).
 double rk4_step_limit(const Model& model, int* force_index = nullptr);
 
+/// The number of equal rk4 steps simulate() takes over an interval of length span with the
+/// step cap `step` (at least 1; a ratio within 1e-9 of a whole number counts as that number,
+/// so that dt_out / step = 10 gives 10 steps, not 11).
+long rk4_substeps(double span, double step);
+
 /// Integrates from `initial` (its Euler parameters are normalized first) over
 /// [t_start, t_end]. Calls observer (if set) at every output time, the first at t_start.
 /// Throws std::invalid_argument for inconsistent settings or a state of the wrong size;
