@@ -1,0 +1,254 @@
+// `kanedyn inspect MODEL [--json] [--body K|NAME]... [--quantity NAME]...`: every quantity
+// of the notes at the model's initial state, per body: [R_K], positions, velocities, the
+// partial velocity matrices in the notes' block notation (symbolically and numerically), their
+// rates, the resultants and each body's share of the generalized forces.
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "kanedyn/inspect.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/io/text.hpp"
+
+namespace kanedyn::cli {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+/// The per-body quantities of the JSON object (docs/model-format.md, "Inspection output").
+const std::vector<std::string>& quantity_names() {
+  static const std::vector<std::string> names = {"R",         "p_O", "p_G",   "v_O",   "v_G",
+                                                 "w",         "w_y", "v_O_y", "v_G_y", "v_O_y_dot",
+                                                 "v_G_y_dot", "F",   "M",     "F_y",   "F_y_star"};
+  return names;
+}
+
+Json vec(const VectorX& v) {
+  Json a = Json::array();
+  // nlohmann writes the shortest decimal that reads back as the same double: full precision.
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+  return a;
+}
+
+Json mat(const MatrixX& m) {
+  Json a = Json::array();
+  for (Eigen::Index i = 0; i < m.rows(); ++i) a.push_back(vec(m.row(i).transpose()));
+  return a;
+}
+
+Json body_json(const BodyInspection& b, const std::set<std::string>& wanted) {
+  Json o;
+  o["K"] = b.K;
+  o["name"] = b.name;
+  o["L"] = b.L;
+  o["u"] = b.u;
+  o["chain"] = b.chain;
+  const auto put = [&](const char* key, Json value) {
+    if (wanted.empty() || wanted.count(key)) o[key] = std::move(value);
+  };
+  put("R", mat(b.R));
+  put("p_O", vec(b.p_O));
+  put("p_G", vec(b.p_G));
+  put("v_O", vec(b.v_O));
+  put("v_G", vec(b.v_G));
+  put("w", vec(b.w));
+  put("w_y", mat(b.w_y));
+  put("v_O_y", mat(b.v_O_y));
+  put("v_G_y", mat(b.v_G_y));
+  put("v_O_y_dot", mat(b.v_O_y_dot));
+  put("v_G_y_dot", mat(b.v_G_y_dot));
+  put("F", vec(b.F));
+  put("M", vec(b.M));
+  put("F_y", vec(b.F_y));
+  put("F_y_star", vec(b.F_y_star));
+  return o;
+}
+
+void print_json(const Inspection& in, const std::set<std::string>& wanted) {
+  Json out;
+  out["N"] = in.N;
+  out["t"] = in.t;
+  out["F_y"] = vec(in.F_y);
+  out["F_y_star"] = vec(in.F_y_star);
+  out["ydot"] = vec(in.ydot);
+  out["bodies"] = Json::array();
+  for (const BodyInspection& b : in.bodies) out["bodies"].push_back(body_json(b, wanted));
+  std::cout << out.dump() << "\n";
+}
+
+constexpr size_t kWidth = 100;  // text lines wrap here, at a block boundary
+
+/// Prints "label = ..." wrapped at kWidth at ", " boundaries, continuation lines indented.
+void print_wrapped(const std::string& line, size_t indent) {
+  const std::string pad(indent, ' ');
+  const size_t hang =
+      std::min(line.find("= ") == std::string::npos ? 0 : line.find("= ") + 2, kWidth / 2);
+  std::string current = pad;
+  size_t pos = 0;
+  while (pos < line.size()) {
+    size_t next = line.find(", ", pos);
+    next = next == std::string::npos ? line.size() : next + 2;
+    const std::string piece = line.substr(pos, next - pos);
+    if (current.size() + piece.size() > kWidth && current.size() > indent + hang) {
+      while (current.back() == ' ') current.pop_back();
+      std::printf("%s\n", current.c_str());
+      current = pad + std::string(hang, ' ');
+    }
+    current += piece;
+    pos = next;
+  }
+  std::printf("%s\n", current.c_str());
+}
+
+std::string v3(const Vector3& v) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "(% .6g, % .6g, % .6g)", v.x(), v.y(), v.z());
+  return buf;
+}
+
+/// The nonzero 3x3 blocks of a 3 x 6N matrix, each labelled with the speed it multiplies.
+void print_blocks(const MatrixX& m, int n) {
+  int zero = 0;
+  for (int part = 0; part < 2; ++part)
+    for (int c = 0; c < n; ++c) {
+      const Matrix3 b = m.block<3, 3>(0, 3 * n * part + 3 * c);
+      if (b.isZero(0.0)) {
+        ++zero;
+        continue;
+      }
+      const std::string label =
+          (part == 0 ? "w'_" : "s'_") + std::to_string(c + 1) + (part == 0 ? "" : " dot");
+      for (int r = 0; r < 3; ++r)
+        std::printf("      %-12s % 12.6g % 12.6g % 12.6g\n", r == 0 ? label.c_str() : "", b(r, 0),
+                    b(r, 1), b(r, 2));
+    }
+  std::printf("      (%d of %d blocks are zero)\n", zero, 2 * n);
+}
+
+void print_text(const io::ModelFile& file, const Inspection& in,
+                const std::set<std::string>& wanted) {
+  const Model& model = file.model;
+  const int n = in.N;
+  const auto want = [&](const char* key) { return wanted.empty() || wanted.count(key) > 0; };
+  std::printf("%s at its initial state (t = %g), N = %d\n", io::printable(file.path).c_str(), in.t,
+              n);
+  for (const BodyInspection& b : in.bodies) {
+    const int k = b.K - 1;
+    std::string chain;
+    constexpr size_t kShown = 6;  // a long chain: its first and last bodies
+    for (size_t i = 0; i < b.chain.size(); ++i) {
+      if (b.chain.size() > 2 * kShown && i == kShown)
+        chain += " -> ..." + std::to_string(b.chain.size() - 2 * kShown) + " more...";
+      if (b.chain.size() > 2 * kShown && i >= kShown && i < b.chain.size() - kShown) continue;
+      chain += (i ? " -> " : "") + std::to_string(b.chain[i]);
+    }
+    std::printf("\nbody %d '%s': L(%d) = %d, u = %d, chain %s\n", b.K,
+                io::printable(b.name).c_str(), b.K, b.L, b.u, chain.c_str());
+    if (want("R"))
+      for (int r = 0; r < 3; ++r)
+        std::printf("  %-10s % 12.6g % 12.6g % 12.6g\n", r == 0 ? "[R]" : "", b.R(r, 0), b.R(r, 1),
+                    b.R(r, 2));
+    const auto row = [&](const char* key, const char* label, const Vector3& v) {
+      if (want(key)) std::printf("  %-10s %s\n", label, v3(v).c_str());
+    };
+    row("p_O", "p_O", b.p_O);
+    row("p_G", "p_G", b.p_G);
+    row("v_O", "v_O", b.v_O);
+    row("v_G", "v_G", b.v_G);
+    row("w", "w'", b.w);
+    const struct {
+      const char* key;
+      Point point;
+      bool rate;
+      const MatrixX* value;
+    } partials[] = {{"v_O_y", Point::O, false, &b.v_O_y},
+                    {"v_G_y", Point::G, false, &b.v_G_y},
+                    {"v_O_y_dot", Point::O, true, &b.v_O_y_dot},
+                    {"v_G_y_dot", Point::G, true, &b.v_G_y_dot}};
+    for (const auto& p : partials) {
+      if (!want(p.key)) continue;
+      std::printf(
+          "  %s (Eq. %s)\n", p.key,
+          p.rate ? (p.point == Point::O ? "30" : "29") : (p.point == Point::O ? "18" : "21"));
+      for (int part = 1; part <= 2; ++part)
+        print_wrapped(format_symbolic(model, k, p.point, p.rate, part), 4);
+      print_blocks(*p.value, n);
+    }
+    row("F", "F", b.F);
+    row("M", "M'", b.M);
+  }
+}
+
+/// Body numbers (1..N) or names to 0-based indices; throws naming the unknown one.
+std::vector<int> select_bodies(const Model& model, const std::string& path,
+                               const std::vector<std::string>& wanted) {
+  std::vector<int> out;
+  for (const std::string& w : wanted) {
+    int k = -1;
+    if (!w.empty() &&
+        std::all_of(w.begin(), w.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+        w.size() < 10) {
+      const int number = std::stoi(w);
+      if (number >= 1 && number <= model.num_bodies()) k = number - 1;
+    }
+    for (int b = 0; k < 0 && b < model.num_bodies(); ++b)
+      if (model.body(b).name == w) k = b;
+    if (k < 0) {
+      std::vector<std::string> names;
+      for (int b = 0; b < model.num_bodies(); ++b) names.push_back(model.body(b).name);
+      const std::string hint = io::closest_word(w, names);
+      throw std::runtime_error(path + ": --body " + io::printable(w) + ": no such body (give 1.." +
+                               std::to_string(model.num_bodies()) + " or a body's name" +
+                               (hint.empty() ? "" : "; did you mean '" + hint + "'?") + ")");
+    }
+    if (std::find(out.begin(), out.end(), k) == out.end()) out.push_back(k);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void add_inspect(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "inspect", "Print every quantity of the notes per body at the model's initial state");
+  struct Options {
+    std::string path;
+    bool json = false;
+    std::vector<std::string> bodies, quantities;
+  };
+  auto opt = std::make_shared<Options>();
+  cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
+  cmd->add_flag("--json", opt->json,
+                "print the JSON object of docs/model-format.md, \"Inspection output\"");
+  cmd->add_option("--body", opt->bodies, "a body by number (1..N) or name (repeatable)");
+  cmd->add_option("--quantity", opt->quantities,
+                  "a per-body quantity: R, p_O, p_G, v_O, v_G, w, w_y, v_O_y, v_G_y, v_O_y_dot, "
+                  "v_G_y_dot, F, M, F_y, F_y_star (repeatable; default: all)")
+      ->check(CLI::IsMember(quantity_names()));
+  cmd->callback([opt] {
+    const io::ModelFile file = io::load_model_file(opt->path);
+    const std::vector<int> bodies = select_bodies(file.model, opt->path, opt->bodies);
+    if (!file.model.has_flat_chains())
+      throw std::runtime_error(
+          opt->path + ": the model's " + std::to_string(file.model.num_bodies()) + " bodies have " +
+          std::to_string(file.model.chain_entries()) + " chain entries, more than the " +
+          std::to_string(Model::kMaxFlatChainEntries) +
+          " for which the partial velocity blocks are built");
+    const Inspection in = inspect(file.model, file.initial, 0.0, bodies);
+    if (!in.ydot.allFinite())
+      throw std::runtime_error(opt->path + ": the equations of motion are not finite");
+    const std::set<std::string> wanted(opt->quantities.begin(), opt->quantities.end());
+    if (opt->json)
+      print_json(in, wanted);
+    else
+      print_text(file, in, wanted);
+  });
+}
+
+}  // namespace
+KANEDYN_COMMAND(25, add_inspect);
+}  // namespace kanedyn::cli

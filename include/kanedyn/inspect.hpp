@@ -1,0 +1,87 @@
+// Inspection: every quantity of the notes at one state, per body, in the form the notes print
+// them, for output (kanedyn inspect), teaching and checking a model. Two parts: the numbers
+// (inspect(), dense views of the block-sparse matrices, O(N) per selected body), and the
+// symbolic block structure of the partial velocity matrices and their rates (Eqs. 18-30),
+// which depends on L(K) only.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "kanedyn/model.hpp"
+#include "kanedyn/partials.hpp"
+#include "kanedyn/state.hpp"
+#include "kanedyn/types.hpp"
+
+namespace kanedyn {
+
+/// One body's quantities. Units are the model's (SI in the examples): lengths m, velocities
+/// m/s, angular velocities rad/s, forces N, moments N m, generalized forces N or N m.
+struct BodyInspection {
+  int K = 0;               ///< body number of the notes (1-based)
+  std::string name;        ///< the model's name of the body
+  int L = 0;               ///< L(K), 0 for the inertial frame
+  int u = 0;               ///< u_K, the number of bodies between K and the inertial frame
+  std::vector<int> chain;  ///< K, L(K), ..., 0 (1-based, the inertial frame last)
+  Matrix3 R;               ///< [R_K] (Eqs. 3-4): inertial -> body-K components
+  Vector3 p_O, p_G;        ///< Eqs. (12)-(13), inertial components
+  Vector3 v_O, v_G;        ///< Eqs. (15), (17), inertial components
+  Vector3 w;               ///< {w'_K}, body-K components
+  /// 3 x 6N, columns in the order of {y}: [w'_K,y] (Eq. 8), [v_O_K,y], [v_G_K,y]
+  /// (Eqs. 18-21) and the rates (Eqs. 29-30, with the s' dot of Eq. 30 as the seed's README
+  /// corrects it).
+  MatrixX w_y, v_O_y, v_G_y, v_O_y_dot, v_G_y_dot;
+  Vector3 F;    ///< {F_K}: the resultant at G_K of every load on K, inertial (Eq. 31)
+  Vector3 M;    ///< {M'_K}: the resultant moment about G_K, body-K components
+  VectorX F_y;  ///< K's term of Eq. (31): [v_G_K,y]^T{F_K} + [w'_K,y]^T{M'_K}, 6N
+  /// K's generalized inertia force at the solved {y dot}, 6N:
+  /// -[v_G_K,y]^T m_K{a_G_K} - [w'_K,y]^T([I'_G_K]{alpha'_K} + [w~'_K][I'_G_K]{w'_K}).
+  VectorX F_y_star;
+};
+
+/// Every quantity at one state, for the selected bodies; the sums over all bodies.
+struct Inspection {
+  int N = 0;
+  double t = 0.0;    ///< the time of the state (for output; the equations do not depend on it)
+  VectorX F_y;       ///< Eq. (31), 6N: the sum of every body's term
+  VectorX F_y_star;  ///< the sum of every body's generalized inertia force, 6N
+  VectorX ydot;      ///< the solution of Eq. (36), 6N
+  std::vector<BodyInspection> bodies;  ///< the selected bodies, in numbering order
+};
+
+/// Evaluates Kane's equations at the state (the assembled route, kane_equations) and fills an
+/// Inspection. `bodies` lists 0-based indices to include (empty: every body); the sums F_y,
+/// F_y_star and ydot are over every body regardless. Cost: O(sum of chain lengths) for the
+/// sums plus O(N) per selected body for its dense 3 x 6N matrices. Throws ModelError for a
+/// model whose chains are too long for the partial velocity blocks
+/// (Model::kMaxFlatChainEntries) and std::out_of_range for an index outside 0..N-1.
+Inspection inspect(const Model& model, const State& state, double t = 0.0,
+                   const std::vector<int>& bodies = {});
+
+/// One nonzero 3x3 block of a partial velocity matrix (or its rate) in the notes' symbols.
+struct SymbolicBlock {
+  int body = 0;        ///< the 1-based body whose speed the block multiplies (its column)
+  std::string symbol;  ///< e.g. "[R_7]^T([q~'_8]+[s~'_8])", "I"
+};
+
+/// A 3 x 6N partial velocity matrix as the notes print it after Eq. (27): the y1 part
+/// (coefficients of w'_1 .. w'_N) with its common sign, and the y2 part (s'_1 dot ..).
+struct SymbolicPartial {
+  bool y1_negated = true;         ///< the y1 blocks are printed as -[ ... ]
+  std::vector<SymbolicBlock> y1;  ///< nonzero blocks, in body order
+  std::vector<SymbolicBlock> y2;
+};
+
+/// The symbolic block structure of [v_P_K,y] (rate = false, Eqs. 22-27) or of its time
+/// derivative (rate = true, Eqs. 29-30) for body index k and P = O_K or G_K. Symbols:
+/// [R_J]^T, [q~'_K], [s~'_K], [sd~'_K] (the skew matrix of s'_K dot), [r~'_K], [w~'_J], I.
+SymbolicPartial symbolic_partial(const Model& model, int k, Point point, bool rate);
+
+/// The notes' one-line form of one part ("y1" or "y2") of a symbolic partial, e.g.
+/// "[v_G8,y1] = -[ [R_1]^T([q~'_7]+[s~'_7]), 0, 0, 0, 0, 0, [R_7]^T([q~'_8]+[s~'_8]),
+/// [R_8]^T[r~'_8] ]". With N > max_dense_blocks the zero blocks are summarised: only the
+/// nonzero ones are listed, each with its body ("1: [R_1]^T, 7: [R_7]^T; 0 elsewhere").
+std::string format_symbolic(const Model& model, int k, Point point, bool rate, int part,
+                            int max_dense_blocks = 12);
+
+}  // namespace kanedyn
