@@ -4,7 +4,6 @@
 // and the equations of src/equations.inc on double against the same on SIMD lanes.
 #include <gtest/gtest.h>
 
-#include <Eigen/Cholesky>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -23,7 +22,6 @@
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/testing/generate.hpp"
 #include "kanedyn/testing/oracles.hpp"
-#include "kanedyn/tree_ldlt.hpp"
 
 #include "test_support.hpp"
 
