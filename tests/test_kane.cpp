@@ -1,4 +1,5 @@
-// Eqs. (31)-(41): generalized forces, [A] and {f}, their solution, the two routes of forward
+// Eqs. (32)-(41): [A] and {f} (with Eq. 31 written densely; the generalized forces
+// themselves: test_forces.cpp), their solution, the two routes of forward
 // dynamics, and the equivalence of Kane's equations with Newton-Euler per body.
 // g++ 12 reports a false -Wmaybe-uninitialized inside Eigen's dynamic-size
 // SelfAdjointEigenSolver (its matrix-vector kernels); silence it for Eigen's headers only,
@@ -39,13 +40,9 @@ using test::angular_velocity_selection;
 // Random forests with every kind of load: gravity, bushings (with damping), constant forces
 // and torques; plus the eight-body system.
 std::vector<Model> loaded_models(unsigned seed, int count) {
-  std::vector<Model> models;
-  models.push_back(test::eight_body_model());
-  std::mt19937 rng(seed);
   test::RandomTreeOptions opt;
   opt.bushings = opt.forces = opt.torques = true;
-  for (int i = 0; i < count; ++i) models.push_back(test::random_tree(rng, opt));
-  return models;
+  return test::eight_body_and_random_trees(seed, count, opt);
 }
 
 double inf_norm(const MatrixX& m) { return test::max_abs(m); }
@@ -129,30 +126,6 @@ TEST(Kane, MassMatrixAndForceVectorEqualDenseEquations) {
     EXPECT_LT(inf_norm(data.kane.A - a), 1e-12 * inf_norm(a)) << "N " << n;
     EXPECT_LT(test::max_abs(data.kane.f - f), 1e-12 * f_scale) << "N " << n;
     EXPECT_LT(test::max_abs(data.kane.F_y - fy), 1e-12 * f_scale) << "N " << n;
-  }
-}
-
-TEST(Kane, GeneralizedForcesPassThePowerCheck) {
-  // Eq. (31) is the statement that F_y . y is the power of the loads:
-  //   F_y . y = sum_K F_K . v_G_K + M'_K . w'_K  for every y.
-  // Loads and velocities are evaluated at the same random y (the damping terms depend on y,
-  // which does not matter for the identity). Round-off relative to the sum of |terms|.
-  std::mt19937 rng(36);
-  for (const Model& model : loaded_models(37, 50)) {
-    Data data(model);
-    for (int trial = 0; trial < 3; ++trial) {
-      const State state = test::random_state(model, rng, 0.3, 3.0, 2.0);
-      kane_equations(model, state, data);
-      double power = 0.0, scale = 0.0;
-      for (int k = 0; k < model.num_bodies(); ++k) {
-        const auto i = static_cast<size_t>(k);
-        const double pf = data.loads.force[i].dot(data.kinematics.v_G[i]);
-        const double pm = data.loads.moment_b[i].dot(state.angular_velocity(k));
-        power += pf + pm;
-        scale += std::abs(pf) + std::abs(pm);
-      }
-      EXPECT_NEAR(data.kane.F_y.dot(state.y), power, 1e-12 * scale) << "N " << model.num_bodies();
-    }
   }
 }
 

@@ -16,15 +16,6 @@ namespace {
 
 using test::reference_rotation;
 
-// The models the tests run on: the eight-body system and random forests (N <= 30).
-std::vector<Model> test_models(unsigned seed, int count) {
-  std::vector<Model> models;
-  models.push_back(test::eight_body_model());
-  std::mt19937 rng(seed);
-  for (int i = 0; i < count; ++i) models.push_back(test::random_tree(rng));
-  return models;
-}
-
 struct DirectPositions {
   std::vector<Vector3> p_O, p_G;
 };
@@ -55,7 +46,7 @@ TEST(Kinematics, RecursivePositionsEqualDirectSum) {
   // ~30 ulp of that (1e-14); 1e-12 absolute leaves a wide margin, while any missing or
   // wrongly rotated term is O(0.1).
   std::mt19937 rng(11);
-  for (const Model& model : test_models(12, 100)) {
+  for (const Model& model : test::eight_body_and_random_trees(12, 100)) {
     Data data(model);
     const State state = test::random_state(model, rng);
     compute_kinematics(model, state, data);
@@ -113,7 +104,7 @@ TEST(Kinematics, VelocitiesEqualFiniteDifferenceOfPositions) {
   // or r' term) is O(0.1) or more.
   const double h = 1e-5;
   std::mt19937 rng(14);
-  for (const Model& model : test_models(15, 60)) {
+  for (const Model& model : test::eight_body_and_random_trees(15, 60)) {
     Data data(model), dp(model), dm(model);
     const State state = test::random_state(model, rng);
     compute_kinematics(model, state, data);
@@ -137,7 +128,7 @@ TEST(Kinematics, VelocitiesEqualPartialVelocityTimesSpeeds) {
   // {v_G} = [v_G,y]{y}, {v_O} = [v_O,y]{y} (Eqs. 18, 21): the same sums in another order,
   // so round-off only (|v| <= ~100, 1e-12 absolute).
   std::mt19937 rng(16);
-  for (const Model& model : test_models(17, 60)) {
+  for (const Model& model : test::eight_body_and_random_trees(17, 60)) {
     Data data(model);
     const State state = test::random_state(model, rng);
     compute_kinematics(model, state, data);

@@ -48,14 +48,6 @@ DensePartials dense_partials(const Model& model, const State& state) {
   return out;
 }
 
-std::vector<Model> test_models(unsigned seed, int count) {
-  std::vector<Model> models;
-  models.push_back(test::eight_body_model());
-  std::mt19937 rng(seed);
-  for (int i = 0; i < count; ++i) models.push_back(test::random_tree(rng));
-  return models;
-}
-
 // Recursive and direct routes and the dense Eq. (18) sum the same O(1) terms (|q'+s'| <= 0.9,
 // rotations orthogonal): entries are sums of <= 30 products, so errors of ~30 ulp
 // (~1e-14). Tolerance 1e-12, a margin of ~100 over that; a wrong block is O(0.1).
@@ -63,7 +55,7 @@ constexpr double kAgree = 1e-12;
 
 TEST(Partials, RecursiveDirectAndDenseAgree) {
   std::mt19937 rng(21);
-  for (const Model& model : test_models(22, 200)) {
+  for (const Model& model : test::eight_body_and_random_trees(22, 200)) {
     const State state = test::random_state(model, rng);
     Data rec(model), dir(model);
     compute_kinematics(model, state, rec);
@@ -132,7 +124,7 @@ TEST(Partials, PartialVelocityIsDerivativeOfVelocityWithRespectToY) {
   // {v_G} is linear in {y}: (v_G(y + h e_i) - v_G(y - h e_i)) / 2h is exactly column i for any
   // h; with h = 1 only round-off of |v| <= ~100 remains (1e-13). Tolerance 1e-12.
   std::mt19937 rng(24);
-  for (const Model& model : test_models(25, 20)) {
+  for (const Model& model : test::eight_body_and_random_trees(25, 20)) {
     const State state = test::random_state(model, rng);
     Data data(model), dp(model), dm(model);
     compute_kinematics(model, state, data);
@@ -164,7 +156,7 @@ TEST(Partials, RatesEqualFiniteDifferenceAlongTheMotion) {
   // Tolerance 1e-7; the literal misprint [s~'] instead of [s'dot~] errs by O(0.1).
   const double h = 1e-5;
   std::mt19937 rng(26);
-  for (const Model& model : test_models(27, 60)) {
+  for (const Model& model : test::eight_body_and_random_trees(27, 60)) {
     const State state = test::random_state(model, rng);
     const int n = model.num_bodies();
     VectorX xdot(7 * n);

@@ -1,6 +1,6 @@
 // Physical checks of the equations of motion: a torque-free body conserves energy and
-// angular momentum, free fall, static equilibrium on bushings (solved by hand), energy
-// balance with damping and momentum balance of a floating system.
+// angular momentum, free fall, static equilibrium on bushings (solved by hand). The energy
+// balance with damping and the momentum balance of a floating system: test_energy.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -20,30 +20,10 @@ namespace {
 
 constexpr Route kMethods[] = {Route::assembled, Route::recursive};
 
-// Mass-centre accelerations from ydot (Eq. 33): a_G = [v_G,y] ydot + [v_G,y dot] y. Needs a
-// Data in which kane_equations() (partials and their rates) has run at `state`.
-std::vector<Vector3> mass_centre_accelerations(const Model& model, const State& state,
-                                               const Data& data, const VectorX& ydot) {
-  std::vector<Vector3> a;
-  for (int k = 0; k < model.num_bodies(); ++k)
-    a.push_back(partial_velocity(model, data, k, Point::G) * ydot +
-                partial_velocity_rate(model, data, k, Point::G) * state.y);
-  return a;
-}
+using test::mass_centre_accelerations;
 
-// ydot by the given method, plus the partials at the state (for a_G).
-struct Evaluated {
-  Data data;
-  VectorX ydot, xdot;
-};
-Evaluated evaluate(const Model& model, const State& state, Route method) {
-  Evaluated e{Data(model), VectorX(), VectorX()};
-  forward_dynamics(model, state, e.data, method);
-  e.ydot = e.data.ydot;
-  e.xdot = e.data.xdot;
-  kane_equations(model, state, e.data);  // partials and rates at the state
-  return e;
-}
+using test::evaluate;
+using test::Evaluated;
 
 BodySpec random_body(std::mt19937& rng, const std::string& name, int lower) {
   BodySpec b;
@@ -217,90 +197,6 @@ TEST(Physics, BushingStaticEquilibriumTwoBodyChain) {
   Data data(model);
   forward_dynamics(model, state, data, Route::assembled);
   EXPECT_GT(data.ydot.norm(), 1.0);
-}
-
-TEST(Physics, EnergyRateEqualsMinusDampingPower) {
-  // Gravity and bushings with damping only: d(total_energy)/dt = -damping_power. The rate is
-  // the central difference of E(x + h xdot, y + h ydot), h = 1e-6. Relative to
-  // S = 1 + |E| + P (|E| <= ~2e3 here): round-off eps |E| / h ~ 1e-10 S and truncation
-  // h^2/6 |E'''| ~ 1e-10 S (measured: the error falls as h^2 down to h = 1e-6, worst
-  // 2e-10 S). Tolerance 1e-8 S, i.e. ~1e-5 against powers of tens to hundreds; a wrong
-  // bushing law or a missing reaction on J changes the rate by O(1) or more.
-  std::mt19937 rng(54);
-  test::RandomTreeOptions opt;
-  opt.bushings = true;
-  opt.damping = true;
-  const double h = 1e-6;
-  for (int i = 0; i < 40; ++i) {
-    const Model model = i == 0 ? test::eight_body_model() : test::random_tree(rng, opt);
-    const State state = test::random_state(model, rng);
-    for (const Route method : kMethods) {
-      Data data(model);
-      forward_dynamics(model, state, data, method);
-      const VectorX xdot = data.xdot, ydot = data.ydot;
-      const double e0 = total_energy(model, state, data);
-      const double power = damping_power(model, state, data);
-      const double de = (total_energy(model, test::advance(state, xdot, ydot, h), data) -
-                         total_energy(model, test::advance(state, xdot, ydot, -h), data)) /
-                        (2 * h);
-      EXPECT_GE(power, 0.0);
-      EXPECT_NEAR(de, -power, 1e-8 * (1.0 + std::abs(e0) + power))
-          << to_string(method) << " N " << model.num_bodies();
-    }
-  }
-}
-
-TEST(Physics, MomentumBalanceOfFloatingSystem) {
-  // Floating forests (no bushing to the ground) with gravity and internal damped bushings:
-  // internal loads cancel in pairs (the translational force acts on K at O_K and reversed on
-  // J at the same point; the moments are equal and opposite), so
-  //   dP/dt = (sum m) g  and  dH/dt = sum p_G x m g  (H about the inertial origin).
-  // From ydot via a_G: round-off relative to the scale of the terms (measured ~1e-15; 1e-11
-  // also covers the <= 1e-12 relative error of the Kane solve). By finite differences of
-  // energy.hpp's momenta along (xdot, ydot), h = 1e-5: truncation ~h^2/6 |P'''| and
-  // round-off 1e-16 |P| / h, measured <= 1.2e-9 relative to the scale; tolerance 1e-7.
-  std::mt19937 rng(55);
-  test::RandomTreeOptions opt;
-  opt.bushings = true;
-  opt.ground_bushings = false;
-  opt.bushing_probability = 1.0;
-  opt.gravity = Vector3(0.5, 1.0, -9.81);
-  const double h = 1e-5;
-  for (int i = 0; i < 40; ++i) {
-    const Model model = test::random_tree(rng, opt);
-    const State state = test::random_state(model, rng);
-    const Vector3 g = model.gravity();
-    for (const Route method : kMethods) {
-      Evaluated e = evaluate(model, state, method);
-      const std::vector<Vector3> a = mass_centre_accelerations(model, state, e.data, e.ydot);
-      Vector3 dp = Vector3::Zero(), dh = Vector3::Zero(), torque = Vector3::Zero();
-      double scale = 0.0;
-      for (int k = 0; k < model.num_bodies(); ++k) {
-        const auto kk = static_cast<size_t>(k);
-        const BodySpec& b = model.body(k);
-        const Vector3 w = state.angular_velocity(k);
-        const Vector3 wdot = e.ydot.segment<3>(3 * k);
-        dp += b.mass * a[kk];
-        dh += b.mass * e.data.kinematics.p_G[kk].cross(a[kk]) +
-              e.data.kinematics.R[kk].transpose() * (w.cross(b.inertia * w) + b.inertia * wdot);
-        torque += e.data.kinematics.p_G[kk].cross(b.mass * g);
-        scale += b.mass * a[kk].norm() * (1.0 + e.data.kinematics.p_G[kk].norm()) +
-                 (b.inertia * wdot).norm() + (b.inertia * w).norm() * w.norm();
-      }
-      EXPECT_LT((dp - model.total_mass() * g).norm(), 1e-11 * scale) << to_string(method);
-      EXPECT_LT((dh - torque).norm(), 1e-11 * scale) << to_string(method);
-
-      Data d(model);
-      const State sp = test::advance(state, e.xdot, e.ydot, h);
-      const State sm = test::advance(state, e.xdot, e.ydot, -h);
-      const Vector3 fd_p =
-          (linear_momentum(model, sp, d) - linear_momentum(model, sm, d)) / (2 * h);
-      const Vector3 fd_h =
-          (angular_momentum(model, sp, d) - angular_momentum(model, sm, d)) / (2 * h);
-      EXPECT_LT((fd_p - model.total_mass() * g).norm(), 1e-7 * scale) << to_string(method);
-      EXPECT_LT((fd_h - torque).norm(), 1e-7 * scale) << to_string(method);
-    }
-  }
 }
 
 }  // namespace

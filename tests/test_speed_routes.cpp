@@ -1,10 +1,9 @@
 // The fast routes against their oracles: block-sparse [A] and {f} against the dense
-// Eqs. (37)-(38), the tree LDL^T against a dense Cholesky, the fused O(N) pass against the
+// Eqs. (37)-(38) (the tree LDL^T itself: test_tree_ldlt.cpp), the fused O(N) pass against the
 // staged recursive route and against the Kane route, the rotation vector against long double,
 // and the equations of src/equations.inc on double against the same on SIMD lanes.
 #include <gtest/gtest.h>
 
-#include <Eigen/Cholesky>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -23,7 +22,8 @@
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/testing/generate.hpp"
 #include "kanedyn/testing/oracles.hpp"
-#include "kanedyn/tree_ldlt.hpp"
+
+#include "test_support.hpp"
 
 #include "../src/equations.hpp"
 #include "../src/recursive/fused.hpp"
@@ -33,97 +33,11 @@
 namespace kanedyn {
 namespace {
 
-double uniform(std::mt19937& rng, double lo, double hi) {
-  return std::uniform_real_distribution<double>(lo, hi)(rng);
-}
-
-Vector3 random_vector(std::mt19937& rng, double lo, double hi) {
-  return {uniform(rng, lo, hi), uniform(rng, lo, hi), uniform(rng, lo, hi)};
-}
-
-Vector4 random_unit_quaternion(std::mt19937& rng) {
-  std::normal_distribution<double> normal;
-  Vector4 e;
-  do e = {normal(rng), normal(rng), normal(rng), normal(rng)};
-  while (e.norm() < 1e-3);
-  return e.normalized();
-}
-
-enum class Shape { tree, chain };
-
-// A random forest (or a chain) of n bodies: full inertias with products (moments from positive
-// second moments, so the triangle inequalities hold), com and joint offsets, gravity, and
-// loads of every kind: bushings (some bodies two, some none), constant forces and torques.
-Model random_model(std::mt19937& rng, int n, Shape shape) {
-  std::vector<BodySpec> bodies(static_cast<size_t>(n));
-  for (int k = 0; k < n; ++k) {
-    BodySpec& b = bodies[static_cast<size_t>(k)];
-    b.name = "b" + std::to_string(k + 1);
-    if (shape == Shape::chain)
-      b.lower_body = k - 1;
-    else
-      b.lower_body = std::uniform_int_distribution<int>(0, k)(rng) - 1;
-    b.mass = uniform(rng, 0.5, 4.0);
-    const Vector3 second = b.mass * random_vector(rng, 0.01, 0.2);
-    const Vector3 moments(second[1] + second[2], second[0] + second[2], second[0] + second[1]);
-    const Matrix3 q = rotation_matrix(random_unit_quaternion(rng));
-    b.inertia = q * moments.asDiagonal() * q.transpose();
-    b.inertia = 0.5 * (b.inertia + b.inertia.transpose()).eval();
-    b.com = random_vector(rng, -0.3, 0.3);
-    b.joint = random_vector(rng, -0.5, 0.5);
-  }
-  std::vector<std::shared_ptr<const ForceElement>> forces;
-  for (int k = 0; k < n; ++k) {
-    const int count = std::uniform_int_distribution<int>(0, 5)(rng);  // 0, 1 or 2 bushings
-    for (int i = 0; i < (count + 1) / 3 + (count == 5); ++i)
-      forces.push_back(std::make_shared<Bushing>(k, random_vector(rng, 0.0, 2e3),
-                                                 random_vector(rng, 0.0, 20.0),
-                                                 uniform(rng, 0.0, 50.0), uniform(rng, 0.0, 1.0)));
-    if (uniform(rng, 0.0, 1.0) < 0.2)
-      forces.push_back(std::make_shared<ConstantForce>(k, random_vector(rng, -5.0, 5.0)));
-    if (uniform(rng, 0.0, 1.0) < 0.2)
-      forces.push_back(std::make_shared<ConstantTorque>(k, random_vector(rng, -1.0, 1.0)));
-  }
-  return Model(std::move(bodies), random_vector(rng, -10.0, 10.0), std::move(forces));
-}
-
 // Unit Euler parameters (absolute, independent per body: relative rotations of any angle, so
 // every sector of the rotation vector occurs), s' within 5 cm, speeds of order 1.
 State random_state(std::mt19937& rng, const Model& model) {
-  State state(model);
-  for (int k = 0; k < model.num_bodies(); ++k) {
-    state.euler_parameters(k) = random_unit_quaternion(rng);
-    state.translation(k) = random_vector(rng, -0.05, 0.05);
-    state.angular_velocity(k) = random_vector(rng, -2.0, 2.0);
-    state.translation_rate(k) = random_vector(rng, -0.5, 0.5);
-  }
-  return state;
+  return test::random_state(model, rng, 0.05, 2.0, 0.5);
 }
-
-// The eight-body system of the notes, L(K) = (0, 1, 2, 2, 1, 1, 1, 7), with random mass
-// properties and a bushing on every body.
-Model eight_body(std::mt19937& rng) {
-  const int lower[8] = {kGround, 0, 1, 1, 0, 0, 0, 6};
-  Model random = random_model(rng, 8, Shape::tree);
-  std::vector<BodySpec> bodies = random.bodies();
-  std::vector<std::shared_ptr<const ForceElement>> forces;
-  for (int k = 0; k < 8; ++k) {
-    bodies[static_cast<size_t>(k)].lower_body = lower[k];
-    forces.push_back(
-        std::make_shared<Bushing>(k, Vector3(3e3, 2e3, 1e3), Vector3(5, 6, 7), 40.0 + k, 0.5));
-  }
-  return Model(std::move(bodies), Vector3(0, 0, -9.81), std::move(forces));
-}
-
-std::vector<Model> test_models(std::mt19937& rng) {
-  std::vector<Model> models;
-  models.push_back(eight_body(rng));
-  for (int n : {1, 2, 3, 5, 8, 13, 30, 60}) models.push_back(random_model(rng, n, Shape::tree));
-  for (int n : {2, 7, 25}) models.push_back(random_model(rng, n, Shape::chain));
-  return models;
-}
-
-double max_abs(const MatrixX& m) { return m.cwiseAbs().maxCoeff(); }
 
 TEST(SpeedRoutes, RotationVectorIsCorrectToRoundOff) {
   // The rotation vector (sector reduction and a series, no atan2; src/equations.inc) against
@@ -135,11 +49,11 @@ TEST(SpeedRoutes, RotationVectorIsCorrectToRoundOff) {
   std::vector<double> angles = {0.0, 1e-300, 1e-12, 1e-8, 1e-3, 0.1, 3.14159, M_PI};
   for (int i = 0; i < 8; ++i)  // sector boundaries of the half angle, (2i+1) pi/24, +- 1e-9
     for (double d : {-1e-9, 0.0, 1e-9}) angles.push_back((2 * i + 1) * M_PI / 12 + d);
-  for (int i = 0; i < 20000; ++i) angles.push_back(uniform(rng, 0.0, M_PI));
-  for (int i = 0; i < 2000; ++i) angles.push_back(uniform(rng, 0.0, 0.3));
+  for (int i = 0; i < 20000; ++i) angles.push_back(test::uniform(rng, 0.0, M_PI));
+  for (int i = 0; i < 2000; ++i) angles.push_back(test::uniform(rng, 0.0, 0.3));
   for (const double angle : angles) {
     for (const double sign : {1.0, -1.0}) {
-      const Vector3 axis = random_vector(rng, -1.0, 1.0);
+      const Vector3 axis = test::random_vector(rng, -1.0, 1.0);
       const Vector4 eps = sign * euler_parameters_from_axis_angle(axis, angle);
       long double v[3] = {eps[0], eps[1], eps[2]}, s = eps[3];
       if (s < 0) {
@@ -184,10 +98,11 @@ TEST(SpeedRoutes, EquationsGiveTheSameBitsOnDoubleAndOnLanes) {
     Vector4 e[2], f[2];
     Vector3 v[2];
     for (int l = 0; l < 2; ++l) {
-      const double angle = (i + l) % 3 == 0 ? uniform(rng, 0.0, 0.2) : uniform(rng, 0.0, 6.3);
-      e[l] = euler_parameters_from_axis_angle(random_vector(rng, -1.0, 1.0), angle);
-      f[l] = random_unit_quaternion(rng);
-      v[l] = random_vector(rng, -1.0, 1.0);
+      const double angle =
+          (i + l) % 3 == 0 ? test::uniform(rng, 0.0, 0.2) : test::uniform(rng, 0.0, 6.3);
+      e[l] = euler_parameters_from_axis_angle(test::random_vector(rng, -1.0, 1.0), angle);
+      f[l] = test::random_euler_parameters(rng);
+      v[l] = test::random_vector(rng, -1.0, 1.0);
     }
     eq::Euler<Pack2> ep, fp;
     for (int c = 0; c < 4; ++c) {
@@ -229,14 +144,15 @@ TEST(SpeedRoutes, BlockMassMatrixEqualsDenseOracle) {
   // and the fast route uses [R][R]^T = [I] (true to 1e-16): round-off relative to max |A|;
   // 1e-12 leaves a margin of ~100 over the ~N ulp of sums of N terms.
   std::mt19937 rng(3);
-  for (const Model& model : test_models(rng)) {
+  for (const Model& model : test::models_of_every_size(rng)) {
     const State state = random_state(rng, model);
     Data data(model);
     compute_kinematics(model, state, data);
     compute_partials_recursive(model, state, data);
     const MatrixX oracle = oracles::mass_matrix_term_by_term(model, data);
     kane_equations(model, state, data);
-    EXPECT_LT(max_abs(data.kane.A - oracle), 1e-12 * max_abs(oracle)) << "N " << model.num_bodies();
+    EXPECT_LT(test::max_abs(data.kane.A - oracle), 1e-12 * test::max_abs(oracle))
+        << "N " << model.num_bodies();
     // Blocks outside the chains are exactly zero in both.
     for (int a = 0; a < model.num_bodies(); ++a)
       for (int b = 0; b < model.num_bodies(); ++b) {
@@ -252,32 +168,12 @@ TEST(SpeedRoutes, BlockMassMatrixEqualsDenseOracle) {
   }
 }
 
-// Eq. (31) in chain layout, the oracle of compute_generalized_forces: sum over every body's
-// chain of [v_G_K,y]^T {F_K} block by block, plus [w'_K,y]^T {M'_K}. Needs the partials.
-VectorX generalized_forces_from_partials(const Model& model, const Data& data) {
-  const int n = model.num_bodies();
-  VectorX fy = VectorX::Zero(6 * n);
-  for (int k = 0; k < n; ++k) {
-    const Model::Chain chain = model.chain(k);
-    const auto o = static_cast<size_t>(model.chain_offset(k));
-    const Vector3& F = data.loads.force[static_cast<size_t>(k)];
-    for (int r = 0; r < chain.size; ++r) {
-      const int c = chain[r];
-      fy.segment<3>(3 * c) += data.partials.vG_w[o + static_cast<size_t>(r)].transpose() * F;
-      fy.segment<3>(3 * n + 3 * c) +=
-          data.partials.vG_s[o + static_cast<size_t>(r)].transpose() * F;
-    }
-    fy.segment<3>(3 * k) += data.loads.moment_b[static_cast<size_t>(k)];
-  }
-  return fy;
-}
-
-TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
-  // Eq. (38) and Eq. (31) by subtree sums against the chain-layout forms (sums over every
-  // body's chain of [v_G,y]^T blocks). Round-off relative to the size of the largest load
-  // term (the entries themselves can cancel).
+TEST(SpeedRoutes, TreeForceVectorEqualsOracle) {
+  // Eq. (38) by subtree sums against the notes' term-by-term sum over every body's chain of
+  // [v_G,y]^T blocks. Round-off relative to the size of the largest load term (the entries
+  // themselves can cancel). Eq. (31) by subtree sums: Forces.GeneralizedForcesEqualChainSums.
   std::mt19937 rng(4);
-  for (const Model& model : test_models(rng)) {
+  for (const Model& model : test::models_of_every_size(rng)) {
     const State state = random_state(rng, model);
     Data data(model);
     compute_kinematics(model, state, data);
@@ -285,14 +181,13 @@ TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
     compute_partial_rates(model, state, data);
     compute_resultants(model, state, data);
     const VectorX f_oracle = oracles::force_vector_term_by_term(model, state, data);
-    const VectorX fy_oracle = generalized_forces_from_partials(model, data);
     double scale = 0.0;
     for (int k = 0; k < model.num_bodies(); ++k) {
       const BodySpec& b = model.body(k);
       const Vector3 w = state.angular_velocity(k);
       const MatrixX v = partial_velocity(model, data, k, Point::G);
       const MatrixX vdot = partial_velocity_rate(model, data, k, Point::G);
-      const double lever = max_abs(v);
+      const double lever = test::max_abs(v);
       scale = std::max({scale, lever * data.loads.force[static_cast<size_t>(k)].norm(),
                         lever * b.mass * (vdot * state.y).norm(),
                         data.loads.moment_b[static_cast<size_t>(k)].norm(),
@@ -301,88 +196,23 @@ TEST(SpeedRoutes, TreeForceVectorAndGeneralizedForcesEqualOracles) {
     kane_equations(model, state, data);  // the same state: the same partials and loads
     EXPECT_LT((data.kane.f - f_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
         << "N " << model.num_bodies();
-    EXPECT_LT((data.kane.F_y - fy_oracle).cwiseAbs().maxCoeff(), 1e-12 * scale)
-        << "N " << model.num_bodies();
   }
-}
-
-TEST(SpeedRoutes, TreeLdltRecoversAKnownFactorAndSolvesLikeCholesky) {
-  // Build A = L^T D L from random unit block-lower L with the tree's sparsity and random SPD
-  // D blocks: the factorization must return exactly these L and D (to round-off, relative to
-  // the condition of the blocks, 1e-9), and the solution must equal a dense Cholesky solve.
-  std::mt19937 rng(5);
-  for (const Model& model : test_models(rng)) {
-    const int n = model.num_bodies();
-    MatrixX l = MatrixX::Identity(6 * n, 6 * n), d = MatrixX::Zero(6 * n, 6 * n);
-    // Body-blocked index of speed i of body k in the layout of Eq. (1).
-    const auto idx = [n](int k, int i) { return i < 3 ? 3 * k + i : 3 * n + 3 * k + i - 3; };
-    std::vector<Matrix6> l_blocks(static_cast<size_t>(model.chain_entries()));
-    for (int k = 0; k < n; ++k) {
-      const Model::Chain chain = model.chain(k);
-      const auto o = static_cast<size_t>(model.chain_offset(k));
-      const Matrix6 g = Matrix6::Random();
-      const Matrix6 dk = g * g.transpose() + Matrix6::Identity();
-      for (int r = 0; r < chain.size; ++r) {
-        const Matrix6 block = r == 0 ? dk : Matrix6(0.5 * Matrix6::Random());
-        l_blocks[o + static_cast<size_t>(r)] = block;
-        for (int p = 0; p < 6; ++p)
-          for (int q = 0; q < 6; ++q) (r == 0 ? d : l)(idx(k, p), idx(chain[r], q)) = block(p, q);
-      }
-    }
-    const MatrixX a = l.transpose() * d * l;
-    std::vector<Matrix6> a_blocks(static_cast<size_t>(model.chain_entries()));
-    for (int k = 0; k < n; ++k) {
-      const Model::Chain chain = model.chain(k);
-      for (int r = 0; r < chain.size; ++r)
-        for (int p = 0; p < 6; ++p)
-          for (int q = 0; q < 6; ++q)
-            a_blocks[static_cast<size_t>(model.chain_offset(k) + r)](p, q) =
-                a(idx(k, p), idx(chain[r], q));
-    }
-    TreeLdlt ldlt(model);
-    ldlt.compute(model, a_blocks);
-    ASSERT_EQ(ldlt.info(), Eigen::Success);
-    for (int k = 0; k < n; ++k)
-      for (int r = 1; r < model.chain(k).size; ++r) {
-        const auto e = static_cast<size_t>(model.chain_offset(k) + r);
-        EXPECT_LT((ldlt.factor()[e] - l_blocks[e]).cwiseAbs().maxCoeff(), 1e-9) << k << " " << r;
-      }
-    const VectorX b = VectorX::Random(6 * n);
-    VectorX x = b;
-    ldlt.solve_in_place(model, x);
-    const VectorX expected = Eigen::LLT<MatrixX>(a).solve(b);
-    EXPECT_LT((x - expected).norm(), 1e-9 * expected.norm()) << "N " << n;
-    EXPECT_LT((a * x - b).norm(), 1e-12 * (max_abs(a) * x.norm() + b.norm())) << "N " << n;
-  }
-}
-
-TEST(SpeedRoutes, TreeLdltReportsAnIndefiniteMatrix) {
-  std::mt19937 rng(6);
-  const Model model = random_model(rng, 4, Shape::tree);
-  std::vector<Matrix6> blocks(static_cast<size_t>(model.chain_entries()), Matrix6::Zero());
-  for (int k = 0; k < 4; ++k)
-    blocks[static_cast<size_t>(model.chain_offset(k))] = Matrix6::Identity();
-  TreeLdlt ldlt(model);
-  ldlt.compute(model, blocks);
-  EXPECT_EQ(ldlt.info(), Eigen::Success);
-  blocks[static_cast<size_t>(model.chain_offset(2))](4, 4) = -1.0;
-  ldlt.compute(model, blocks);
-  EXPECT_EQ(ldlt.info(), Eigen::NumericalIssue);
 }
 
 TEST(SpeedRoutes, KaneEquationsFillTheDenseMatrixAndSolveEquation36) {
   std::mt19937 rng(7);
-  for (const Model& model : test_models(rng)) {
+  for (const Model& model : test::models_of_every_size(rng)) {
     const State state = random_state(rng, model);
     Data data(model);
     kane_equations(model, state, data);
     const MatrixX oracle = oracles::mass_matrix_term_by_term(model, data);
-    EXPECT_LT(max_abs(data.kane.A - oracle), 1e-12 * max_abs(oracle));
+    EXPECT_LT(test::max_abs(data.kane.A - oracle), 1e-12 * test::max_abs(oracle));
     const VectorX residual = data.kane.A * data.ydot - data.kane.f;
     // Backward stable elimination: |A ydot - f| ~ 6N eps (|A| |ydot| + |f|).
     EXPECT_LT(residual.cwiseAbs().maxCoeff(),
               1e-14 * model.num_speeds() *
-                  (max_abs(data.kane.A) * data.ydot.cwiseAbs().maxCoeff() + max_abs(data.kane.f)));
+                  (test::max_abs(data.kane.A) * data.ydot.cwiseAbs().maxCoeff() +
+                   test::max_abs(data.kane.f)));
     Data lean(model, DataOptions{.partials = false, .dense_mass_matrix = false});
     kane_equations(model, state, lean);
     EXPECT_EQ(lean.kane.A.size(), 0);
@@ -406,7 +236,7 @@ void expect_fused_equals_staged(const Model& model, const State& state) {
 
 TEST(SpeedRoutes, FusedPassEqualsStagedRecursiveRoute) {
   std::mt19937 rng(8);
-  for (const Model& model : test_models(rng))
+  for (const Model& model : test::models_of_every_size(rng))
     for (int trial = 0; trial < 3; ++trial)
       expect_fused_equals_staged(model, random_state(rng, model));
 }
@@ -418,11 +248,11 @@ TEST(SpeedRoutes, FusedPassEqualsStagedRecursiveRoute) {
 TEST(SpeedRoutes, EverySimdWidthGivesTheSameBits) {
   std::mt19937 rng(12);
   int widths_run = 0;
-  for (const Model& model : test_models(rng)) {
+  for (const Model& model : test::models_of_every_size(rng)) {
     State near_rest = random_state(rng, model);
     for (int k = 0; k < model.num_bodies(); ++k)
       near_rest.euler_parameters(k) =
-          Vector4(random_vector(rng, -0.02, 0.02).homogeneous()).normalized();
+          Vector4(test::random_vector(rng, -0.02, 0.02).homogeneous()).normalized();
     for (const State& state : {random_state(rng, model), near_rest}) {
       Data base(model, DataOptions::recursive_only(2));
       ASSERT_EQ(base.simd_lanes(), 2);
@@ -466,7 +296,7 @@ TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
     expect_fused_equals_staged(changed, chain.initial);
   }
   std::mt19937 rng(4);
-  const Model tree = random_model(rng, 64, Shape::tree);  // distinct masses: nothing shared
+  const Model tree = test::random_loaded_model(rng, 64);  // distinct masses: nothing shared
   Data none(tree, DataOptions::recursive_only());
   EXPECT_EQ(distinct(none), workspace(none).plan->param_group.size());
 }
@@ -493,9 +323,9 @@ TEST(SpeedRoutes, RecursiveAndKaneRoutesAgreeOnLargeTreesAndDeepChains) {
   // Two algorithms for Eq. (36), required to agree to 1e-10 relative. The Kane route's error is the
   // condition of [A] times round-off; for these models cond(A) stays below ~1e5.
   std::mt19937 rng(9);
-  std::vector<Model> models = test_models(rng);
-  for (int n : {100, 200}) models.push_back(random_model(rng, n, Shape::tree));
-  for (int n : {50, 100, 200}) models.push_back(random_model(rng, n, Shape::chain));
+  std::vector<Model> models = test::models_of_every_size(rng);
+  for (int n : {100, 200}) models.push_back(test::random_loaded_model(rng, n));
+  for (int n : {50, 100, 200}) models.push_back(test::random_loaded_model(rng, n, true));
   for (const Model& model : models) {
     const State state = random_state(rng, model);
     Data kane(model, DataOptions{.partials = false, .dense_mass_matrix = false}),
@@ -523,7 +353,7 @@ class Spring final : public ForceElement {
 
 TEST(SpeedRoutes, UnknownForceElementTakesTheStagedRoute) {
   std::mt19937 rng(10);
-  const Model base = random_model(rng, 6, Shape::tree);
+  const Model base = test::random_loaded_model(rng, 6);
   std::vector<std::shared_ptr<const ForceElement>> forces = base.forces();
   forces.push_back(std::make_shared<Spring>(3));
   const Model model(base.bodies(), base.gravity(), forces);
@@ -541,7 +371,7 @@ TEST(SpeedRoutes, UnknownForceElementTakesTheStagedRoute) {
 
 TEST(SpeedRoutes, KaneRouteNeedsTheMassMatrixOption) {
   std::mt19937 rng(11);
-  const Model model = random_model(rng, 3, Shape::tree);
+  const Model model = test::random_loaded_model(rng, 3);
   const State state = random_state(rng, model);
   Data data(model, DataOptions::recursive_only());
   EXPECT_THROW(forward_dynamics(model, state, data, Route::assembled), std::invalid_argument);
@@ -556,7 +386,7 @@ TEST(SpeedRoutes, DeepChainWithoutFlatChainStorage) {
   std::vector<BodySpec> bodies(static_cast<size_t>(n));
   for (int k = 0; k < n; ++k) {
     BodySpec& b = bodies[static_cast<size_t>(k)];
-    b.name = "link" + std::to_string(k);
+    b.name = test::numbered_name("link", k);
     b.lower_body = k - 1;
     b.mass = 1.0;
     b.inertia = Vector3(0.02, 0.02, 0.001).asDiagonal();
@@ -597,16 +427,16 @@ TEST(SpeedRoutes, DeepChainWithoutFlatChainStorage) {
   EXPECT_THROW(Data(model, DataOptions{.partials = false}), ModelError);
   State state(model);
   for (int k = 0; k < n; ++k) {
-    const Vector4 e = random_unit_quaternion(rng);
+    const Vector4 e = test::random_euler_parameters(rng);
     state.euler_parameters(k) = e;  // large relative angles along the chain
-    state.angular_velocity(k) = random_vector(rng, -1.0, 1.0);
+    state.angular_velocity(k) = test::random_vector(rng, -1.0, 1.0);
   }
   expect_fused_equals_staged(model, state);
 }
 
 TEST(SpeedRoutes, FlatAndWalkedChainsAgree) {
   std::mt19937 rng(13);
-  const Model model = random_model(rng, 40, Shape::tree);
+  const Model model = test::random_loaded_model(rng, 40);
   ASSERT_TRUE(model.has_flat_chains());
   for (int k = 0; k < model.num_bodies(); ++k) {
     const Model::Chain flat = model.chain(k);

@@ -10,8 +10,12 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/kane.hpp"
 #include "kanedyn/model.hpp"
+#include "kanedyn/partials.hpp"
 #include "kanedyn/state.hpp"
 #include "kanedyn/types.hpp"
 
@@ -135,6 +139,10 @@ struct RandomTreeOptions {
   bool ground_bushings = true;  ///< false: roots get no bushing (a floating system)
   bool forces = false;          ///< random constant forces on some bodies
   bool torques = false;         ///< random constant torques on some bodies
+  bool chain = false;           ///< L(K) = K - 1: one chain instead of a random forest
+  /// With bushings: a second bushing on a body that has one, with this probability (the
+  /// loads of several elements on one body add).
+  double second_bushing_probability = 0.0;
 };
 
 /// A random forest: N uniform in [min_bodies, max_bodies], L(K) uniform in 0..K-1 (so 0, the
@@ -146,7 +154,8 @@ inline Model random_tree(std::mt19937& rng, const RandomTreeOptions& opt = {}) {
   for (int k = 0; k < n; ++k) {
     BodySpec& b = bodies[static_cast<size_t>(k)];
     b.name = numbered_name("b", k + 1);
-    b.lower_body = uniform_int(rng, 0, k) - 1;  // L(K) uniform in 0..K-1, 0 -> kGround
+    // L(K) uniform in 0..K-1, 0 -> kGround; a chain draws nothing here.
+    b.lower_body = opt.chain ? k - 1 : uniform_int(rng, 0, k) - 1;
     b.mass = uniform(rng, 0.5, 5.0);
     b.inertia = random_inertia(rng, b.mass);
     b.com = random_vector(rng, -0.4, 0.4);
@@ -158,9 +167,14 @@ inline Model random_tree(std::mt19937& rng, const RandomTreeOptions& opt = {}) {
     if (opt.bushings && (opt.ground_bushings || !root) &&
         uniform(rng, 0.0, 1.0) < opt.bushing_probability) {
       const double c = opt.damping ? 1.0 : 0.0;
-      forces.push_back(std::make_shared<Bushing>(
-          k, random_vector(rng, 5.0, 100.0), c * random_vector(rng, 0.0, 3.0),
-          uniform(rng, 1.0, 20.0), c * uniform(rng, 0.0, 1.0)));
+      const int count = opt.second_bushing_probability > 0.0 &&
+                                uniform(rng, 0.0, 1.0) < opt.second_bushing_probability
+                            ? 2
+                            : 1;
+      for (int i = 0; i < count; ++i)
+        forces.push_back(std::make_shared<Bushing>(
+            k, random_vector(rng, 5.0, 100.0), c * random_vector(rng, 0.0, 3.0),
+            uniform(rng, 1.0, 20.0), c * uniform(rng, 0.0, 1.0)));
     }
     if (opt.forces && uniform(rng, 0.0, 1.0) < 0.5)
       forces.push_back(std::make_shared<ConstantForce>(k, random_vector(rng, -10.0, 10.0)));
@@ -168,6 +182,40 @@ inline Model random_tree(std::mt19937& rng, const RandomTreeOptions& opt = {}) {
       forces.push_back(std::make_shared<ConstantTorque>(k, random_vector(rng, -2.0, 2.0)));
   }
   return Model(std::move(bodies), opt.gravity, std::move(forces), "random");
+}
+
+/// The eight-body system followed by `count` random forests drawn with `opt` from `seed`.
+inline std::vector<Model> eight_body_and_random_trees(unsigned seed, int count,
+                                                      const RandomTreeOptions& opt = {}) {
+  std::vector<Model> models;
+  models.push_back(eight_body_model());
+  std::mt19937 rng(seed);
+  for (int i = 0; i < count; ++i) models.push_back(random_tree(rng, opt));
+  return models;
+}
+
+/// A random forest (or chain) of exactly n bodies with loads of every kind: gravity in a
+/// random direction, bushings with damping (a third of the bodies none, a sixth two),
+/// constant forces and torques on some bodies.
+inline Model random_loaded_model(std::mt19937& rng, int n, bool chain = false) {
+  RandomTreeOptions opt;
+  opt.min_bodies = opt.max_bodies = n;
+  opt.chain = chain;
+  opt.gravity = random_vector(rng, -10.0, 10.0);
+  opt.bushings = opt.forces = opt.torques = true;
+  opt.bushing_probability = 2.0 / 3.0;
+  opt.second_bushing_probability = 0.25;
+  return random_tree(rng, opt);
+}
+
+/// The models the comparisons between routes run on: the eight-body system, loaded forests
+/// of 1 to 60 bodies and chains of 2 to 25.
+inline std::vector<Model> models_of_every_size(std::mt19937& rng) {
+  std::vector<Model> models;
+  models.push_back(eight_body_model());
+  for (int n : {1, 2, 3, 5, 8, 13, 30, 60}) models.push_back(random_loaded_model(rng, n));
+  for (int n : {2, 7, 25}) models.push_back(random_loaded_model(rng, n, true));
+  return models;
 }
 
 /// A random state: unit Euler parameters, s' in [-s_max, s_max], w' in [-w_max, w_max],
@@ -198,6 +246,32 @@ inline State advance(const State& state, const VectorX& xdot, const VectorX& ydo
   if (ydot.size() > 0) s.y += h * ydot;
   s.normalize_euler_parameters();
   return s;
+}
+
+/// Mass-centre accelerations from ydot (Eq. 33): a_G = [v_G,y] ydot + [v_G,y dot] y. Needs a
+/// Data in which kane_equations() (partials and their rates) has run at `state`.
+inline std::vector<Vector3> mass_centre_accelerations(const Model& model, const State& state,
+                                                      const Data& data, const VectorX& ydot) {
+  std::vector<Vector3> a;
+  for (int k = 0; k < model.num_bodies(); ++k)
+    a.push_back(partial_velocity(model, data, k, Point::G) * ydot +
+                partial_velocity_rate(model, data, k, Point::G) * state.y);
+  return a;
+}
+
+/// ydot and xdot by the given route, plus the partials and their rates at the state (for
+/// a_G, mass_centre_accelerations).
+struct Evaluated {
+  Data data;
+  VectorX ydot, xdot;
+};
+inline Evaluated evaluate(const Model& model, const State& state, Route route) {
+  Evaluated e{Data(model), VectorX(), VectorX()};
+  forward_dynamics(model, state, e.data, route);
+  e.ydot = e.data.ydot;
+  e.xdot = e.data.xdot;
+  kane_equations(model, state, e.data);  // partials and rates at the state
+  return e;
 }
 
 /// Largest absolute entry of a difference, for messages and scale-aware tolerances.
