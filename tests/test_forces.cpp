@@ -91,7 +91,7 @@ TEST(Forces, BushingRotationalLawByHand) {
     r << std::cos(angle), std::sin(angle), 0, -std::sin(angle), std::cos(angle), 0, 0, 0, 1;
     EXPECT_LT((rotation_matrix(state.euler_parameters(0)) - r).cwiseAbs().maxCoeff(), 1e-15);
     const double theta_z = angle <= M_PI ? angle : angle - 2 * M_PI;
-    EXPECT_LT((bushing->rotation_vector(state, model) - Vector3(0, 0, theta_z)).norm(), 1e-14);
+    EXPECT_LT((bushing->rotation_vector(model, state) - Vector3(0, 0, theta_z)).norm(), 1e-14);
     const Vector3 expected(-0.4, 0.2, -50.0 * theta_z - 0.8);
     const Loads loads = loads_at(model, state);
     EXPECT_LT((loads.moment_b[0] - expected).norm(), 1e-13) << "angle " << angle;
@@ -336,7 +336,7 @@ TEST(Forces, GeneralizedForcesOfOneBushing) {
           reference_rotation(state.euler_parameters(j)).transpose();
       w_rel -= r * state.angular_velocity(j);
     }
-    const Vector3 m = -bushing->rotational_stiffness * bushing->rotation_vector(state, model) -
+    const Vector3 m = -bushing->rotational_stiffness * bushing->rotation_vector(model, state) -
                       bushing->rotational_damping * w_rel;
     VectorX expected = VectorX::Zero(6 * n);
     expected.segment<3>(3 * n + 3 * k) = f;
