@@ -1,4 +1,5 @@
-// `kanedyn eom MODEL [--json]`: the notes' equations of motion at the model's initial state:
+// `kanedyn eom MODEL [--json] [--trajectory FILE.csv --t T]`: the notes' equations of motion
+// at the model's initial state or at a row of a trajectory:
 // [A] (Eq. 37), {f} (Eq. 38), {y dot} (Eq. 36) and {x dot} (Eqs. 39-40).
 #include <cstdio>
 #include <iostream>
@@ -8,8 +9,10 @@
 #include "commands.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/io/text.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/kinematic_equations.hpp"
+#include "options.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -33,10 +36,10 @@ void print_column(const char* title, const VectorX& v, std::string (*label)(int,
     std::printf("  %-7s % .10e\n", label(n, static_cast<int>(i)).c_str(), v[i]);
 }
 
-void print_tables(const io::ModelFile& file, const Data& data) {
+void print_tables(const io::ModelFile& file, const Data& data, const std::string& where) {
   const int n = file.model.num_bodies();
-  std::printf("equations of motion of %s at its initial state: [A]{ydot} = {f} (Eq. 36)\n",
-              file.path.c_str());
+  std::printf("equations of motion of %s at %s: [A]{ydot} = {f} (Eq. 36)\n",
+              io::printable(file.path).c_str(), where.c_str());
   std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n", n);
   std::printf("\n[A] (Eq. 37), %d x %d\n%-7s", 6 * n, 6 * n, "");
   for (int j = 0; j < 6 * n; ++j) std::printf(" %10s", speed_label(n, j).c_str());
@@ -83,14 +86,18 @@ constexpr int kMaxEomBodies = 1000;
 
 void add_eom(CLI::App& app) {
   auto* cmd = app.add_subcommand(
-      "eom", "Print A, f, ydot and xdot of Kane's equations at the model's initial state");
+      "eom",
+      "Print A, f, ydot and xdot of Kane's equations at the model's initial state or a "
+      "trajectory row");
   struct Options {
     std::string path;
     bool json = false;
+    StateChoice state;
   };
   auto opt = std::make_shared<Options>();
   cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
   cmd->add_flag("--json", opt->json, "print the JSON object of docs/model-format.md");
+  add_state_options(cmd, opt->state);
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
     // [A] is printed dense: 36 N^2 numbers, about 0.7 GB of JSON at N = 1000.
@@ -101,13 +108,16 @@ void add_eom(CLI::App& app) {
                                " bodies it prints; `kanedyn bench` and `kanedyn simulate` run "
                                "models of any size");
     Data data(file.model, DataOptions{.partials = false});  // [A] dense, as printed
-    kane_equations(file.model, file.initial, data);
+    double t = 0.0;
+    std::string where;
+    const State state = chosen_state(file, opt->state, t, where);
+    kane_equations(file.model, state, data);
     if (!data.ydot.allFinite())
       throw std::runtime_error(opt->path + ": the equations of motion are not finite");
     if (opt->json)
       print_json(file, data);
     else
-      print_tables(file, data);
+      print_tables(file, data, where);
   });
 }
 

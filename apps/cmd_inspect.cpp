@@ -14,6 +14,7 @@
 #include "kanedyn/inspect.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
+#include "options.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -130,13 +131,12 @@ void print_blocks(const MatrixX& m, int n) {
   std::printf("      (%d of %d blocks are zero)\n", zero, 2 * n);
 }
 
-void print_text(const io::ModelFile& file, const Inspection& in,
+void print_text(const io::ModelFile& file, const Inspection& in, const std::string& where,
                 const std::set<std::string>& wanted) {
   const Model& model = file.model;
   const int n = in.N;
   const auto want = [&](const char* key) { return wanted.empty() || wanted.count(key) > 0; };
-  std::printf("%s at its initial state (t = %g), N = %d\n", io::printable(file.path).c_str(), in.t,
-              n);
+  std::printf("%s at %s, N = %d\n", io::printable(file.path).c_str(), where.c_str(), n);
   for (const BodyInspection& b : in.bodies) {
     const int k = b.K - 1;
     std::string chain;
@@ -219,6 +219,7 @@ void add_inspect(CLI::App& app) {
     std::string path;
     bool json = false;
     std::vector<std::string> bodies, quantities;
+    StateChoice state;
   };
   auto opt = std::make_shared<Options>();
   cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
@@ -229,6 +230,7 @@ void add_inspect(CLI::App& app) {
                   "a per-body quantity: R, p_O, p_G, v_O, v_G, w, w_y, v_O_y, v_G_y, v_O_y_dot, "
                   "v_G_y_dot, F, M, F_y, F_y_star (repeatable; default: all)")
       ->check(CLI::IsMember(quantity_names()));
+  add_state_options(cmd, opt->state);
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
     const std::vector<int> bodies = select_bodies(file.model, opt->path, opt->bodies);
@@ -238,14 +240,17 @@ void add_inspect(CLI::App& app) {
           std::to_string(file.model.chain_entries()) + " chain entries, more than the " +
           std::to_string(Model::kMaxFlatChainEntries) +
           " for which the partial velocity blocks are built");
-    const Inspection in = inspect(file.model, file.initial, 0.0, bodies);
+    double t = 0.0;
+    std::string where;
+    const State state = chosen_state(file, opt->state, t, where);
+    const Inspection in = inspect(file.model, state, t, bodies);
     if (!in.ydot.allFinite())
       throw std::runtime_error(opt->path + ": the equations of motion are not finite");
     const std::set<std::string> wanted(opt->quantities.begin(), opt->quantities.end());
     if (opt->json)
       print_json(in, wanted);
     else
-      print_text(file, in, wanted);
+      print_text(file, in, where, wanted);
   });
 }
 

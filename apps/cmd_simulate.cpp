@@ -23,6 +23,7 @@
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/simulate.hpp"
+#include "options.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -351,29 +352,6 @@ int run(const Options& o) {
     return 128 + sig;
   }
   throw std::runtime_error(stats.message + "; " + kept);
-}
-
-/// A CLI11 check: a decimal number > 0 (no hex, inf or nan) that is finite and does not
-/// underflow to 0, with a short message.
-CLI::Validator positive_number() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        const char* first = text.c_str() + (text.starts_with('+') ? 1 : 0);
-        const char* last = text.c_str() + text.size();
-        double v = 0.0;
-        const auto [end, error] = std::from_chars(first, last, v, std::chars_format::general);
-        const std::string got = ", got '" + io::printable(text, 40) + "'";
-        if (error == std::errc::result_out_of_range)
-          return std::string(text.find_first_of("eE") != std::string::npos &&
-                                     text.find('-', text.find_first_of("eE")) != std::string::npos
-                                 ? "underflows to 0"
-                                 : "overflows a double") +
-                 got;
-        const bool ok =
-            error == std::errc() && end == last && first != last && std::isfinite(v) && v > 0.0;
-        return ok ? "" : "must be a decimal number > 0" + got;
-      },
-      "NUMBER>0");
 }
 
 void add_simulate(CLI::App& app) {

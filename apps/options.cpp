@@ -1,0 +1,58 @@
+#include "options.hpp"
+
+#include <charconv>
+#include <cmath>
+
+#include "kanedyn/io/text.hpp"
+#include "kanedyn/io/trajectory.hpp"
+
+namespace kanedyn::cli {
+
+CLI::Validator decimal_number(bool positive) {
+  return CLI::Validator(
+      [positive](std::string& text) -> std::string {
+        const char* first = text.c_str() + (text.starts_with('+') ? 1 : 0);
+        const char* last = text.c_str() + text.size();
+        double v = 0.0;
+        const auto [end, error] = std::from_chars(first, last, v, std::chars_format::general);
+        const std::string got = ", got '" + io::printable(text, 40) + "'";
+        if (error == std::errc::result_out_of_range)
+          return std::string(text.find_first_of("eE") != std::string::npos &&
+                                     text.find('-', text.find_first_of("eE")) != std::string::npos
+                                 ? "underflows to 0"
+                                 : "overflows a double") +
+                 got;
+        const bool ok = error == std::errc() && end == last && first != last && std::isfinite(v) &&
+                        (!positive || v > 0.0);
+        return ok ? "" : std::string("must be a decimal number") + (positive ? " > 0" : "") + got;
+      },
+      positive ? "NUMBER>0" : "NUMBER");
+}
+
+void add_state_options(CLI::App* cmd, StateChoice& choice) {
+  auto* trajectory = cmd->add_option("--trajectory", choice.trajectory,
+                                     "take the state from a row of this trajectory CSV "
+                                     "(written by simulate for this model); needs --t");
+  auto* t = cmd->add_option("--t", choice.t, "the time of that row (within half a step)")
+                ->check(decimal_number(false));
+  trajectory->needs(t);
+  t->needs(trajectory);
+}
+
+State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
+                   std::string& where) {
+  if (choice.trajectory.empty()) {
+    t = 0.0;
+    where = "its initial state";
+    return file.initial;
+  }
+  const io::TrajectoryRow row = io::read_trajectory_row(file.model, choice.trajectory, choice.t);
+  t = row.t;
+  char time[32];
+  std::snprintf(time, sizeof time, "%.10g", row.t);
+  where = "t = " + std::string(time) + " of " + io::printable(choice.trajectory) + " (line " +
+          std::to_string(row.line) + ")";
+  return row.state;
+}
+
+}  // namespace kanedyn::cli

@@ -1,0 +1,31 @@
+// Options shared by the subcommands: strict decimal numbers, and the state a command
+// evaluates at (the model's initial state, or a row of a trajectory).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/state.hpp"
+
+namespace kanedyn::cli {
+
+/// A CLI11 check: a finite decimal number (no hex, inf or nan) that neither overflows nor
+/// underflows to 0; with `positive`, also > 0.
+CLI::Validator decimal_number(bool positive);
+inline CLI::Validator positive_number() { return decimal_number(true); }
+
+/// `--trajectory FILE.csv --t T`, each needing the other.
+struct StateChoice {
+  std::string trajectory;
+  double t = 0.0;
+};
+void add_state_options(CLI::App* cmd, StateChoice& choice);
+
+/// The state chosen: the model file's initial state, or the trajectory's row at t (throws
+/// std::runtime_error naming the file and the problem). Sets t to the row's time (0 for the
+/// initial state) and where to "its initial state" or "t = T of FILE (line L)".
+State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
+                   std::string& where);
+
+}  // namespace kanedyn::cli

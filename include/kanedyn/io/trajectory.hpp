@@ -1,0 +1,28 @@
+// Reading a trajectory CSV back (docs/model-format.md, "Trajectory output"): the state of one
+// row, for inspecting or evaluating the equations of motion at a time of a run.
+#pragma once
+
+#include <string>
+
+#include "kanedyn/model.hpp"
+#include "kanedyn/state.hpp"
+
+namespace kanedyn::io {
+
+/// One row of a trajectory: its time and the state x, y of Eq. (1).
+struct TrajectoryRow {
+  double t = 0.0;
+  State state;
+  int line = 0;  ///< the row's line in the file (1 is the header)
+};
+
+/// The row of the trajectory at `path` whose time is nearest to t, when it lies within half
+/// the spacing of the rows around it (exactly the row's time otherwise needs no care: any t in
+/// that window selects it). The state is the row's numbers as written (the writer's shortest
+/// round-trip decimals read back to the same doubles). Throws std::runtime_error naming the
+/// file, the line and the problem: a header that is not this model's (the first differing
+/// column), a row with the wrong number of fields or a field that is not a number, no rows,
+/// or no row within half a step of t (naming the range of times, or the nearest rows).
+TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t);
+
+}  // namespace kanedyn::io

@@ -1,0 +1,124 @@
+#include "kanedyn/io/trajectory.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string_view>
+#include <vector>
+
+#include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/text.hpp"
+
+namespace kanedyn::io {
+
+namespace {
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::vector<std::string_view> fields(std::string_view line) {
+  std::vector<std::string_view> out;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    out.push_back(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+    if (comma == std::string_view::npos) return out;
+    start = comma + 1;
+  }
+}
+
+}  // namespace
+
+TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t) {
+  const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
+    return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
+  };
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw fail(0, "cannot open the trajectory");
+  const std::vector<std::string> columns = trajectory_columns(model);
+  std::string line;
+  if (!std::getline(in, line)) throw fail(0, "the trajectory is empty");
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  const std::vector<std::string_view> header = fields(line);
+  for (size_t c = 0; c < std::max(header.size(), columns.size()); ++c) {
+    if (c < header.size() && c < columns.size() && header[c] == columns[c]) continue;
+    const std::string got = c < header.size() ? "'" + printable(header[c], 60) + "'" : "nothing";
+    const std::string want = c < columns.size() ? "'" + columns[c] + "'" : "the end of the line";
+    throw fail(1,
+               "column " + std::to_string(c + 1) + " is " + got + " where this model's " +
+                   "trajectory has " + want + ": the trajectory is not of " +
+                   (model.name().empty() ? std::string("this model") : "'" + model.name() + "'"));
+  }
+  // One pass: keep the row nearest to t and the times of its neighbours.
+  const size_t width = columns.size();
+  std::vector<double> best(width), row(width), prev(width);
+  int best_line = 0, line_no = 1;
+  double t_first = 0.0, t_last = 0.0, before_best = NAN, after_best = NAN, prev_t = NAN;
+  bool any = false, take_next = false;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    const std::vector<std::string_view> f = fields(line);
+    if (f.size() != width)
+      throw fail(line_no, "the row has " + std::to_string(f.size()) + " fields, the header " +
+                              std::to_string(width));
+    for (size_t c = 0; c < width; ++c) {
+      const char* end = f[c].data() + f[c].size();
+      const auto [ptr, ec] = std::from_chars(f[c].data(), end, row[c]);
+      if (ec != std::errc() || ptr != end || !std::isfinite(row[c]))
+        throw fail(line_no, "column '" + columns[c] + "': '" + printable(f[c], 40) +
+                                "' is not a finite number");
+    }
+    const double tr = row[0];
+    if (take_next) {
+      after_best = tr;
+      take_next = false;
+    }
+    if (!any) t_first = tr;
+    if (!any || std::abs(tr - t) < std::abs(best[0] - t)) {
+      best = row;
+      best_line = line_no;
+      before_best = prev_t;
+      after_best = NAN;
+      take_next = true;
+    }
+    any = true;
+    t_last = tr;
+    prev_t = tr;
+  }
+  if (!any) throw fail(0, "the trajectory has no rows");
+  // Half the spacing to the neighbouring rows (one side at the ends; a lone row: exactly).
+  const double gap_before = std::isnan(before_best) ? INFINITY : best[0] - before_best;
+  const double gap_after = std::isnan(after_best) ? INFINITY : after_best - best[0];
+  double half = 0.5 * std::min(gap_before, gap_after);
+  if (!std::isfinite(half)) half = 0.0;
+  if (!(std::abs(best[0] - t) <= half))
+    throw fail(0, "no row at t = " + number(t) + ": the rows run from t = " + number(t_first) +
+                      " to " + number(t_last) + " (the nearest is t = " + number(best[0]) +
+                      ", line " + std::to_string(best_line) + ")");
+  TrajectoryRow out;
+  out.t = best[0];
+  out.line = best_line;
+  out.state = State(model);
+  const int n = model.num_bodies();
+  for (int k = 0; k < n; ++k) {
+    const size_t b = 1 + 16 * static_cast<size_t>(k);  // t, then 16 columns per body
+    for (int i = 0; i < 4; ++i)
+      out.state.euler_parameters(k)[i] = best[b + 3 + static_cast<size_t>(i)];
+    for (int i = 0; i < 3; ++i) {
+      const size_t ii = static_cast<size_t>(i);
+      out.state.translation(k)[i] = best[b + 7 + ii];
+      out.state.angular_velocity(k)[i] = best[b + 10 + ii];
+      out.state.translation_rate(k)[i] = best[b + 13 + ii];
+    }
+  }
+  return out;
+}
+
+}  // namespace kanedyn::io
