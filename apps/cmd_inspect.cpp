@@ -3,6 +3,7 @@
 // partial velocity matrices in the notes' block notation (symbolically and numerically), their
 // rates, the resultants and each body's share of the generalized forces.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -184,6 +185,59 @@ void print_text(const io::ModelFile& file, const Inspection& in, const std::stri
   }
 }
 
+/// Label of speed i (0-based) of {y}: wK.c (w'_K component c) or sdK.c (s'_K dot).
+std::string speed_label(int n, int i) {
+  const int part = i / (3 * n), k = (i % (3 * n)) / 3, c = i % 3;
+  return (part == 0 ? "w" : "sd") + std::to_string(k + 1) + "." + std::to_string(c + 1);
+}
+
+/// A row of Kane's equations: its number 1..6N in the notes' numbering of {y}, or its label
+/// (w8.2, sd3.1); 0-based. Throws naming the problem.
+int parse_row(const std::string& path, const std::string& text, int n) {
+  for (int i = 0; i < 6 * n; ++i)
+    if (text == speed_label(n, i) || text == std::to_string(i + 1)) return i;
+  throw std::runtime_error(path + ": --row " + io::printable(text, 40) + ": no such row (give 1.." +
+                           std::to_string(6 * n) + " or a label wK.c or sdK.c, K = 1.." +
+                           std::to_string(n) + ", c = 1..3)");
+}
+
+/// Which bodies drive speed i: each body's share of F_y (Eq. 31) and of F_y* at the solved
+/// {y dot}, largest first; Kane's equations say the sums cancel. Returns false if they do not
+/// to round-off.
+bool print_row(const io::ModelFile& file, const Inspection& in, const std::string& where, int i) {
+  const int n = in.N;
+  struct Share {
+    int K;
+    double fy, fy_star;
+  };
+  std::vector<Share> shares;
+  double scale = 0.0;
+  for (const BodyInspection& b : in.bodies) {
+    const Share s{b.K, b.F_y[i], b.F_y_star[i]};
+    scale = std::max({scale, std::abs(s.fy), std::abs(s.fy_star)});
+    if (s.fy != 0.0 || s.fy_star != 0.0) shares.push_back(s);
+  }
+  const auto size = [](const Share& s) { return std::max(std::abs(s.fy), std::abs(s.fy_star)); };
+  std::stable_sort(shares.begin(), shares.end(),
+                   [&](const Share& a, const Share& b) { return size(a) > size(b); });
+  const std::string label = speed_label(n, i);
+  std::printf("%s at %s\nrow %d of Kane's equations (speed %s: %s), F_y + F_y* = 0\n",
+              io::printable(file.path).c_str(), where.c_str(), i + 1, label.c_str(),
+              i < 3 * n ? "w'_K component, body-K axes" : "s'_K dot component, body-J axes");
+  std::printf("  %-4s %-20s %16s %16s\n", "K", "body", "F_y (Eq. 31)", "F_y*");
+  for (const Share& s : shares)
+    std::printf("  %-4d %-20s % 16.9g % 16.9g\n", s.K,
+                io::printable(file.model.body(s.K - 1).name, 20).c_str(), s.fy, s.fy_star);
+  std::printf("  (%d of %d bodies contribute)\n", static_cast<int>(shares.size()), n);
+  const double sum = in.F_y[i] + in.F_y_star[i];
+  // The residual of the tree LDL^T solve: backward stable, ~6N eps times the largest term.
+  const double tolerance = 1e-12 * std::max(scale, 1e-300) * std::max(1, n / 100);
+  const bool ok = std::abs(sum) <= tolerance;
+  std::printf("  sum  %-20s % 16.9g % 16.9g\n  F_y + F_y* = %.3g: %s (round-off bound %.3g)\n", "",
+              in.F_y[i], in.F_y_star[i], sum, ok ? "cancels" : "DOES NOT CANCEL", tolerance);
+  return ok;
+}
+
 /// Body numbers (1..N) or names to 0-based indices; throws naming the unknown one.
 std::vector<int> select_bodies(const Model& model, const std::string& path,
                                const std::vector<std::string>& wanted) {
@@ -219,6 +273,7 @@ void add_inspect(CLI::App& app) {
     std::string path;
     bool json = false;
     std::vector<std::string> bodies, quantities;
+    std::string row;
     StateChoice state;
   };
   auto opt = std::make_shared<Options>();
@@ -230,7 +285,14 @@ void add_inspect(CLI::App& app) {
                   "a per-body quantity: R, p_O, p_G, v_O, v_G, w, w_y, v_O_y, v_G_y, v_O_y_dot, "
                   "v_G_y_dot, F, M, F_y, F_y_star (repeatable; default: all)")
       ->check(CLI::IsMember(quantity_names()));
+  auto* row = cmd->add_option(
+      "--row", opt->row,
+      "explain one row of Kane's equations: each body's share of F_y and F_y* (1..6N, or a "
+      "label such as w8.2 or sd3.1)");
   add_state_options(cmd, opt->state);
+  row->excludes(cmd->get_option("--json"));
+  row->excludes(cmd->get_option("--body"));
+  row->excludes(cmd->get_option("--quantity"));
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
     const std::vector<int> bodies = select_bodies(file.model, opt->path, opt->bodies);
@@ -243,9 +305,17 @@ void add_inspect(CLI::App& app) {
     double t = 0.0;
     std::string where;
     const State state = chosen_state(file, opt->state, t, where);
+    const int row_index =
+        opt->row.empty() ? -1 : parse_row(opt->path, opt->row, file.model.num_bodies());
     const Inspection in = inspect(file.model, state, t, bodies);
     if (!in.ydot.allFinite())
       throw std::runtime_error(opt->path + ": the equations of motion are not finite");
+    if (row_index >= 0) {
+      if (!print_row(file, in, where, row_index))
+        throw std::runtime_error(opt->path + ": row " + opt->row +
+                                 " of Kane's equations does not cancel to round-off");
+      return;
+    }
     const std::set<std::string> wanted(opt->quantities.begin(), opt->quantities.end());
     if (opt->json)
       print_json(in, wanted);

@@ -3,6 +3,8 @@
 // and `kanedyn inspect --json` against the library bit for bit.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
@@ -232,6 +234,46 @@ TEST(InspectCommand, SelectionAndErrors) {
   EXPECT_NE(r.out.find("[v_G8,y2] = [ I, 0, 0, 0, 0, 0, [R_1]^T, [R_7]^T ]"), std::string::npos)
       << r.out;
   for (const std::string& line : test::split(r.out, '\n')) EXPECT_LE(line.size(), 100u) << line;
+}
+
+// Explaining a row: every body with a share is listed with the library's numbers, largest
+// first, and the sums cancel.
+TEST(InspectCommand, RowListsEachBodysShareAndChecksTheSum) {
+  const std::string eight = kExamples + "/eight_body.yaml";
+  const auto dir = test::temp_dir("inspect_row");
+  const io::ModelFile file = io::load_model_file(eight);
+  const Inspection in = inspect(file.model, file.initial);
+  // w2.1 is row 4 (w'_2 component 1): bodies 2, 3 and 4 (body 2's subtree) have shares.
+  for (const std::string& row : {std::string("4"), std::string("w2.1")}) {
+    const test::ToolRun r = test::run_in(dir, "inspect " + eight + " --row " + row);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.out.find("row 4 of Kane's equations (speed w2.1"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("(3 of 8 bodies contribute)"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(": cancels"), std::string::npos) << r.out;
+    double last = INFINITY;
+    int listed = 0;
+    for (const std::string& line : test::split(r.out, '\n')) {
+      int k = 0;
+      char name[64];
+      double fy = 0, fy_star = 0;
+      if (std::sscanf(line.c_str(), " %d %63s %lf %lf", &k, name, &fy, &fy_star) != 4) continue;
+      ++listed;
+      const BodyInspection& b = in.bodies[static_cast<size_t>(k - 1)];
+      EXPECT_EQ(std::string(name), b.name);
+      EXPECT_NEAR(fy, b.F_y[3], 1e-8 * std::abs(b.F_y[3]));  // printed to 9 digits
+      EXPECT_NEAR(fy_star, b.F_y_star[3], 1e-8 * std::abs(b.F_y_star[3]));
+      EXPECT_LE(std::max(std::abs(fy), std::abs(fy_star)), last);  // largest first
+      last = std::max(std::abs(fy), std::abs(fy_star));
+    }
+    EXPECT_EQ(listed, 3);
+  }
+  test::ToolRun r = test::run_in(dir, "inspect " + eight + " --row sd9.1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--row sd9.1: no such row (give 1..48"), std::string::npos) << r.err;
+  r = test::run_in(dir, "inspect " + eight + " --row 49");
+  EXPECT_EQ(r.exit_code, 1);
+  r = test::run_in(dir, "inspect " + eight + " --row 1 --json");
+  EXPECT_EQ(r.exit_code, 2);
 }
 
 }  // namespace
