@@ -30,17 +30,76 @@ std::string coordinate_label(int n, int i) {
   return "s" + std::to_string(j / 3 + 1) + "." + std::to_string(j % 3 + 1);
 }
 
+/// Up to this many bodies the text prints [A] as a table; beyond, its block structure.
+constexpr int kTableBodies = 8;
+
 void print_column(const char* title, const VectorX& v, std::string (*label)(int, int), int n) {
   std::printf("\n%s\n", title);
   for (Eigen::Index i = 0; i < v.size(); ++i)
     std::printf("  %-7s % .10e\n", label(n, static_cast<int>(i)).c_str(), v[i]);
 }
 
-void print_tables(const io::ModelFile& file, const Data& data, const std::string& where) {
+/// [A]'s block structure: which 6x6 blocks (rows and columns of bodies K and I, in the speed
+/// order (w'_K, s'_K dot) of each) are nonzero. A block (K, I) is nonzero exactly when one
+/// body is on the other's chain (docs/theory.md).
+void print_block_structure(const Model& model, const Data& data) {
+  const int n = model.num_bodies();
+  const auto nonzero = [&](int k, int i) {
+    for (int p = 0; p < 2; ++p)
+      for (int q = 0; q < 2; ++q)
+        if (!data.kane.A.block<3, 3>(3 * n * p + 3 * k, 3 * n * q + 3 * i).isZero(0.0)) return true;
+    return false;
+  };
+  std::printf("\n[A] (Eq. 37), %d x %d: its 6x6 blocks by body pairs (the table: --full)\n", 6 * n,
+              6 * n);
+  long count = 0;
+  if (n <= 90) {
+    std::printf("%5s ", "");
+    for (int i = 0; i < n; ++i)
+      std::printf("%c", (i + 1) % 10 == 0 ? '0' + ((i + 1) / 10) % 10 : ' ');
+    std::printf("\n%5s ", "");
+    for (int i = 0; i < n; ++i) std::printf("%d", (i + 1) % 10);
+    std::printf("\n");
+    for (int k = 0; k < n; ++k) {
+      std::printf("%5d ", k + 1);
+      for (int i = 0; i < n; ++i) {
+        const bool nz = nonzero(k, i);
+        count += nz;
+        std::printf("%c", nz ? '#' : '.');
+      }
+      std::printf("\n");
+    }
+  } else {
+    for (int k = 0; k < n; ++k) {
+      std::string line;
+      int in_row = 0;
+      for (int i = 0; i < n; ++i)
+        if (nonzero(k, i)) {
+          ++in_row;
+          if (line.size() < 80) line += (line.empty() ? "" : " ") + std::to_string(i + 1);
+        }
+      count += in_row;
+      std::printf("  %5d: %d blocks: %s%s\n", k + 1, in_row, line.c_str(),
+                  line.size() >= 80 ? " ..." : "");
+    }
+  }
+  std::printf("(%ld of %ld blocks nonzero: # where one body is on the other's chain)\n", count,
+              static_cast<long>(n) * n);
+}
+
+void print_tables(const io::ModelFile& file, const Data& data, const std::string& where,
+                  bool full) {
   const int n = file.model.num_bodies();
   std::printf("equations of motion of %s at %s: [A]{ydot} = {f} (Eq. 36)\n",
               io::printable(file.path).c_str(), where.c_str());
   std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n", n);
+  if (!full && n > kTableBodies) {
+    print_block_structure(file.model, data);
+    print_column("{f} (Eq. 38)", data.kane.f, speed_label, n);
+    print_column("{y dot} (Eq. 36)", data.ydot, speed_label, n);
+    print_column("{x dot} (Eqs. 39-40)", data.xdot, coordinate_label, n);
+    return;
+  }
   std::printf("\n[A] (Eq. 37), %d x %d\n%-7s", 6 * n, 6 * n, "");
   for (int j = 0; j < 6 * n; ++j) std::printf(" %10s", speed_label(n, j).c_str());
   std::printf("\n");
@@ -91,12 +150,15 @@ void add_eom(CLI::App& app) {
       "trajectory row");
   struct Options {
     std::string path;
-    bool json = false;
+    bool json = false, full = false;
     StateChoice state;
   };
   auto opt = std::make_shared<Options>();
   cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
   cmd->add_flag("--json", opt->json, "print the JSON object of docs/model-format.md");
+  cmd->add_flag("--full", opt->full,
+                "print [A] as a 6N x 6N table at any N (default: up to 8 bodies; beyond, its "
+                "block structure)");
   add_state_options(cmd, opt->state);
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
@@ -117,7 +179,7 @@ void add_eom(CLI::App& app) {
     if (opt->json)
       print_json(file, data);
     else
-      print_tables(file, data, where);
+      print_tables(file, data, where, opt->full);
   });
 }
 

@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -142,3 +144,44 @@ TEST(Cli, BenchTextNamesTheSimdWidthAndTakesACap) {
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("--simd-lanes"), std::string::npos) << bad.err;
 }
+
+namespace {
+
+// Past eight bodies eom prints [A]'s block structure: '#' exactly where one body is on the
+// other's chain (the blocks the tree LDL^T keeps), '.' elsewhere; --full prints the table.
+TEST(Cli, EomPrintsTheBlockStructureOfLargeModels) {
+  const std::string chain = kanedyn::test::kExamples + "/chain64.yaml";
+  const fs::path dir = kanedyn::test::temp_dir("cli_eom_blocks");
+  // A tree: the chain's links 33..64 re-hung from link 16, so that both '#' and '.' occur.
+  std::string text = slurp(chain);
+  const size_t at = text.find("name: link33");
+  ASSERT_NE(at, std::string::npos);
+  const size_t parent = text.find("parent: link32", at);
+  ASSERT_NE(parent, std::string::npos);
+  text.replace(parent, 14, "parent: link16");
+  std::ofstream(dir / "tree.yaml") << text;
+  ToolRun r = kanedyn::test::run_in(dir, "eom tree.yaml");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto file = kanedyn::io::load_model_file((dir / "tree.yaml").string());
+  const kanedyn::Model& model = file.model;
+  ASSERT_EQ(model.lower_body(32), 15);
+  int rows = 0;
+  for (const std::string& line : kanedyn::test::split(r.out, '\n')) {
+    int k = 0;
+    char cells[128];
+    if (std::sscanf(line.c_str(), "%d %127s", &k, cells) != 2 || std::strlen(cells) != 64) continue;
+    if (cells[0] != '#' && cells[0] != '.') continue;
+    ++rows;
+    for (int i = 0; i < 64; ++i)
+      EXPECT_EQ(cells[i] == '#', model.on_chain(k - 1, i) || model.on_chain(i, k - 1))
+          << k << " " << i + 1;
+  }
+  EXPECT_EQ(rows, 64);
+  EXPECT_EQ(r.out.find("[A] (Eq. 37), 384 x 384\n"), std::string::npos);
+  r = kanedyn::test::run_in(dir, "eom tree.yaml --full");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("[A] (Eq. 37), 384 x 384\n"), std::string::npos);
+  EXPECT_GT(r.out.size(), 384u * 384u * 10u);  // every entry printed
+}
+
+}  // namespace
