@@ -162,4 +162,18 @@ std::string format_symbolic(const Model& model, int k, Point point, bool rate, i
          " zero blocks not shown)";
 }
 
+std::vector<std::vector<int>> mass_matrix_structure(const Model& model) {
+  const int n = model.num_bodies();
+  std::vector<std::vector<int>> rows(at(n));
+  for (int k = 0; k < n; ++k) {
+    const Model::Chain chain = model.chain(k);
+    for (int r = 0; r < chain.size; ++r) {
+      rows[at(k)].push_back(chain[r] + 1);
+      if (r > 0) rows[at(chain[r])].push_back(k + 1);  // the transposed block
+    }
+  }
+  for (std::vector<int>& row : rows) std::sort(row.begin(), row.end());
+  return rows;
+}
+
 }  // namespace kanedyn

@@ -3,6 +3,7 @@
 // and `kanedyn inspect --json` against the library bit for bit.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -139,6 +140,35 @@ TEST(Inspect, SelectsBodiesButSumsOverAll) {
   EXPECT_EQ(two.bodies[1].v_G_y, all.bodies[7].v_G_y);
   EXPECT_EQ(two.bodies[1].chain, (std::vector<int>{8, 7, 1, 0}));
   EXPECT_THROW(inspect(model, state, 0.0, {8}), std::out_of_range);
+}
+
+// [A]'s structure from L(K) alone against the numbers of Eq. (37): a block the structure
+// leaves out is exactly zero, and every block it lists is nonzero at a generic state.
+TEST(Inspect, MassMatrixStructureIsWhereTheBlocksAre) {
+  std::mt19937 rng(44);
+  for (int trial = 0; trial < 10; ++trial) {
+    test::RandomTreeOptions opt;
+    opt.bushings = true;
+    const Model model = test::random_tree(rng, opt);
+    const State state = test::random_state(model, rng);
+    Data data(model);
+    kane_equations(model, state, data);
+    const int n = model.num_bodies();
+    const std::vector<std::vector<int>> rows = mass_matrix_structure(model);
+    ASSERT_EQ(rows.size(), static_cast<size_t>(n));
+    for (int k = 0; k < n; ++k)
+      for (int i = 0; i < n; ++i) {
+        const bool listed =
+            std::find(rows[static_cast<size_t>(k)].begin(), rows[static_cast<size_t>(k)].end(),
+                      i + 1) != rows[static_cast<size_t>(k)].end();
+        double largest = 0.0;
+        for (int p = 0; p < 2; ++p)
+          for (int q = 0; q < 2; ++q)
+            largest = std::max(largest, test::max_abs(data.kane.A.block<3, 3>(3 * n * p + 3 * k,
+                                                                              3 * n * q + 3 * i)));
+        EXPECT_EQ(listed, largest > 0.0) << k << " " << i;
+      }
+  }
 }
 
 using Json = nlohmann::json;

@@ -84,4 +84,9 @@ SymbolicPartial symbolic_partial(const Model& model, int k, Point point, bool ra
 std::string format_symbolic(const Model& model, int k, Point point, bool rate, int part,
                             int max_dense_blocks = 12);
 
+/// The block structure of [A] (Eq. 37): for each body index k, the bodies I (1-based,
+/// ascending) whose 6x6 block (K, I) can be nonzero: I on K's chain or K on I's chain (every
+/// other block is zero whatever the state, docs/theory.md). O(N d) entries for depth d.
+std::vector<std::vector<int>> mass_matrix_structure(const Model& model);
+
 }  // namespace kanedyn
