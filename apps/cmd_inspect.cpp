@@ -162,6 +162,19 @@ void print_text(const io::ModelFile& file, const Inspection& in, const std::stri
     row("v_O", "v_O", b.v_O);
     row("v_G", "v_G", b.v_G);
     row("w", "w'", b.w);
+    if (want("w_y")) {
+      // Eq. (8): the constant selection of w'_K from {y}.
+      std::string y1 = "[w'_" + std::to_string(b.K) + ",y1] = [ ";
+      if (n <= 12) {
+        for (int c = 1; c <= n; ++c) y1 += (c > 1 ? ", " : "") + std::string(c == b.K ? "I" : "0");
+        y1 += " ]";
+      } else {
+        y1 += std::to_string(b.K) + ": I ]  (" + std::to_string(n - 1) + " zero blocks not shown)";
+      }
+      std::printf("  w_y (Eq. 8)\n");
+      print_wrapped(y1, 4);
+      std::printf("    [w'_%d,y2] = 0\n", b.K);
+    }
     const struct {
       const char* key;
       Point point;
