@@ -31,6 +31,7 @@
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/rotation.hpp"
+#include "model_tree.hpp"
 
 namespace kanedyn::io {
 
@@ -58,13 +59,20 @@ ModelFileError::ModelFileError(const std::string& file, int line, int column,
 
 namespace {
 
+using detail::is_null_word;
+using detail::Kind;
+using detail::kMaxDepth;
+using detail::kMaxFileBytes;
+using detail::kMaxNodePos;
+using detail::kNoPos;
+using detail::Pos;
+using detail::Tree;
+using detail::TreeNode;
+
 constexpr const char* kFormat = "kanedyn-model/1";
 constexpr double kEulerNormTolerance = 1e-6;
-/// Limits (docs/model-format.md, "Limits"). The format needs fewer than 10 levels of nesting;
-/// a 100,000-body file is about 25 MB.
-constexpr size_t kMaxFileBytes = size_t{256} << 20;
+/// kMaxFileBytes as a message says it.
 constexpr const char* kMaxFileText = "256 MiB";
-constexpr size_t kMaxDepth = 64;
 /// Mappings with more entries than this look keys up by hash; smaller ones by a linear scan.
 constexpr size_t kHashedMapping = 16;
 
@@ -142,12 +150,6 @@ size_t break_width(std::string_view s, size_t i) {
   return 0;
 }
 
-/// A place in the text as libyaml counts it: the index of a character (a CRLF break is two);
-/// kNoPos when unknown. Nodes keep only this; line and column are counted when a message
-/// needs them.
-using Pos = uint32_t;
-constexpr Pos kNoPos = std::numeric_limits<Pos>::max();
-
 /// The line and column of character `pos` of `text`, counting breaks as libyaml does.
 Mark mark_of_pos(std::string_view text, Pos pos) {
   if (pos == kNoPos) return {};
@@ -204,29 +206,6 @@ std::string character_at(std::string_view text, size_t offset) {
 }
 
 // ---- The tree -----------------------------------------------------------------------------
-
-enum class Kind : uint8_t { null, scalar, sequence, mapping };
-
-/// One node of the document, 12 bytes: a scalar is `count` bytes at `first` of the text (when
-/// it stands there as is) or of Tree::chars; a sequence or mapping has `count` children at
-/// `first` of Tree::kids (a mapping: key, value, key, ...). Positions fit 28 bits: a file has
-/// at most kMaxFileBytes = 2^28 bytes.
-struct TreeNode {
-  uint32_t pos : 28;
-  uint32_t kind : 2;     // Kind
-  uint32_t string : 1;   // quoted, a block scalar, or tagged !!str: text, never a number
-  uint32_t in_text : 1;  // the scalar's bytes are in the text
-  uint32_t first, count;
-};
-static_assert(sizeof(TreeNode) == 12);
-constexpr Pos kMaxNodePos = (Pos{1} << 28) - 1;
-
-struct Tree {
-  std::string_view text;
-  std::vector<TreeNode> nodes;
-  std::vector<uint32_t> kids;
-  std::string chars;
-};
 
 /// A node of a Tree, with the accessors the readers below need.
 class Node {
@@ -307,11 +286,6 @@ bool is_yaml_inf_or_nan(std::string_view t) {
   return false;
 }
 
-/// The YAML 1.2 core schema's null: an empty plain scalar, `~`, `null`, `Null`, `NULL`.
-bool is_null_word(std::string_view s) {
-  return s.empty() || s == "~" || s == "null" || s == "Null" || s == "NULL";
-}
-
 /// Owns a libyaml parser, or an event, for the time of a scope.
 struct ParserGuard {
   yaml_parser_t* p;
@@ -366,22 +340,35 @@ class Reader {
     fail(f.mark, f.path, problem);
   }
 
-  /// Parses the one YAML document of `text` into tree_; its root must be a mapping.
-  Node load(std::string_view text) {
+  /// Parses the one YAML document of `text` into tree_: with the fast scanner when `fast`
+  /// and it reads the text (then fast_used() is true), else with libyaml.
+  const Tree& tree_of(std::string_view text, bool fast) {
     if (text.size() > kMaxFileBytes) fail(kNoPos, "", too_large());
     if (const void* nul = std::memchr(text.data(), 0, text.size()))
       fail_at(
           mark_of_offset(text, static_cast<size_t>(static_cast<const char*>(nul) - text.data())),
           "", "a NUL byte (\\x00) is not allowed; a model file is UTF-8 text");
+    if (fast && detail::build_fast_tree(text, tree_)) {
+      fast_used_ = true;
+      return tree_;
+    }
     owned_text_ = json_leading_tabs(text);
     if (!owned_text_.empty()) text = owned_text_;
     tree_.text = text;
     build(text);
-    if (tree_.nodes.empty() || Node(&tree_, root_).IsNull())
+    return tree_;
+  }
+
+  bool fast_used() const { return fast_used_; }
+
+  /// The document's root, which must be a mapping.
+  Node load(std::string_view text, bool fast) {
+    tree_of(text, fast);
+    if (tree_.nodes.empty() || Node(&tree_, tree_.root).IsNull())
       fail(kNoPos, "",
            "the file is empty; a model file is a mapping starting with 'format: " +
                std::string(kFormat) + "'");
-    const Node root(&tree_, root_);
+    const Node root(&tree_, tree_.root);
     if (!root.IsMap())
       fail(root.mark(), "",
            "a model file must be a mapping (key: value lines), got " + describe(root));
@@ -595,7 +582,7 @@ class Reader {
         const auto index = static_cast<uint32_t>(tree_.nodes.size());
         tree_.nodes.push_back({at, static_cast<uint32_t>(kind), string, 0, 0, 0});
         if (open.empty()) {
-          root_ = index;
+          tree_.root = index;
         } else {
           pending.push_back(index);
         }
@@ -700,7 +687,7 @@ class Reader {
   std::string file_;
   std::string owned_text_;  // the text when it had to be changed
   Tree tree_;
-  uint32_t root_ = 0;
+  bool fast_used_ = false;
 };
 
 Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), field_(field) {
@@ -982,9 +969,17 @@ SimulationSection read_simulation(const Reader& r, const Field& f) {
   return s;
 }
 
-ModelFile parse(const std::string& text, const std::string& source_name) {
+/// Reads `text`; the fast scanner is tried first when `fast`, and `fast_used` tells whether it
+/// read the text (set before any check can throw).
+ModelFile parse(const std::string& text, const std::string& source_name, bool fast,
+                bool& fast_used) {
   Reader r(source_name);
-  const Node root_node = r.load(text);
+  struct Report {
+    const Reader& r;
+    bool& used;
+    ~Report() { used = r.fast_used(); }
+  } report{r, fast_used};
+  const Node root_node = r.load(text, fast);
   const Field root{root_node, "", root_node.mark(), root_node.mark()};
   const Mapping top = r.mapping(root);
 
@@ -1036,7 +1031,16 @@ ModelFile parse(const std::string& text, const std::string& source_name) {
 
 ModelFile parse_model_file(const std::string& text, const std::string& source_name) {
   try {
-    return parse(text, source_name);
+    bool fast_used = false;
+    try {
+      return parse(text, source_name, true, fast_used);
+    } catch (const ModelFileError&) {
+      if (!fast_used) throw;
+    }
+    // Whatever refused the fast scanner's tree, libyaml's path refuses too (the trees are the
+    // same); reading it again there gives the one message that path gives, syntax errors and
+    // all.
+    return parse(text, source_name, false, fast_used);
   } catch (const std::bad_alloc&) {
     out_of_memory(source_name);
   }
@@ -1085,5 +1089,28 @@ ModelFile load_model_file(const std::string& path) {
   }
   return parse_model_file(text, path);
 }
+
+namespace detail {
+
+FrontEnds compare_front_ends(std::string_view text) {
+  FrontEnds result;
+  Tree fast;
+  result.fast_accepted = build_fast_tree(text, fast);
+  try {
+    Reader reader("text");
+    const Tree& tree = reader.tree_of(text, false);
+    result.libyaml_accepted = true;
+    result.nodes = tree.nodes.size();
+    if (result.fast_accepted) result.difference = tree_difference(fast, tree);
+  } catch (const ModelFileError& e) {
+    result.libyaml_error = e.what();
+    if (result.fast_accepted)
+      result.difference =
+          "the fast scanner read a text that libyaml refuses: " + result.libyaml_error;
+  }
+  return result;
+}
+
+}  // namespace detail
 
 }  // namespace kanedyn::io
