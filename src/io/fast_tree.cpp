@@ -59,12 +59,12 @@ constexpr PlainTable kPlain;
 
 inline bool is_plain(char c) { return kPlain.t[static_cast<unsigned char>(c)]; }
 
-/// A scalar found but not yet added: its start, its text (a view of the input, or `own`
-/// when escapes made it differ), and whether it was quoted.
+/// A scalar found but not yet added: its start, its text (a view of the input, or of the
+/// scanner's buffer when escapes made it differ: one scalar is pending at a time), and
+/// whether it was quoted.
 struct Scalar {
   const char* start = nullptr;
   std::string_view view;
-  std::string own;
   bool quoted = false;
   bool escaped = false;
 };
@@ -200,7 +200,7 @@ class Scanner {
       return s;
     }
     s.escaped = true;
-    s.own.assign(first, static_cast<size_t>(p_ - first));
+    own_.assign(first, static_cast<size_t>(p_ - first));
     for (;;) {
       if (p_ == e_) throw Decline{};
       const auto c = static_cast<unsigned char>(*p_);
@@ -236,16 +236,16 @@ class Scanner {
           default:
             throw Decline{};
         }
-        s.own += out;
+        own_ += out;
         p_ += 2;
         continue;
       }
       if (c < 0x20 || c > 0x7e) throw Decline{};
-      s.own += static_cast<char>(c);
+      own_ += static_cast<char>(c);
       ++p_;
     }
     ++p_;
-    s.view = s.own;
+    s.view = own_;
     return s;
   }
 
@@ -266,7 +266,7 @@ class Scanner {
   }
 
   void emit(const Scalar& s) {
-    if (!s.quoted && is_null_word(s.view)) {
+    if (!s.quoted && s.view.size() <= 4 && is_null_word(s.view)) {
       add(Kind::null, pos(s.start), false);
       return;
     }
@@ -484,6 +484,7 @@ class Scanner {
   const char* line_;  // start of the current line
   Tree& tree_;
   std::vector<uint32_t> pending_;  // children of the open collections, in order
+  std::string own_;                // the text of an escaped scalar
   size_t depth_ = 0;
 };
 

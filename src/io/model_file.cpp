@@ -298,28 +298,32 @@ struct EventGuard {
 
 class Reader;
 
+/// A short list of numbers, on the stack.
+using Numbers = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;
+
 /// The entries of one mapping, checked for duplicate and non-scalar keys.
 class Mapping {
  public:
   Mapping(const Reader& reader, const Field& field);
   /// Refuses keys not in `allowed`, naming the key and listing the allowed ones.
   void allow(std::initializer_list<const char*> allowed) const;
-  bool has(std::string_view key) const { return find(key) != nullptr; }
+  bool has(std::string_view key) const { return find(key) != kNone; }
   std::optional<Field> get(std::string_view key) const;
   Field require(std::string_view key) const;
   const Field& field() const { return field_; }
 
  private:
-  struct Entry {
-    std::string_view key;
-    Pos key_mark;
-    Node value;
-  };
-  const Entry* find(std::string_view key) const;
+  static constexpr size_t kNone = static_cast<size_t>(-1);
+  // Entry i is the tree's key and value i of the mapping: nothing is copied.
+  std::string_view key(size_t i) const { return field_.node.key(i).Scalar(); }
+  Pos key_mark(size_t i) const { return field_.node.key(i).mark(); }
+  /// The entry of `key` among the first `count` entries, kNone if none.
+  size_t find(std::string_view key, size_t count) const;
+  size_t find(std::string_view key) const { return find(key, size_); }
 
   const Reader* reader_;
   Field field_;
-  std::vector<Entry> entries_;
+  size_t size_ = 0;
   std::unordered_map<std::string_view, uint32_t> index_;  // for large mappings only
 };
 
@@ -442,12 +446,11 @@ class Reader {
     return v;
   }
 
-  /// A list of exactly `n` numbers.
-  VectorX numbers(const Field& f, int n) const {
-    const std::string what = std::to_string(n) + " numbers";
+  /// A list of exactly `n` numbers (at most 6: no allocation).
+  Numbers numbers(const Field& f, int n) const {
     if (!f.node.IsSequence() || f.node.size() != static_cast<size_t>(n))
-      fail(f, "expected a list of " + what + ", got " + describe(f.node));
-    VectorX v(n);
+      fail(f, "expected a list of " + std::to_string(n) + " numbers, got " + describe(f.node));
+    Numbers v(n);
     for (int i = 0; i < n; ++i) {
       const auto value = plain_number(f.node[static_cast<size_t>(i)]);
       v[i] = value ? *value : number(element(f, static_cast<size_t>(i)));
@@ -465,19 +468,22 @@ class Reader {
     return vector3(f);
   }
 
-  std::string text(const Field& f) const {
+  std::string text(const Field& f) const { return std::string(text_view(f)); }
+
+  /// The same in the tree (which outlives the reader's work).
+  std::string_view text_view(const Field& f) const {
     if (!f.node.IsScalar()) fail(f, "expected a text value, got " + describe(f.node));
-    return std::string(f.node.Scalar());
+    return f.node.Scalar();
   }
 
   /// A text value that must be one of `choices`.
   std::string choice(const Field& f, std::initializer_list<const char*> choices,
                      const std::string& what) const {
-    const std::string s = text(f);
-    std::vector<std::string> allowed(choices.begin(), choices.end());
-    if (std::find(allowed.begin(), allowed.end(), s) == allowed.end())
-      fail(f, "unknown " + what + " " + quote(s) + "; allowed: " + join(allowed));
-    return s;
+    const std::string_view s = text_view(f);
+    if (std::find(choices.begin(), choices.end(), s) == choices.end())
+      fail(f, "unknown " + what + " " + quote(s) +
+                  "; allowed: " + join(std::vector<std::string>(choices.begin(), choices.end())));
+    return std::string(s);
   }
 
   Mapping mapping(const Field& f) const { return Mapping(*this, f); }
@@ -693,7 +699,6 @@ class Reader {
 Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), field_(field) {
   if (!field.node.IsMap()) reader.fail(field, "expected a mapping, got " + describe(field.node));
   const size_t n = field.node.size();
-  entries_.reserve(n);
   const bool hashed = n > kHashedMapping;
   if (hashed) index_.reserve(n);
   for (size_t i = 0; i < n; ++i) {
@@ -701,51 +706,53 @@ Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), f
     if (!key.IsScalar())
       reader.fail(key.mark(), field.path, "keys must be plain words, got " + describe(key));
     const std::string_view k = key.Scalar();
-    const Entry* previous = nullptr;
+    size_t previous = kNone;
     if (hashed) {
       const auto [it, inserted] = index_.emplace(k, static_cast<uint32_t>(i));
-      if (!inserted) previous = &entries_[it->second];
+      if (!inserted) previous = it->second;
     } else {
-      previous = find(k);
+      previous = find(k, i);
     }
-    if (previous)
+    if (previous != kNone)
       reader.fail(key.mark(), child_path(field.path, printable(k)),
                   "duplicate key " + quote(k) + " (first given on line " +
-                      std::to_string(reader.mark(previous->key_mark).line) + ")");
-    entries_.push_back({k, key.mark(), field.node.value(i)});
+                      std::to_string(reader.mark(key_mark(previous)).line) + ")");
   }
+  size_ = n;
 }
 
 void Mapping::allow(std::initializer_list<const char*> allowed) const {
-  const std::vector<std::string> words(allowed.begin(), allowed.end());
-  for (const Entry& e : entries_) {
-    if (std::find(words.begin(), words.end(), e.key) != words.end()) continue;
-    std::string problem = "unknown key " + quote(e.key);
+  for (size_t i = 0; i < size_; ++i) {
+    const std::string_view k = key(i);
+    if (std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
+    const std::vector<std::string> words(allowed.begin(), allowed.end());
+    std::string problem = "unknown key " + quote(k);
     for (const std::string& w : words)
-      if (edit_distance(e.key, w) <= 2) {
+      if (edit_distance(k, w) <= 2) {
         problem += " (did you mean " + quote(w) + "?)";
         break;
       }
-    reader_->fail(e.key_mark, child_path(field_.path, printable(e.key)),
+    reader_->fail(key_mark(i), child_path(field_.path, printable(k)),
                   problem + "; allowed keys: " + join(words));
   }
 }
 
-const Mapping::Entry* Mapping::find(std::string_view key) const {
-  if (!index_.empty()) {
+size_t Mapping::find(std::string_view key, size_t count) const {
+  if (!index_.empty() && count == size_) {
     const auto it = index_.find(key);
-    return it == index_.end() ? nullptr : &entries_[it->second];
+    return it == index_.end() ? kNone : it->second;
   }
-  for (const Entry& e : entries_)
-    if (e.key == key) return &e;
-  return nullptr;
+  for (size_t i = 0; i < count; ++i)
+    if (this->key(i) == key) return i;
+  return kNone;
 }
 
 std::optional<Field> Mapping::get(std::string_view key) const {
-  const Entry* e = find(key);
-  if (!e) return std::nullopt;
-  return Field{e->value, child_path(field_.path, key),
-               e->value.IsNull() ? e->key_mark : e->value.mark(), e->key_mark};
+  const size_t i = find(key);
+  if (i == kNone) return std::nullopt;
+  const Node value = field_.node.value(i);
+  const Pos mark = key_mark(i);
+  return Field{value, child_path(field_.path, key), value.IsNull() ? mark : value.mark(), mark};
 }
 
 Field Mapping::require(std::string_view key) const {
@@ -755,7 +762,7 @@ Field Mapping::require(std::string_view key) const {
 
 // ---- Sections -----------------------------------------------------------------------------
 
-bool valid_body_name(const std::string& name) {
+bool valid_body_name(std::string_view name) {
   return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
   });
@@ -770,7 +777,7 @@ Matrix3 read_inertia(const Reader& r, const Field& f) {
            "expected a list of 3 numbers [Ixx, Iyy, Izz] or 6 numbers "
            "[Ixx, Iyy, Izz, Ixy, Ixz, Iyz], got " +
                describe(f.node));
-  const VectorX v = r.numbers(f, static_cast<int>(n));
+  const Numbers v = r.numbers(f, static_cast<int>(n));
   Matrix3 inertia = v.head<3>().asDiagonal();
   if (n == 6) {
     inertia(0, 1) = inertia(1, 0) = v[3];
@@ -831,15 +838,16 @@ void read_initial(const Reader& r, const Field& f, int k, State& state) {
   if (auto v = m.get("translation_rate")) state.translation_rate(k) = r.vector3(*v);
 }
 
-/// Body names in numbering order, with a hash index so that loading stays O(N).
+/// Body names in numbering order, with a hash index so that loading stays O(N); the index's
+/// keys are the names' texts in the tree.
 struct BodyNames {
   std::vector<std::string> names;
-  std::unordered_map<std::string, int> index;
+  std::unordered_map<std::string_view, int> index;
 };
 
 /// Index of the body named by `f`, which must be one of `bodies`.
 int body_reference(const Reader& r, const Field& f, const BodyNames& bodies) {
-  const std::string name = r.text(f);
+  const std::string_view name = r.text_view(f);
   const auto it = bodies.index.find(name);
   if (it == bodies.index.end()) {
     // List the bodies when there are few; a long list helps nobody.
@@ -871,7 +879,7 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     const Mapping& m = maps.emplace_back(r.mapping(items[i]));
     m.allow({"name", "parent", "mass", "inertia", "com", "joint", "initial"});
     const Field name_field = m.require("name");
-    const std::string name = r.text(name_field);
+    const std::string_view name = r.text_view(name_field);
     if (!valid_body_name(name))
       r.fail(name_field,
              "body name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
@@ -881,7 +889,7 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
       r.fail(name_field, "duplicate body name " + quote(name) + " (already used by " +
                              index_path("bodies", it->second) + ")");
     index_of.emplace(name, static_cast<int>(i));
-    names.push_back(name);
+    names.emplace_back(name);
   }
   section.specs.reserve(items.size());
   section.initial.reserve(items.size());
@@ -891,7 +899,7 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     BodySpec b;
     b.name = names[i];
     const Field parent_field = m.require("parent");
-    const std::string parent = r.text(parent_field);
+    const std::string_view parent = r.text_view(parent_field);
     if (parent == "ground") {
       b.lower_body = kGround;
     } else {
