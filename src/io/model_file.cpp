@@ -306,7 +306,7 @@ class Mapping {
  public:
   Mapping(const Reader& reader, const Field& field);
   /// Refuses keys not in `allowed`, naming the key and listing the allowed ones.
-  void allow(std::initializer_list<const char*> allowed) const;
+  void allow(std::initializer_list<std::string_view> allowed) const;
   bool has(std::string_view key) const { return find(key) != kNone; }
   std::optional<Field> get(std::string_view key) const;
   Field require(std::string_view key) const;
@@ -477,7 +477,7 @@ class Reader {
   }
 
   /// A text value that must be one of `choices`.
-  std::string choice(const Field& f, std::initializer_list<const char*> choices,
+  std::string choice(const Field& f, std::initializer_list<std::string_view> choices,
                      const std::string& what) const {
     const std::string_view s = text_view(f);
     if (std::find(choices.begin(), choices.end(), s) == choices.end())
@@ -721,7 +721,7 @@ Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), f
   size_ = n;
 }
 
-void Mapping::allow(std::initializer_list<const char*> allowed) const {
+void Mapping::allow(std::initializer_list<std::string_view> allowed) const {
   for (size_t i = 0; i < size_; ++i) {
     const std::string_view k = key(i);
     if (std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
@@ -838,23 +838,77 @@ void read_initial(const Reader& r, const Field& f, int k, State& state) {
   if (auto v = m.get("translation_rate")) state.translation_rate(k) = r.vector3(*v);
 }
 
-/// Body names in numbering order, with a hash index so that loading stays O(N); the index's
-/// keys are the names' texts in the tree.
+/// Names to body indices: open addressing with linear probing in a table at most half full,
+/// so that loading stays O(N) with one or two cache misses a lookup; the keys are the names'
+/// texts in the tree, the bodies numbered in order of insertion.
+class NameIndex {
+ public:
+  void reserve(size_t n) {
+    size_t capacity = 16;
+    while (capacity < 2 * n) capacity *= 2;
+    slots_.assign(capacity, Slot{});
+    mask_ = capacity - 1;
+    keys_.reserve(n);
+  }
+  /// The index of `name`, or -1.
+  int find(std::string_view name) const {
+    if (slots_.empty()) return -1;
+    const size_t h = std::hash<std::string_view>{}(name);
+    for (size_t i = h & mask_;; i = (i + 1) & mask_) {
+      const Slot& s = slots_[i];
+      if (s.body == 0) return -1;
+      if (s.hash == static_cast<uint32_t>(h) && keys_[s.body - 1] == name)
+        return static_cast<int>(s.body - 1);
+    }
+  }
+  /// Adds `name` as the next body unless it is there: then returns its index, else -1.
+  int insert(std::string_view name) {
+    if (2 * (keys_.size() + 1) > slots_.size()) grow();
+    const size_t h = std::hash<std::string_view>{}(name);
+    for (size_t i = h & mask_;; i = (i + 1) & mask_) {
+      Slot& s = slots_[i];
+      if (s.body == 0) {
+        keys_.push_back(name);
+        s = {static_cast<uint32_t>(h), static_cast<uint32_t>(keys_.size())};
+        return -1;
+      }
+      if (s.hash == static_cast<uint32_t>(h) && keys_[s.body - 1] == name)
+        return static_cast<int>(s.body - 1);
+    }
+  }
+
+ private:
+  struct Slot {
+    uint32_t hash = 0;  // its low bits, to skip most comparisons
+    uint32_t body = 0;  // index + 1; 0: empty
+  };
+  void grow() {
+    std::vector<std::string_view> keys = std::move(keys_);
+    keys_.clear();
+    reserve(std::max<size_t>(8, keys.size() * 2));
+    for (const std::string_view k : keys) insert(k);
+  }
+  std::vector<Slot> slots_;
+  std::vector<std::string_view> keys_;
+  size_t mask_ = 0;
+};
+
+/// Body names in numbering order, with their index.
 struct BodyNames {
   std::vector<std::string> names;
-  std::unordered_map<std::string_view, int> index;
+  NameIndex index;
 };
 
 /// Index of the body named by `f`, which must be one of `bodies`.
 int body_reference(const Reader& r, const Field& f, const BodyNames& bodies) {
   const std::string_view name = r.text_view(f);
-  const auto it = bodies.index.find(name);
-  if (it == bodies.index.end()) {
+  const int index = bodies.index.find(name);
+  if (index < 0) {
     // List the bodies when there are few; a long list helps nobody.
     r.fail(f, "unknown body " + quote(name) +
                   name_hint(name, bodies.names, bodies.names.size(), "; bodies: "));
   }
-  return it->second;
+  return index;
 }
 
 struct BodiesSection {
@@ -885,10 +939,9 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
              "body name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
     if (name == "ground")
       r.fail(name_field, "'ground' is reserved for the inertial frame; choose another body name");
-    if (const auto it = index_of.find(name); it != index_of.end())
+    if (const int previous = index_of.insert(name); previous >= 0)
       r.fail(name_field, "duplicate body name " + quote(name) + " (already used by " +
-                             index_path("bodies", it->second) + ")");
-    index_of.emplace(name, static_cast<int>(i));
+                             index_path("bodies", static_cast<size_t>(previous)) + ")");
     names.emplace_back(name);
   }
   section.specs.reserve(items.size());
@@ -903,10 +956,10 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     if (parent == "ground") {
       b.lower_body = kGround;
     } else {
-      const auto it = index_of.find(parent);
-      const int j =
-          it == index_of.end() ? static_cast<int>(names.size()) : static_cast<int>(it->second);
-      if (it == index_of.end())
+      // A chain's parent is the body before: that comparison spares most lookups.
+      const int found = i > 0 && names[i - 1] == parent ? k - 1 : index_of.find(parent);
+      const int j = found < 0 ? static_cast<int>(names.size()) : found;
+      if (found < 0)
         r.fail(parent_field,
                "unknown parent " + quote(parent) + "; expected 'ground'" +
                    (i == 0 ? "" : " or an earlier body" + name_hint(parent, names, i, ": ")));
