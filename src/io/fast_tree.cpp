@@ -173,6 +173,9 @@ class Scanner {
     Scalar s;
     s.start = p_;
     for (;;) {
+      while (e_ - p_ >= 4 && is_plain(p_[0]) && is_plain(p_[1]) && is_plain(p_[2]) &&
+             is_plain(p_[3]))
+        p_ += 4;
       while (p_ < e_ && is_plain(*p_)) ++p_;
       const char* q = p_;
       while (q < e_ && *q == ' ') ++q;

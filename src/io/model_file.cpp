@@ -242,9 +242,41 @@ class Node {
 
 /// A value in the file: its node, its key path and where to point at it. For a null value
 /// (`key:` with nothing after it) the key's mark is used.
+/// A key path ("bodies[3].initial.translation") spelt out only when a message needs it: the
+/// part up to the last list index, then up to two keys (literals of the readers: views).
+class KeyPath {
+ public:
+  KeyPath() = default;
+  explicit KeyPath(std::string base) : base_(std::move(base)) {}
+  std::string str() const {
+    std::string s = base_;
+    for (size_t i = 0; i < keys_; ++i) {
+      if (!s.empty()) s += '.';
+      s += key_[i];
+    }
+    return s;
+  }
+  /// This path and `key`, which must outlive the result.
+  KeyPath child(std::string_view key) const {
+    KeyPath p;
+    if (keys_ == 2) {
+      p.base_ = str();
+    } else {
+      p = *this;
+    }
+    p.key_[p.keys_++] = key;
+    return p;
+  }
+
+ private:
+  std::string base_;
+  std::string_view key_[2];
+  size_t keys_ = 0;
+};
+
 struct Field {
   Node node;
-  std::string path;
+  KeyPath path;
   Pos mark;
   Pos key_mark;  ///< of its key (of the value itself for a list element)
 };
@@ -308,6 +340,7 @@ class Mapping {
   /// Refuses keys not in `allowed`, naming the key and listing the allowed ones.
   void allow(std::initializer_list<std::string_view> allowed) const;
   bool has(std::string_view key) const { return find(key) != kNone; }
+  /// The field of `key` (a literal: its path keeps a view of it).
   std::optional<Field> get(std::string_view key) const;
   Field require(std::string_view key) const;
   const Field& field() const { return field_; }
@@ -341,7 +374,7 @@ class Reader {
   }
   Mark mark(Pos pos) const { return mark_of_pos(tree_.text, pos); }
   [[noreturn]] void fail(const Field& f, const std::string& problem) const {
-    fail(f.mark, f.path, problem);
+    fail(f.mark, f.path.str(), problem);
   }
 
   /// Parses the one YAML document of `text` into tree_: with the fast scanner when `fast`
@@ -386,7 +419,7 @@ class Reader {
   Field element(const Field& list, size_t i) const {
     const Node node = list.node[i];
     const Pos mark = node.IsNull() ? list.mark : node.mark();
-    return {node, index_path(list.path, i), mark, mark};
+    return {node, KeyPath(index_path(list.path.str(), i)), mark, mark};
   }
 
   std::vector<Field> list(const Field& f, const std::string& what) const {
@@ -704,7 +737,7 @@ Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), f
   for (size_t i = 0; i < n; ++i) {
     const Node key = field.node.key(i);
     if (!key.IsScalar())
-      reader.fail(key.mark(), field.path, "keys must be plain words, got " + describe(key));
+      reader.fail(key.mark(), field.path.str(), "keys must be plain words, got " + describe(key));
     const std::string_view k = key.Scalar();
     size_t previous = kNone;
     if (hashed) {
@@ -714,7 +747,7 @@ Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), f
       previous = find(k, i);
     }
     if (previous != kNone)
-      reader.fail(key.mark(), child_path(field.path, printable(k)),
+      reader.fail(key.mark(), child_path(field.path.str(), printable(k)),
                   "duplicate key " + quote(k) + " (first given on line " +
                       std::to_string(reader.mark(key_mark(previous)).line) + ")");
   }
@@ -732,7 +765,7 @@ void Mapping::allow(std::initializer_list<std::string_view> allowed) const {
         problem += " (did you mean " + quote(w) + "?)";
         break;
       }
-    reader_->fail(key_mark(i), child_path(field_.path, printable(k)),
+    reader_->fail(key_mark(i), child_path(field_.path.str(), printable(k)),
                   problem + "; allowed keys: " + join(words));
   }
 }
@@ -742,8 +775,11 @@ size_t Mapping::find(std::string_view key, size_t count) const {
     const auto it = index_.find(key);
     return it == index_.end() ? kNone : it->second;
   }
-  for (size_t i = 0; i < count; ++i)
-    if (this->key(i) == key) return i;
+  for (size_t i = 0; i < count; ++i) {
+    const std::string_view k = this->key(i);
+    // The first character first: most keys of a mapping differ there, memcmp is a call.
+    if (k.size() == key.size() && (k.empty() || k[0] == key[0]) && k == key) return i;
+  }
   return kNone;
 }
 
@@ -752,12 +788,13 @@ std::optional<Field> Mapping::get(std::string_view key) const {
   if (i == kNone) return std::nullopt;
   const Node value = field_.node.value(i);
   const Pos mark = key_mark(i);
-  return Field{value, child_path(field_.path, key), value.IsNull() ? mark : value.mark(), mark};
+  return Field{value, field_.path.child(key), value.IsNull() ? mark : value.mark(), mark};
 }
 
 Field Mapping::require(std::string_view key) const {
   if (auto f = get(key)) return *f;
-  reader_->fail(field_.mark, child_path(field_.path, key), "missing required key " + quote(key));
+  reader_->fail(field_.mark, child_path(field_.path.str(), key),
+                "missing required key " + quote(key));
 }
 
 // ---- Sections -----------------------------------------------------------------------------
@@ -802,9 +839,10 @@ Vector4 read_rotation(const Reader& r, const Field& f) {
   const auto angle = m.get("angle");
   const auto angle_deg = m.get("angle_deg");
   if (angle && angle_deg)
-    r.fail(angle_deg->key_mark, f.path, "give either 'angle' (radians) or 'angle_deg', not both");
+    r.fail(angle_deg->key_mark, f.path.str(),
+           "give either 'angle' (radians) or 'angle_deg', not both");
   if (!angle && !angle_deg)
-    r.fail(f.mark, child_path(f.path, "angle"),
+    r.fail(f.mark, child_path(f.path.str(), "angle"),
            "missing required key 'angle' (radians) or 'angle_deg' (degrees)");
   const double theta = angle ? r.number(*angle) : r.number(*angle_deg) * (std::numbers::pi / 180.0);
   return euler_parameters_from_axis_angle(axis, theta);
@@ -830,7 +868,8 @@ void read_initial(const Reader& r, const Field& f, int k, State& state) {
   const auto eps = m.get("euler_parameters");
   const auto rotation = m.get("rotation");
   if (eps && rotation)
-    r.fail(rotation->key_mark, f.path, "give either 'euler_parameters' or 'rotation', not both");
+    r.fail(rotation->key_mark, f.path.str(),
+           "give either 'euler_parameters' or 'rotation', not both");
   if (eps) state.euler_parameters(k) = read_euler_parameters(r, *eps);
   if (rotation) state.euler_parameters(k) = read_rotation(r, *rotation);
   if (auto v = m.get("translation")) state.translation(k) = r.vector3(*v);
@@ -1041,7 +1080,7 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
     ~Report() { used = r.fast_used(); }
   } report{r, fast_used};
   const Node root_node = r.load(text, fast);
-  const Field root{root_node, "", root_node.mark(), root_node.mark()};
+  const Field root{root_node, KeyPath(), root_node.mark(), root_node.mark()};
   const Mapping top = r.mapping(root);
 
   // The format first: a file of some other kind should be told so, not about its keys.
