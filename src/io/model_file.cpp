@@ -71,6 +71,12 @@ using detail::TreeNode;
 
 constexpr const char* kFormat = "kanedyn-model/1";
 constexpr double kEulerNormTolerance = 1e-6;
+/// a == b, the first characters first: most keys of a mapping differ there, and memcmp is a
+/// call.
+inline bool same(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && (a.empty() || (a[0] == b[0] && a == b));
+}
+
 /// kMaxFileBytes as a message says it.
 constexpr const char* kMaxFileText = "256 MiB";
 /// Mappings with more entries than this look keys up by hash; smaller ones by a linear scan.
@@ -513,7 +519,8 @@ class Reader {
   std::string choice(const Field& f, std::initializer_list<std::string_view> choices,
                      const std::string& what) const {
     const std::string_view s = text_view(f);
-    if (std::find(choices.begin(), choices.end(), s) == choices.end())
+    if (std::none_of(choices.begin(), choices.end(),
+                     [&](std::string_view c) { return same(c, s); }))
       fail(f, "unknown " + what + " " + quote(s) +
                   "; allowed: " + join(std::vector<std::string>(choices.begin(), choices.end())));
     return std::string(s);
@@ -757,7 +764,8 @@ Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), f
 void Mapping::allow(std::initializer_list<std::string_view> allowed) const {
   for (size_t i = 0; i < size_; ++i) {
     const std::string_view k = key(i);
-    if (std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
+    if (std::any_of(allowed.begin(), allowed.end(), [&](std::string_view a) { return same(a, k); }))
+      continue;
     const std::vector<std::string> words(allowed.begin(), allowed.end());
     std::string problem = "unknown key " + quote(k);
     for (const std::string& w : words)
@@ -777,8 +785,7 @@ size_t Mapping::find(std::string_view key, size_t count) const {
   }
   for (size_t i = 0; i < count; ++i) {
     const std::string_view k = this->key(i);
-    // The first character first: most keys of a mapping differ there, memcmp is a call.
-    if (k.size() == key.size() && (k.empty() || k[0] == key[0]) && k == key) return i;
+    if (same(k, key)) return i;
   }
   return kNone;
 }
