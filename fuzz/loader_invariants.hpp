@@ -86,6 +86,22 @@ inline std::string check_front_ends(std::string_view text) {
   try {
     const io::detail::FrontEnds r = io::detail::compare_front_ends(text);
     if (!r.difference.empty()) return "the fast scanner's tree is not libyaml's: " + r.difference;
+    if (r.fast_accepted) {
+      // The whole load too: the same model or the same message with libyaml alone.
+      const std::string t(text);
+      const auto outcome = [&](bool libyaml_only) -> std::string {
+        try {
+          const io::ModelFile f = libyaml_only
+                                      ? io::detail::parse_model_file_with_libyaml(t, kSourceName)
+                                      : io::parse_model_file(t, kSourceName);
+          return "accepted " + std::to_string(f.model.num_bodies()) + " bodies";
+        } catch (const io::ModelFileError& e) {
+          return e.what();
+        }
+      };
+      const std::string fast = outcome(false), slow = outcome(true);
+      if (fast != slow) return "the loader gives '" + fast + "' but libyaml alone '" + slow + "'";
+    }
   } catch (const std::exception& e) {
     return std::string("comparing the front ends threw ") + typeid(e).name() + ": " + e.what();
   }

@@ -1169,6 +1169,17 @@ TEST(ModelFileFrontEnds, TheFastScannerDeclinesWhatItIsNotSureAbout) {
                          std::string(63, ']')));
 }
 
+/// What the loader makes of `text`: "accepted" and the number of bodies, or the message.
+std::string outcome(const std::string& text, bool libyaml_only) {
+  try {
+    const ModelFile f = libyaml_only ? detail::parse_model_file_with_libyaml(text, "e.yaml")
+                                     : parse_model_file(text, "e.yaml");
+    return "accepted, N = " + std::to_string(f.model.num_bodies());
+  } catch (const ModelFileError& e) {
+    return e.what();
+  }
+}
+
 TEST(ModelFileFrontEnds, AgreeOnEverySingleCharacterEditOfTheBaseTexts) {
   // Deletions, insertions of the characters that matter to YAML, and doubled characters: the
   // fast scanner either reads the result exactly as libyaml does or declines it.
@@ -1185,6 +1196,10 @@ TEST(ModelFileFrontEnds, AgreeOnEverySingleCharacterEditOfTheBaseTexts) {
       for (const std::string& text : variants) {
         const detail::FrontEnds r = detail::compare_front_ends(text);
         ASSERT_EQ(r.difference, "") << escaped(text);
+        // And the whole load: accepted or refused with the same message either way.
+        if (r.fast_accepted) {
+          ASSERT_EQ(outcome(text, false), outcome(text, true)) << escaped(text);
+        }
         ++texts;
         read_fast += r.fast_accepted;
       }
@@ -1194,6 +1209,16 @@ TEST(ModelFileFrontEnds, AgreeOnEverySingleCharacterEditOfTheBaseTexts) {
 }
 
 TEST(ModelFileFrontEnds, AFileTheFastScannerReadsIsRefusedWithLibyamlsMessage) {
+  // Every refusal of the bad-input table and of the committed files, both ways.
+  for (const BadCase& c : bad_cases())
+    EXPECT_EQ(outcome(c.text, false), outcome(c.text, true)) << c.label;
+  for (const char* dir : {"/fuzz/corpus", "/fuzz/regression"})
+    for (const auto& entry :
+         std::filesystem::directory_iterator(KANEDYN_SOURCE_DIR + std::string(dir)))
+      if (entry.is_regular_file()) {
+        const std::string text = file_text(entry.path());
+        EXPECT_EQ(outcome(text, false), outcome(text, true)) << entry.path();
+      }
   // The check fails on the fast scanner's tree; the message is the one the libyaml path gives
   // (line and column in characters as libyaml counts them), also after CRLF breaks.
   for (const std::string line_break : {"\n", "\r\n"}) {

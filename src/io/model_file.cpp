@@ -1199,6 +1199,15 @@ ModelFile load_model_file(const std::string& path) {
 
 namespace detail {
 
+ModelFile parse_model_file_with_libyaml(const std::string& text, const std::string& source_name) {
+  try {
+    bool fast_used = false;
+    return parse(text, source_name, false, fast_used);
+  } catch (const std::bad_alloc&) {
+    out_of_memory(source_name);
+  }
+}
+
 FrontEnds compare_front_ends(std::string_view text) {
   FrontEnds result;
   Tree fast;

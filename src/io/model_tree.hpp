@@ -16,6 +16,8 @@
 #include <string_view>
 #include <vector>
 
+#include "kanedyn/io/model_file.hpp"
+
 namespace kanedyn::io::detail {
 
 /// A place in the text as libyaml counts it: the index of a character (a CRLF break is two);
@@ -69,6 +71,10 @@ bool build_fast_tree(std::string_view text, Tree& tree);
 /// "" when the trees are the same node by node (positions, kinds, flags, texts, children),
 /// else the first difference.
 std::string tree_difference(const Tree& a, const Tree& b);
+
+/// io::parse_model_file with libyaml only, the fast scanner left out: for the tests, whose
+/// loads and messages must be the same either way.
+ModelFile parse_model_file_with_libyaml(const std::string& text, const std::string& source_name);
 
 /// Both front ends on one text.
 struct FrontEnds {
