@@ -1,7 +1,9 @@
-// Model files, format kanedyn-model/1 (docs/model-format.md). libyaml's event parser builds a
-// compact tree (Tree below); every value is then checked where it is read, so that an error
-// can name the file, the line and column and the key path; the Model constructor then
-// validates again (it is the library's own guard).
+// Model files, format kanedyn-model/1 (docs/model-format.md). The fast scanner (fast_tree.cpp)
+// or, for what it declines, libyaml's event parser builds a compact tree (Tree, model_tree.hpp);
+// every value is then checked where it is read, so that an error can name the file, the line
+// and column and the key path; the Model constructor then validates again (it is the library's
+// own guard). A load the fast scanner's tree fails is read again with libyaml alone, so that
+// every message is that path's.
 #include "kanedyn/io/model_file.hpp"
 
 #include <fcntl.h>
