@@ -2,7 +2,9 @@
 // JSON that model files are written in, filling the same Tree as libyaml's event parser.
 //
 // What it reads:
-//  - printable ASCII (0x20-0x7e), LF and CRLF breaks; space indentation;
+//  - printable ASCII (0x20-0x7e), LF and CRLF breaks, space indentation; other UTF-8
+//    characters in comments and double-quoted scalars (not NEL, LS or PS, which libyaml
+//    counts as breaks, nor a byte-order mark);
 //  - block mappings whose keys are plain or double-quoted scalars on one line, followed by
 //    ": " or ":" and a break; block sequences ("- "), also the entries of a mapping at its own
 //    column ("key:\n- a"), and "- key: value" entries (a mapping starting after the dash);
@@ -12,7 +14,7 @@
 //    of spaces between words, on one line;
 //  - double-quoted scalars on one line with the escapes \" \\ \/ \b \f \n \r \t;
 //  - comments ('#' after a space or at the start of a line) anywhere a break may stand.
-// Everything else (tabs, other bytes, a BOM, directives and "---" / "..." lines, anchors,
+// Everything else (tabs, other bytes, non-ASCII text elsewhere, a BOM, directives and "---" / "..." lines, anchors,
 // aliases, tags, single quotes, block scalars, "?" keys, multi-line scalars, empty flow
 // entries, trailing commas, plain scalars with ':' or '#' or other indicators, other
 // escapes, keys longer than libyaml's 1024-character limit for simple keys, nesting at
@@ -23,7 +25,8 @@
 //    collection at its bracket, a scalar at its first character (a quoted one at the quote);
 //  - an empty value ("key:" then a break, "-" then a break) is the empty plain scalar, a
 //    null, at the end of the ':' or '-' token;
-//  - in the ASCII text a character index is a byte offset (a CRLF break counts as two).
+//  - a position is a character index: the byte offset less the UTF-8 continuation bytes
+//    before it (a CRLF break counts as two characters).
 #include <cstring>
 #include <string>
 #include <string_view>
@@ -64,6 +67,7 @@ inline bool is_plain(char c) { return kPlain.t[static_cast<unsigned char>(c)]; }
 /// whether it was quoted.
 struct Scalar {
   const char* start = nullptr;
+  Pos pos = 0;
   std::string_view view;
   bool quoted = false;
   bool escaped = false;
@@ -98,9 +102,51 @@ class Scanner {
  private:
   // ---- Characters and lines ----
 
-  Pos pos(const char* q) const {
-    const auto at = static_cast<size_t>(q - b_);
+  /// libyaml's mark of p_: its character index (the bytes before it less the continuation
+  /// bytes of UTF-8 characters, which stand in comments and quoted scalars only).
+  Pos pos() const {
+    const auto at = static_cast<size_t>(p_ - b_) - continuation_;
     return static_cast<Pos>(at < kMaxNodePos ? at : kMaxNodePos);
+  }
+
+  /// The length of the UTF-8 character at q (its first byte >= 0x80) if libyaml reads it as
+  /// printable text, not a break (NEL, LS, PS) and not a byte-order mark; 0 otherwise (not
+  /// UTF-8, an overlong form, a surrogate, a C1 control, U+FFFE, U+FFFF).
+  size_t utf8_char(const char* q) const {
+    const auto at = [&](size_t i) { return q + i < e_ ? static_cast<unsigned char>(q[i]) : 0u; };
+    const auto tail = [&](size_t i) { return (at(i) & 0xc0) == 0x80; };
+    const unsigned c = at(0);
+    if (c >= 0xc2 && c <= 0xdf) return tail(1) && (c > 0xc2 || at(1) >= 0xa0) ? 2 : 0;
+    if (c >= 0xe0 && c <= 0xef) {
+      if (!tail(1) || !tail(2)) return 0;
+      const unsigned cp = ((c & 0x0f) << 12) | ((at(1) & 0x3f) << 6) | (at(2) & 0x3f);
+      if (cp < 0x800 || (cp >= 0xd800 && cp <= 0xdfff) || cp == 0x2028 || cp == 0x2029 ||
+          cp == 0xfeff || cp >= 0xfffe)
+        return 0;
+      return 3;
+    }
+    if (c >= 0xf0 && c <= 0xf4) {
+      if (!tail(1) || !tail(2) || !tail(3)) return 0;
+      const unsigned cp =
+          ((c & 0x07) << 18) | ((at(1) & 0x3f) << 12) | ((at(2) & 0x3f) << 6) | (at(3) & 0x3f);
+      return cp >= 0x10000 && cp <= 0x10ffff ? 4 : 0;
+    }
+    return 0;
+  }
+
+  /// Past the printable character at p_ in a comment or a quoted scalar; Decline if it is
+  /// none. Returns its length.
+  size_t text_char() {
+    const auto c = static_cast<unsigned char>(*p_);
+    if (c >= 0x20 && c <= 0x7e) {
+      ++p_;
+      return 1;
+    }
+    const size_t n = c >= 0x80 ? utf8_char(p_) : 0;
+    if (n == 0) throw Decline{};
+    continuation_ += n - 1;
+    p_ += n;
+    return n;
   }
   int column() const { return static_cast<int>(p_ - line_); }
   bool is_break(const char* q) const {
@@ -134,11 +180,7 @@ class Scanner {
   /// A comment from '#' to the end of the line (not its break); '#' must follow a blank.
   void comment() {
     if (p_ != b_ && p_[-1] != ' ' && p_[-1] != '\n') throw Decline{};
-    while (p_ < e_ && *p_ != '\n' && *p_ != '\r') {
-      const auto c = static_cast<unsigned char>(*p_);
-      if (c < 0x20 || c > 0x7e) throw Decline{};
-      ++p_;
-    }
+    while (p_ < e_ && *p_ != '\n' && *p_ != '\r') text_char();
   }
 
   /// After a value or an indicator: spaces, a comment, then a break or the end of the text.
@@ -172,6 +214,7 @@ class Scanner {
   Scalar plain() {
     Scalar s;
     s.start = p_;
+    s.pos = pos();
     for (;;) {
       while (e_ - p_ >= 4 && is_plain(p_[0]) && is_plain(p_[1]) && is_plain(p_[2]) &&
              is_plain(p_[3]))
@@ -189,13 +232,10 @@ class Scanner {
   Scalar quoted() {
     Scalar s;
     s.start = p_;
+    s.pos = pos();
     s.quoted = true;
     const char* first = ++p_;
-    while (p_ < e_ && *p_ != '"' && *p_ != '\\') {
-      const auto c = static_cast<unsigned char>(*p_);
-      if (c < 0x20 || c > 0x7e) throw Decline{};
-      ++p_;
-    }
+    while (p_ < e_ && *p_ != '"' && *p_ != '\\') text_char();
     if (p_ == e_) throw Decline{};
     if (*p_ == '"') {
       s.view = std::string_view(first, static_cast<size_t>(p_ - first));
@@ -243,9 +283,8 @@ class Scanner {
         p_ += 2;
         continue;
       }
-      if (c < 0x20 || c > 0x7e) throw Decline{};
-      own_ += static_cast<char>(c);
-      ++p_;
+      const char* from = p_;
+      own_.append(from, text_char());
     }
     ++p_;
     s.view = own_;
@@ -270,10 +309,10 @@ class Scanner {
 
   void emit(const Scalar& s) {
     if (!s.quoted && s.view.size() <= 4 && is_null_word(s.view)) {
-      add(Kind::null, pos(s.start), false);
+      add(Kind::null, s.pos, false);
       return;
     }
-    const uint32_t i = add(Kind::scalar, pos(s.start), s.quoted);
+    const uint32_t i = add(Kind::scalar, s.pos, s.quoted);
     TreeNode& n = tree_.nodes[i];
     n.count = static_cast<uint32_t>(s.view.size());
     // As the libyaml builder decides: the value is used in place where the text after the
@@ -289,7 +328,8 @@ class Scanner {
     }
   }
 
-  void add_null_after(const char* indicator) { add(Kind::null, pos(indicator + 1), false); }
+  /// An empty value: libyaml's empty plain scalar at the end of its ':' or '-'.
+  void add_null(Pos at) { add(Kind::null, at, false); }
 
   struct Open {
     uint32_t node;
@@ -298,7 +338,7 @@ class Scanner {
 
   Open open(Kind kind) {
     if (depth_ >= kMaxDepth) throw Decline{};  // libyaml's builder refuses it
-    const uint32_t i = add(kind, pos(p_), false);
+    const uint32_t i = add(kind, pos(), false);
     ++depth_;
     return {i, pending_.size()};
   }
@@ -327,10 +367,11 @@ class Scanner {
       skip_spaces();
       if (p_ == e_ || *p_ != ':' || static_cast<size_t>(p_ - key.start) > kMaxKeySpan)
         throw Decline{};
-      const char* colon = p_++;
+      ++p_;
+      const Pos after_colon = pos();
       if (!blank_at(p_)) throw Decline{};
       emit(key);
-      next = block_value(col, colon);
+      next = block_value(col, after_colon);
       if (next == col && !is_entry()) continue;
       if (next < col) break;
       throw Decline{};
@@ -340,14 +381,14 @@ class Scanner {
   }
 
   /// The value after "key:" in a mapping at column `col`.
-  int block_value(int col, const char* colon) {
+  int block_value(int col, Pos after_colon) {
     skip_spaces();
     if (p_ == e_ || is_break(p_) || *p_ == '#') {
       rest_of_line();
       const int next = next_content_line();
       if (next > col) return block_node(next);
       if (next == col && is_entry()) return block_sequence(col, true);
-      add_null_after(colon);
+      add_null(after_colon);
       return next;
     }
     inline_value(col);
@@ -361,7 +402,8 @@ class Scanner {
     const Open o = open(Kind::sequence);
     int next = -1;
     for (;;) {
-      const char* dash = p_++;
+      ++p_;
+      const Pos after_dash = pos();
       skip_spaces();
       if (p_ == e_ || is_break(p_) || *p_ == '#') {
         rest_of_line();
@@ -369,16 +411,18 @@ class Scanner {
         if (next > col) {
           next = block_node(next);
         } else {
-          add_null_after(dash);
+          add_null(after_dash);
         }
       } else if (*p_ == '"' || plain_start()) {
         // A scalar, or the first key of a mapping that starts here ("- name: a").
         const char* start = p_;
+        const size_t continuation = continuation_;
         const int key_col = column();
         Scalar s = scalar();
         skip_spaces();
         if (p_ < e_ && *p_ == ':' && blank_at(p_ + 1)) {
-          p_ = start;
+          p_ = start;  // read again as the mapping's first key
+          continuation_ = continuation;
           next = block_mapping(key_col);
         } else {
           emit(s);
@@ -488,6 +532,7 @@ class Scanner {
   Tree& tree_;
   std::vector<uint32_t> pending_;  // children of the open collections, in order
   std::string own_;                // the text of an escaped scalar
+  size_t continuation_ = 0;        // UTF-8 continuation bytes before p_
   size_t depth_ = 0;
 };
 
