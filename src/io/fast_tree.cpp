@@ -14,13 +14,13 @@
 //    of spaces between words, on one line;
 //  - double-quoted scalars on one line with the escapes \" \\ \/ \b \f \n \r \t;
 //  - comments ('#' after a space or at the start of a line) anywhere a break may stand.
-// Everything else (tabs, other bytes, non-ASCII text elsewhere, a BOM, directives and "---" / "..." lines, anchors,
-// aliases, tags, single quotes, block scalars, "?" keys, multi-line scalars, empty flow
-// entries, trailing commas, plain scalars with ':' or '#' or other indicators, other
-// escapes, keys longer than libyaml's 1024-character limit for simple keys, nesting at
-// libyaml's limit, an empty document) makes it decline, and libyaml reads the text instead.
-// Within the subset each construct gives the events libyaml gives, at the marks libyaml gives
-// them (YAML 1.1 and libyaml 0.2.5's scanner and parser):
+// Everything else (tabs, other bytes, non-ASCII text elsewhere, a BOM, directives and "---" / "..."
+// lines, anchors, aliases, tags, single quotes, block scalars, "?" keys, multi-line scalars, empty
+// flow entries, trailing commas, plain scalars with ':' or '#' or other indicators, other escapes,
+// keys longer than libyaml's 1024-character limit for simple keys, nesting at libyaml's limit, an
+// empty document) makes it decline, and libyaml reads the text instead. Within the subset each
+// construct gives the events libyaml gives, at the marks libyaml gives them (YAML 1.1 and libyaml
+// 0.2.5's scanner and parser):
 //  - a block mapping starts at its first key, a block sequence at its first '-', a flow
 //    collection at its bracket, a scalar at its first character (a quoted one at the quote);
 //  - an empty value ("key:" then a break, "-" then a break) is the empty plain scalar, a
@@ -235,7 +235,15 @@ class Scanner {
     s.pos = pos();
     s.quoted = true;
     const char* first = ++p_;
-    while (p_ < e_ && *p_ != '"' && *p_ != '\\') text_char();
+    while (p_ < e_) {
+      const auto c = static_cast<unsigned char>(*p_);
+      if (c == '"' || c == '\\') break;
+      if (c >= 0x20 && c <= 0x7e) {
+        ++p_;  // the common case, inline
+      } else {
+        text_char();
+      }
+    }
     if (p_ == e_) throw Decline{};
     if (*p_ == '"') {
       s.view = std::string_view(first, static_cast<size_t>(p_ - first));
