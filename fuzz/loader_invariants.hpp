@@ -10,6 +10,7 @@
 #include <string_view>
 #include <typeinfo>
 
+#include "../src/io/model_tree.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -79,9 +80,39 @@ inline std::string check_model_file(const io::ModelFile& file) {
   return "";
 }
 
+/// Where the loader's fast scanner reads `text`, its tree must be libyaml's, node by node
+/// and position by position, and libyaml must read the text too.
+inline std::string check_front_ends(std::string_view text) {
+  try {
+    const io::detail::FrontEnds r = io::detail::compare_front_ends(text);
+    if (!r.difference.empty()) return "the fast scanner's tree is not libyaml's: " + r.difference;
+    if (r.fast_accepted) {
+      // The whole load too: the same model or the same message with libyaml alone.
+      const std::string t(text);
+      const auto outcome = [&](bool libyaml_only) -> std::string {
+        try {
+          const io::ModelFile f = libyaml_only
+                                      ? io::detail::parse_model_file_with_libyaml(t, kSourceName)
+                                      : io::parse_model_file(t, kSourceName);
+          return "accepted " + std::to_string(f.model.num_bodies()) + " bodies";
+        } catch (const io::ModelFileError& e) {
+          return e.what();
+        }
+      };
+      const std::string fast = outcome(false), slow = outcome(true);
+      if (fast != slow) return "the loader gives '" + fast + "' but libyaml alone '" + slow + "'";
+    }
+  } catch (const std::exception& e) {
+    return std::string("comparing the front ends threw ") + typeid(e).name() + ": " + e.what();
+  }
+  return "";
+}
+
 /// Runs the loader on `text` and checks every invariant; nothing escapes.
 inline LoaderVerdict check_loader(std::string_view text) {
   LoaderVerdict verdict;
+  verdict.violation = check_front_ends(text);
+  if (!verdict.violation.empty()) return verdict;
   std::optional<io::ModelFile> file;
   try {
     file = io::parse_model_file(std::string(text), kSourceName);

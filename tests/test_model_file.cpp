@@ -9,11 +9,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "../src/io/model_tree.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/model_file.hpp"
 
@@ -1018,6 +1020,221 @@ TEST(ModelFile, AliasesShareTheAnchoredValueAndNonStandardTagsAreRefused) {
   EXPECT_NO_THROW(parse_model_file(edit(kBase, "mass: 1.0", "mass: !!float 1.0"), "ok.yaml"));
   const ModelFileError s = error_of(edit(kBase, "mass: 1.0", "mass: !!str 1.0"));
   EXPECT_NE(s.problem().find("quoted string"), std::string::npos) << s.what();
+}
+
+// ---- The fast front end against libyaml --------------------------------------------------
+
+/// Both front ends on `text`: where the fast scanner reads it, the trees must be the same
+/// node by node (positions too), and libyaml must read it as well. Returns whether the fast
+/// scanner read it.
+bool fast_reads(const std::string& text) {
+  const detail::FrontEnds r = detail::compare_front_ends(text);
+  EXPECT_EQ(r.difference, "") << escaped(text.substr(0, 300));
+  if (r.fast_accepted) {
+    EXPECT_TRUE(r.libyaml_accepted) << r.libyaml_error;
+  }
+  return r.fast_accepted;
+}
+
+std::string file_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(ModelFileFrontEnds, AgreeOnEveryCommittedModelFile) {
+  namespace fs = std::filesystem;
+  const std::string root = KANEDYN_SOURCE_DIR;
+  size_t files = 0, read_fast = 0;
+  for (const char* dir : {"/examples", "/fuzz/corpus", "/fuzz/regression"}) {
+    std::vector<fs::path> paths;
+    for (const auto& entry : fs::directory_iterator(root + dir))
+      if (entry.is_regular_file()) paths.push_back(entry.path());
+    std::sort(paths.begin(), paths.end());
+    for (const fs::path& path : paths) {
+      SCOPED_TRACE(path.string());
+      const bool fast = fast_reads(file_text(path));
+      ++files;
+      read_fast += fast;
+      // Every example model is in the subset: the fast scanner is what loads them.
+      const std::string ext = path.extension().string();
+      if (std::string(dir) == "/examples" && (ext == ".yaml" || ext == ".json")) {
+        EXPECT_TRUE(fast);
+      }
+    }
+  }
+  EXPECT_GT(files, 60u);
+  EXPECT_GT(read_fast, 40u);
+}
+
+TEST(ModelFileFrontEnds, AgreeOnGeneratedChainsAndTheBaseTexts) {
+  EXPECT_TRUE(fast_reads(chain_text(500)));
+  EXPECT_TRUE(fast_reads(kBase));
+  EXPECT_TRUE(fast_reads(kBaseJson));
+  EXPECT_TRUE(fast_reads(with_breaks(kBase, "\r\n")));
+  EXPECT_TRUE(fast_reads(with_breaks(kBaseJson, "\r\n")));
+  EXPECT_FALSE(fast_reads(with_breaks(kBase, "\r")));  // lone CR: libyaml's
+}
+
+TEST(ModelFileFrontEnds, AgreeOnTrickyTextsInTheSubset) {
+  // Each is read by the fast scanner, and its tree must be libyaml's.
+  const std::string f = "format: kanedyn-model/1\n";
+  for (const std::string& text : std::vector<std::string>{
+           f + "name: a # a comment at the end of a line\n",
+           f + "# a comment line\n   # an indented one\n\nname: a\n",
+           f + "gravity: []\nbodies: [ ]\nforces: {}\n", f + "\"quoted key\": 1\n\"k\" : 2\n",
+           f + "name: \"a \\\"b\\\" \\\\ c \\/ d \\n \\t \\r \\b \\f\"\n",
+           f + "name: \"\\\\\"\n",  // an escape whose value happens to stand in the text
+           f + "x: [1e5, .5, -0, +1, -.5e-3, 1E+05, 0.1e2, 17.000000000000004]\n",
+           f + "a key with spaces: 1\nkey  two : 2\n", f + "x: [a b, c  d ,e]\n",
+           f + "x: null\ny: ~\nz: Null\nw: NULL\nv:\nu: [null, ~]\n", f + "~: 1\nnull: 2\n",
+           f + "x:\n  - 1\n  -\n  - 2\n  - # comment\n  -\n",
+           f + "x:\n- 1\n- a: 1\n  b: 2\n-\n  c: 3\ny: 2\n",
+           f + "x:\n  a:\n    b:\n      c: 1\n  d: 2\n", f + "x:\ny:\n", f + "x:", f + "x: 1",
+           f + "x: [1,\n  2,\n    3\n  ]\n", f + "x: {a: 1, b: [2, {c: 3}], \"d\":4}\n",
+           f + "x: [ # comment\n  1, # another\n  2 ]\n", f + "x: {a:\n  1}\n",
+           "- a\n- b: 1\n  c: 2\n-\n", "  format: kanedyn-model/1\n  name: indented root\n",
+           "{\"format\":\"kanedyn-model/1\",\"x\":[1,2,{\"y\":[]}],\"z\":{}}",
+           "{\n  \"format\": \"kanedyn-model/1\",\n  \"x\": [\n    1.5,\n    -2\n  ]\n}\n",
+           "{\"a\": true, \"b\": false, \"c\": null}\n# after\n\n", "[1, 2]\n",
+           f + "x: (a) b/c ~d e_f g.h\n",
+           // UTF-8 in comments and quoted scalars: libyaml counts characters, not bytes.
+           "# caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80\n" + f + "x:\ny: 1\n",
+           f + "name: \"caf\xc3\xa9\"\nx: [1, \"\xe2\x82\xac\", 2]\ny:\n",
+           f + "x: # \xc3\xa9\xc3\xa9\n  - # \xf0\x9f\x98\x80\n  -\ny: {\"\xc3\xa9\": 1, b: 2}\n",
+           f + "\"cl\xc3\xa9\": 1\nz:\n- \"\xc3\xa9\": 2\n",
+           f + "x: \"\xc3\xa9\\n\xc3\xa9\"\r\ny: 2 # \xc2\xa0\r\nz:\r\n",
+           f + "x:\n- \"\xc3\xa9\": 1\n  b: 2\n",
+           f + "x: - a\n",  // refused by libyaml; declined
+       }) {
+    SCOPED_TRACE(escaped(text));
+    const bool fast = fast_reads(text);
+    if (text.find("x: - a") == std::string::npos) {
+      EXPECT_TRUE(fast);
+    }
+  }
+}
+
+TEST(ModelFileFrontEnds, TheFastScannerDeclinesWhatItIsNotSureAbout) {
+  const std::string f = "format: kanedyn-model/1\n";
+  for (const std::string& text : std::vector<std::string>{
+           std::string(""),
+           std::string("# only a comment\n"),
+           "\xef\xbb\xbf" + f,
+           f + "x: \t1\n",
+           "\t" + f,
+           f + "x: &a 1\ny: *a\n",
+           f + "x: !!float 1\n",
+           f + "x: 'single'\n",
+           f + "x: |\n  block\n",
+           f + "x: >\n  folded\n",
+           f + "? x\n: 1\n",
+           "%YAML 1.1\n---\n" + f,
+           "---\n" + f,
+           f + "...\n",
+           f + "x: a\n  continued\n",
+           f + "x: \"two\n  lines\"\n",
+           f + "x: [a\n  b]\n",
+           f + "x: [1, 2,]\n",
+           f + "x: [1, , 2]\n",
+           f + "x: {a}\n",
+           f + "x: {a: }\n",
+           f + "x: [a: 1]\n",
+           f + "x: a:b\n",
+           f + "x: {a:1}\n",
+           f + "x: \"\\u00e9\"\n",
+           f + "x: \"\\x41\"\n",
+           f + "x: \"\\0\"\n",
+           f + "x: caf\xc3\xa9\n",
+           f + "# \xc2\x85\n",
+           f + "x: \"\xe2\x80\xa8\"\n",
+           f + "# \xef\xbb\xbf\n",
+           f + "# \xc3\n",
+           f + "# \xc2\x9f\n",
+           f + "# \xed\xa0\x80\n",
+           f + "# \xe0\x80\xaf\n",
+           f + "x: \"\xef\xbf\xbf\"\n",
+
+           f + "x: 1\ry: 2\n",
+           f + "x: [1,\n2]\n",
+           f + "- - a\n",
+           f + "x: a, b\n",
+           f + "x: \"a\"#c\n",
+           f + "x: a#b\n",
+           f + "x: 1\n y: 2\n",
+           f + "x:\n  1\n",
+           f + "x:\n    a: 1\n  b: 2\n",
+           f + std::string(1100, 'k') + ": 1\n",
+           "format: kanedyn-model/1\nbodies: " + std::string(64, '[') + std::string(64, ']') + "\n",
+       }) {
+    SCOPED_TRACE(escaped(text));
+    EXPECT_FALSE(fast_reads(text));
+  }
+  // 63 levels under the top mapping are read (libyaml's limit is 64 open collections).
+  EXPECT_TRUE(fast_reads("format: kanedyn-model/1\nbodies: " + std::string(63, '[') +
+                         std::string(63, ']')));
+}
+
+/// What the loader makes of `text`: "accepted" and the number of bodies, or the message.
+std::string outcome(const std::string& text, bool libyaml_only) {
+  try {
+    const ModelFile f = libyaml_only ? detail::parse_model_file_with_libyaml(text, "e.yaml")
+                                     : parse_model_file(text, "e.yaml");
+    return "accepted, N = " + std::to_string(f.model.num_bodies());
+  } catch (const ModelFileError& e) {
+    return e.what();
+  }
+}
+
+TEST(ModelFileFrontEnds, AgreeOnEverySingleCharacterEditOfTheBaseTexts) {
+  // Deletions, insertions of the characters that matter to YAML, and doubled characters: the
+  // fast scanner either reads the result exactly as libyaml does or declines it.
+  const std::string inserts = " -:,#[]{}\"\\\n.e0a~";
+  size_t texts = 0, read_fast = 0;
+  for (const std::string& base : {kBase, kBaseJson}) {
+    for (size_t i = 0; i <= base.size(); ++i) {
+      std::vector<std::string> variants;
+      if (i < base.size()) {
+        variants.push_back(base.substr(0, i) + base.substr(i + 1));
+        variants.push_back(base.substr(0, i + 1) + base.substr(i));
+      }
+      for (const char c : inserts) variants.push_back(base.substr(0, i) + c + base.substr(i));
+      for (const std::string& text : variants) {
+        const detail::FrontEnds r = detail::compare_front_ends(text);
+        ASSERT_EQ(r.difference, "") << escaped(text);
+        // And the whole load: accepted or refused with the same message either way.
+        if (r.fast_accepted) {
+          ASSERT_EQ(outcome(text, false), outcome(text, true)) << escaped(text);
+        }
+        ++texts;
+        read_fast += r.fast_accepted;
+      }
+    }
+  }
+  EXPECT_GT(read_fast, texts / 4);  // not a test of declining only
+}
+
+TEST(ModelFileFrontEnds, AFileTheFastScannerReadsIsRefusedWithLibyamlsMessage) {
+  // Every refusal of the bad-input table and of the committed files, both ways.
+  for (const BadCase& c : bad_cases())
+    EXPECT_EQ(outcome(c.text, false), outcome(c.text, true)) << c.label;
+  for (const char* dir : {"/fuzz/corpus", "/fuzz/regression"})
+    for (const auto& entry :
+         std::filesystem::directory_iterator(KANEDYN_SOURCE_DIR + std::string(dir)))
+      if (entry.is_regular_file()) {
+        const std::string text = file_text(entry.path());
+        EXPECT_EQ(outcome(text, false), outcome(text, true)) << entry.path();
+      }
+  // The check fails on the fast scanner's tree; the message is the one the libyaml path gives
+  // (line and column in characters as libyaml counts them), also after CRLF breaks.
+  for (const std::string line_break : {"\n", "\r\n"}) {
+    const std::string text = with_breaks(edit(kBase, "mass: 1.0", "mass: [1]"), line_break);
+    ASSERT_TRUE(fast_reads(text));
+    const ModelFileError e = error_of(text);
+    const Location at = locate(edit(kBase, "mass: 1.0", "mass: [1]"), "mass: ^[1]");
+    EXPECT_EQ(e.line(), at.line) << e.what();
+    EXPECT_EQ(e.column(), at.column) << e.what();
+    EXPECT_EQ(e.key_path(), "bodies[1].mass");
+  }
 }
 
 }  // namespace

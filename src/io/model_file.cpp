@@ -1,7 +1,9 @@
-// Model files, format kanedyn-model/1 (docs/model-format.md). libyaml's event parser builds a
-// compact tree (Tree below); every value is then checked where it is read, so that an error
-// can name the file, the line and column and the key path; the Model constructor then
-// validates again (it is the library's own guard).
+// Model files, format kanedyn-model/1 (docs/model-format.md). The fast scanner (fast_tree.cpp)
+// or, for what it declines, libyaml's event parser builds a compact tree (Tree, model_tree.hpp);
+// every value is then checked where it is read, so that an error can name the file, the line
+// and column and the key path; the Model constructor then validates again (it is the library's
+// own guard). A load the fast scanner's tree fails is read again with libyaml alone, so that
+// every message is that path's.
 #include "kanedyn/io/model_file.hpp"
 
 #include <fcntl.h>
@@ -31,6 +33,7 @@
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/rotation.hpp"
+#include "model_tree.hpp"
 
 namespace kanedyn::io {
 
@@ -58,13 +61,26 @@ ModelFileError::ModelFileError(const std::string& file, int line, int column,
 
 namespace {
 
+using detail::is_null_word;
+using detail::Kind;
+using detail::kMaxDepth;
+using detail::kMaxFileBytes;
+using detail::kMaxNodePos;
+using detail::kNoPos;
+using detail::Pos;
+using detail::Tree;
+using detail::TreeNode;
+
 constexpr const char* kFormat = "kanedyn-model/1";
 constexpr double kEulerNormTolerance = 1e-6;
-/// Limits (docs/model-format.md, "Limits"). The format needs fewer than 10 levels of nesting;
-/// a 100,000-body file is about 25 MB.
-constexpr size_t kMaxFileBytes = size_t{256} << 20;
+/// a == b, the first characters first: most keys of a mapping differ there, and memcmp is a
+/// call.
+inline bool same(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && (a.empty() || (a[0] == b[0] && a == b));
+}
+
+/// kMaxFileBytes as a message says it.
 constexpr const char* kMaxFileText = "256 MiB";
-constexpr size_t kMaxDepth = 64;
 /// Mappings with more entries than this look keys up by hash; smaller ones by a linear scan.
 constexpr size_t kHashedMapping = 16;
 
@@ -142,12 +158,6 @@ size_t break_width(std::string_view s, size_t i) {
   return 0;
 }
 
-/// A place in the text as libyaml counts it: the index of a character (a CRLF break is two);
-/// kNoPos when unknown. Nodes keep only this; line and column are counted when a message
-/// needs them.
-using Pos = uint32_t;
-constexpr Pos kNoPos = std::numeric_limits<Pos>::max();
-
 /// The line and column of character `pos` of `text`, counting breaks as libyaml does.
 Mark mark_of_pos(std::string_view text, Pos pos) {
   if (pos == kNoPos) return {};
@@ -205,29 +215,6 @@ std::string character_at(std::string_view text, size_t offset) {
 
 // ---- The tree -----------------------------------------------------------------------------
 
-enum class Kind : uint8_t { null, scalar, sequence, mapping };
-
-/// One node of the document, 12 bytes: a scalar is `count` bytes at `first` of the text (when
-/// it stands there as is) or of Tree::chars; a sequence or mapping has `count` children at
-/// `first` of Tree::kids (a mapping: key, value, key, ...). Positions fit 28 bits: a file has
-/// at most kMaxFileBytes = 2^28 bytes.
-struct TreeNode {
-  uint32_t pos : 28;
-  uint32_t kind : 2;     // Kind
-  uint32_t string : 1;   // quoted, a block scalar, or tagged !!str: text, never a number
-  uint32_t in_text : 1;  // the scalar's bytes are in the text
-  uint32_t first, count;
-};
-static_assert(sizeof(TreeNode) == 12);
-constexpr Pos kMaxNodePos = (Pos{1} << 28) - 1;
-
-struct Tree {
-  std::string_view text;
-  std::vector<TreeNode> nodes;
-  std::vector<uint32_t> kids;
-  std::string chars;
-};
-
 /// A node of a Tree, with the accessors the readers below need.
 class Node {
  public:
@@ -263,9 +250,41 @@ class Node {
 
 /// A value in the file: its node, its key path and where to point at it. For a null value
 /// (`key:` with nothing after it) the key's mark is used.
+/// A key path ("bodies[3].initial.translation") spelt out only when a message needs it: the
+/// part up to the last list index, then up to two keys (literals of the readers: views).
+class KeyPath {
+ public:
+  KeyPath() = default;
+  explicit KeyPath(std::string base) : base_(std::move(base)) {}
+  std::string str() const {
+    std::string s = base_;
+    for (size_t i = 0; i < keys_; ++i) {
+      if (!s.empty()) s += '.';
+      s += key_[i];
+    }
+    return s;
+  }
+  /// This path and `key`, which must outlive the result.
+  KeyPath child(std::string_view key) const {
+    KeyPath p;
+    if (keys_ == 2) {
+      p.base_ = str();
+    } else {
+      p = *this;
+    }
+    p.key_[p.keys_++] = key;
+    return p;
+  }
+
+ private:
+  std::string base_;
+  std::string_view key_[2];
+  size_t keys_ = 0;
+};
+
 struct Field {
   Node node;
-  std::string path;
+  KeyPath path;
   Pos mark;
   Pos key_mark;  ///< of its key (of the value itself for a list element)
 };
@@ -307,11 +326,6 @@ bool is_yaml_inf_or_nan(std::string_view t) {
   return false;
 }
 
-/// The YAML 1.2 core schema's null: an empty plain scalar, `~`, `null`, `Null`, `NULL`.
-bool is_null_word(std::string_view s) {
-  return s.empty() || s == "~" || s == "null" || s == "Null" || s == "NULL";
-}
-
 /// Owns a libyaml parser, or an event, for the time of a scope.
 struct ParserGuard {
   yaml_parser_t* p;
@@ -324,28 +338,33 @@ struct EventGuard {
 
 class Reader;
 
+/// A short list of numbers, on the stack.
+using Numbers = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;
+
 /// The entries of one mapping, checked for duplicate and non-scalar keys.
 class Mapping {
  public:
   Mapping(const Reader& reader, const Field& field);
   /// Refuses keys not in `allowed`, naming the key and listing the allowed ones.
-  void allow(std::initializer_list<const char*> allowed) const;
-  bool has(std::string_view key) const { return find(key) != nullptr; }
+  void allow(std::initializer_list<std::string_view> allowed) const;
+  bool has(std::string_view key) const { return find(key) != kNone; }
+  /// The field of `key` (a literal: its path keeps a view of it).
   std::optional<Field> get(std::string_view key) const;
   Field require(std::string_view key) const;
   const Field& field() const { return field_; }
 
  private:
-  struct Entry {
-    std::string_view key;
-    Pos key_mark;
-    Node value;
-  };
-  const Entry* find(std::string_view key) const;
+  static constexpr size_t kNone = static_cast<size_t>(-1);
+  // Entry i is the tree's key and value i of the mapping: nothing is copied.
+  std::string_view key(size_t i) const { return field_.node.key(i).Scalar(); }
+  Pos key_mark(size_t i) const { return field_.node.key(i).mark(); }
+  /// The entry of `key` among the first `count` entries, kNone if none.
+  size_t find(std::string_view key, size_t count) const;
+  size_t find(std::string_view key) const { return find(key, size_); }
 
   const Reader* reader_;
   Field field_;
-  std::vector<Entry> entries_;
+  size_t size_ = 0;
   std::unordered_map<std::string_view, uint32_t> index_;  // for large mappings only
 };
 
@@ -363,25 +382,38 @@ class Reader {
   }
   Mark mark(Pos pos) const { return mark_of_pos(tree_.text, pos); }
   [[noreturn]] void fail(const Field& f, const std::string& problem) const {
-    fail(f.mark, f.path, problem);
+    fail(f.mark, f.path.str(), problem);
   }
 
-  /// Parses the one YAML document of `text` into tree_; its root must be a mapping.
-  Node load(std::string_view text) {
+  /// Parses the one YAML document of `text` into tree_: with the fast scanner when `fast`
+  /// and it reads the text (then fast_used() is true), else with libyaml.
+  const Tree& tree_of(std::string_view text, bool fast) {
     if (text.size() > kMaxFileBytes) fail(kNoPos, "", too_large());
     if (const void* nul = std::memchr(text.data(), 0, text.size()))
       fail_at(
           mark_of_offset(text, static_cast<size_t>(static_cast<const char*>(nul) - text.data())),
           "", "a NUL byte (\\x00) is not allowed; a model file is UTF-8 text");
+    if (fast && detail::build_fast_tree(text, tree_)) {
+      fast_used_ = true;
+      return tree_;
+    }
     owned_text_ = json_leading_tabs(text);
     if (!owned_text_.empty()) text = owned_text_;
     tree_.text = text;
     build(text);
-    if (tree_.nodes.empty() || Node(&tree_, root_).IsNull())
+    return tree_;
+  }
+
+  bool fast_used() const { return fast_used_; }
+
+  /// The document's root, which must be a mapping.
+  Node load(std::string_view text, bool fast) {
+    tree_of(text, fast);
+    if (tree_.nodes.empty() || Node(&tree_, tree_.root).IsNull())
       fail(kNoPos, "",
            "the file is empty; a model file is a mapping starting with 'format: " +
                std::string(kFormat) + "'");
-    const Node root(&tree_, root_);
+    const Node root(&tree_, tree_.root);
     if (!root.IsMap())
       fail(root.mark(), "",
            "a model file must be a mapping (key: value lines), got " + describe(root));
@@ -395,7 +427,7 @@ class Reader {
   Field element(const Field& list, size_t i) const {
     const Node node = list.node[i];
     const Pos mark = node.IsNull() ? list.mark : node.mark();
-    return {node, index_path(list.path, i), mark, mark};
+    return {node, KeyPath(index_path(list.path.str(), i)), mark, mark};
   }
 
   std::vector<Field> list(const Field& f, const std::string& what) const {
@@ -455,12 +487,11 @@ class Reader {
     return v;
   }
 
-  /// A list of exactly `n` numbers.
-  VectorX numbers(const Field& f, int n) const {
-    const std::string what = std::to_string(n) + " numbers";
+  /// A list of exactly `n` numbers (at most 6: no allocation).
+  Numbers numbers(const Field& f, int n) const {
     if (!f.node.IsSequence() || f.node.size() != static_cast<size_t>(n))
-      fail(f, "expected a list of " + what + ", got " + describe(f.node));
-    VectorX v(n);
+      fail(f, "expected a list of " + std::to_string(n) + " numbers, got " + describe(f.node));
+    Numbers v(n);
     for (int i = 0; i < n; ++i) {
       const auto value = plain_number(f.node[static_cast<size_t>(i)]);
       v[i] = value ? *value : number(element(f, static_cast<size_t>(i)));
@@ -478,19 +509,23 @@ class Reader {
     return vector3(f);
   }
 
-  std::string text(const Field& f) const {
+  std::string text(const Field& f) const { return std::string(text_view(f)); }
+
+  /// The same in the tree (which outlives the reader's work).
+  std::string_view text_view(const Field& f) const {
     if (!f.node.IsScalar()) fail(f, "expected a text value, got " + describe(f.node));
-    return std::string(f.node.Scalar());
+    return f.node.Scalar();
   }
 
   /// A text value that must be one of `choices`.
-  std::string choice(const Field& f, std::initializer_list<const char*> choices,
+  std::string choice(const Field& f, std::initializer_list<std::string_view> choices,
                      const std::string& what) const {
-    const std::string s = text(f);
-    std::vector<std::string> allowed(choices.begin(), choices.end());
-    if (std::find(allowed.begin(), allowed.end(), s) == allowed.end())
-      fail(f, "unknown " + what + " " + quote(s) + "; allowed: " + join(allowed));
-    return s;
+    const std::string_view s = text_view(f);
+    if (std::none_of(choices.begin(), choices.end(),
+                     [&](std::string_view c) { return same(c, s); }))
+      fail(f, "unknown " + what + " " + quote(s) +
+                  "; allowed: " + join(std::vector<std::string>(choices.begin(), choices.end())));
+    return std::string(s);
   }
 
   Mapping mapping(const Field& f) const { return Mapping(*this, f); }
@@ -595,7 +630,7 @@ class Reader {
         const auto index = static_cast<uint32_t>(tree_.nodes.size());
         tree_.nodes.push_back({at, static_cast<uint32_t>(kind), string, 0, 0, 0});
         if (open.empty()) {
-          root_ = index;
+          tree_.root = index;
         } else {
           pending.push_back(index);
         }
@@ -700,75 +735,80 @@ class Reader {
   std::string file_;
   std::string owned_text_;  // the text when it had to be changed
   Tree tree_;
-  uint32_t root_ = 0;
+  bool fast_used_ = false;
 };
 
 Mapping::Mapping(const Reader& reader, const Field& field) : reader_(&reader), field_(field) {
   if (!field.node.IsMap()) reader.fail(field, "expected a mapping, got " + describe(field.node));
   const size_t n = field.node.size();
-  entries_.reserve(n);
   const bool hashed = n > kHashedMapping;
   if (hashed) index_.reserve(n);
   for (size_t i = 0; i < n; ++i) {
     const Node key = field.node.key(i);
     if (!key.IsScalar())
-      reader.fail(key.mark(), field.path, "keys must be plain words, got " + describe(key));
+      reader.fail(key.mark(), field.path.str(), "keys must be plain words, got " + describe(key));
     const std::string_view k = key.Scalar();
-    const Entry* previous = nullptr;
+    size_t previous = kNone;
     if (hashed) {
       const auto [it, inserted] = index_.emplace(k, static_cast<uint32_t>(i));
-      if (!inserted) previous = &entries_[it->second];
+      if (!inserted) previous = it->second;
     } else {
-      previous = find(k);
+      previous = find(k, i);
     }
-    if (previous)
-      reader.fail(key.mark(), child_path(field.path, printable(k)),
+    if (previous != kNone)
+      reader.fail(key.mark(), child_path(field.path.str(), printable(k)),
                   "duplicate key " + quote(k) + " (first given on line " +
-                      std::to_string(reader.mark(previous->key_mark).line) + ")");
-    entries_.push_back({k, key.mark(), field.node.value(i)});
+                      std::to_string(reader.mark(key_mark(previous)).line) + ")");
   }
+  size_ = n;
 }
 
-void Mapping::allow(std::initializer_list<const char*> allowed) const {
-  const std::vector<std::string> words(allowed.begin(), allowed.end());
-  for (const Entry& e : entries_) {
-    if (std::find(words.begin(), words.end(), e.key) != words.end()) continue;
-    std::string problem = "unknown key " + quote(e.key);
+void Mapping::allow(std::initializer_list<std::string_view> allowed) const {
+  for (size_t i = 0; i < size_; ++i) {
+    const std::string_view k = key(i);
+    if (std::any_of(allowed.begin(), allowed.end(), [&](std::string_view a) { return same(a, k); }))
+      continue;
+    const std::vector<std::string> words(allowed.begin(), allowed.end());
+    std::string problem = "unknown key " + quote(k);
     for (const std::string& w : words)
-      if (edit_distance(e.key, w) <= 2) {
+      if (edit_distance(k, w) <= 2) {
         problem += " (did you mean " + quote(w) + "?)";
         break;
       }
-    reader_->fail(e.key_mark, child_path(field_.path, printable(e.key)),
+    reader_->fail(key_mark(i), child_path(field_.path.str(), printable(k)),
                   problem + "; allowed keys: " + join(words));
   }
 }
 
-const Mapping::Entry* Mapping::find(std::string_view key) const {
-  if (!index_.empty()) {
+size_t Mapping::find(std::string_view key, size_t count) const {
+  if (!index_.empty() && count == size_) {
     const auto it = index_.find(key);
-    return it == index_.end() ? nullptr : &entries_[it->second];
+    return it == index_.end() ? kNone : it->second;
   }
-  for (const Entry& e : entries_)
-    if (e.key == key) return &e;
-  return nullptr;
+  for (size_t i = 0; i < count; ++i) {
+    const std::string_view k = this->key(i);
+    if (same(k, key)) return i;
+  }
+  return kNone;
 }
 
 std::optional<Field> Mapping::get(std::string_view key) const {
-  const Entry* e = find(key);
-  if (!e) return std::nullopt;
-  return Field{e->value, child_path(field_.path, key),
-               e->value.IsNull() ? e->key_mark : e->value.mark(), e->key_mark};
+  const size_t i = find(key);
+  if (i == kNone) return std::nullopt;
+  const Node value = field_.node.value(i);
+  const Pos mark = key_mark(i);
+  return Field{value, field_.path.child(key), value.IsNull() ? mark : value.mark(), mark};
 }
 
 Field Mapping::require(std::string_view key) const {
   if (auto f = get(key)) return *f;
-  reader_->fail(field_.mark, child_path(field_.path, key), "missing required key " + quote(key));
+  reader_->fail(field_.mark, child_path(field_.path.str(), key),
+                "missing required key " + quote(key));
 }
 
 // ---- Sections -----------------------------------------------------------------------------
 
-bool valid_body_name(const std::string& name) {
+bool valid_body_name(std::string_view name) {
   return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
   });
@@ -783,7 +823,7 @@ Matrix3 read_inertia(const Reader& r, const Field& f) {
            "expected a list of 3 numbers [Ixx, Iyy, Izz] or 6 numbers "
            "[Ixx, Iyy, Izz, Ixy, Ixz, Iyz], got " +
                describe(f.node));
-  const VectorX v = r.numbers(f, static_cast<int>(n));
+  const Numbers v = r.numbers(f, static_cast<int>(n));
   Matrix3 inertia = v.head<3>().asDiagonal();
   if (n == 6) {
     inertia(0, 1) = inertia(1, 0) = v[3];
@@ -808,9 +848,10 @@ Vector4 read_rotation(const Reader& r, const Field& f) {
   const auto angle = m.get("angle");
   const auto angle_deg = m.get("angle_deg");
   if (angle && angle_deg)
-    r.fail(angle_deg->key_mark, f.path, "give either 'angle' (radians) or 'angle_deg', not both");
+    r.fail(angle_deg->key_mark, f.path.str(),
+           "give either 'angle' (radians) or 'angle_deg', not both");
   if (!angle && !angle_deg)
-    r.fail(f.mark, child_path(f.path, "angle"),
+    r.fail(f.mark, child_path(f.path.str(), "angle"),
            "missing required key 'angle' (radians) or 'angle_deg' (degrees)");
   const double theta = angle ? r.number(*angle) : r.number(*angle_deg) * (std::numbers::pi / 180.0);
   return euler_parameters_from_axis_angle(axis, theta);
@@ -836,7 +877,8 @@ void read_initial(const Reader& r, const Field& f, int k, State& state) {
   const auto eps = m.get("euler_parameters");
   const auto rotation = m.get("rotation");
   if (eps && rotation)
-    r.fail(rotation->key_mark, f.path, "give either 'euler_parameters' or 'rotation', not both");
+    r.fail(rotation->key_mark, f.path.str(),
+           "give either 'euler_parameters' or 'rotation', not both");
   if (eps) state.euler_parameters(k) = read_euler_parameters(r, *eps);
   if (rotation) state.euler_parameters(k) = read_rotation(r, *rotation);
   if (auto v = m.get("translation")) state.translation(k) = r.vector3(*v);
@@ -844,22 +886,77 @@ void read_initial(const Reader& r, const Field& f, int k, State& state) {
   if (auto v = m.get("translation_rate")) state.translation_rate(k) = r.vector3(*v);
 }
 
-/// Body names in numbering order, with a hash index so that loading stays O(N).
+/// Names to body indices: open addressing with linear probing in a table at most half full,
+/// so that loading stays O(N) with one or two cache misses a lookup; the keys are the names'
+/// texts in the tree, the bodies numbered in order of insertion.
+class NameIndex {
+ public:
+  void reserve(size_t n) {
+    size_t capacity = 16;
+    while (capacity < 2 * n) capacity *= 2;
+    slots_.assign(capacity, Slot{});
+    mask_ = capacity - 1;
+    keys_.reserve(n);
+  }
+  /// The index of `name`, or -1.
+  int find(std::string_view name) const {
+    if (slots_.empty()) return -1;
+    const size_t h = std::hash<std::string_view>{}(name);
+    for (size_t i = h & mask_;; i = (i + 1) & mask_) {
+      const Slot& s = slots_[i];
+      if (s.body == 0) return -1;
+      if (s.hash == static_cast<uint32_t>(h) && keys_[s.body - 1] == name)
+        return static_cast<int>(s.body - 1);
+    }
+  }
+  /// Adds `name` as the next body unless it is there: then returns its index, else -1.
+  int insert(std::string_view name) {
+    if (2 * (keys_.size() + 1) > slots_.size()) grow();
+    const size_t h = std::hash<std::string_view>{}(name);
+    for (size_t i = h & mask_;; i = (i + 1) & mask_) {
+      Slot& s = slots_[i];
+      if (s.body == 0) {
+        keys_.push_back(name);
+        s = {static_cast<uint32_t>(h), static_cast<uint32_t>(keys_.size())};
+        return -1;
+      }
+      if (s.hash == static_cast<uint32_t>(h) && keys_[s.body - 1] == name)
+        return static_cast<int>(s.body - 1);
+    }
+  }
+
+ private:
+  struct Slot {
+    uint32_t hash = 0;  // its low bits, to skip most comparisons
+    uint32_t body = 0;  // index + 1; 0: empty
+  };
+  void grow() {
+    std::vector<std::string_view> keys = std::move(keys_);
+    keys_.clear();
+    reserve(std::max<size_t>(8, keys.size() * 2));
+    for (const std::string_view k : keys) insert(k);
+  }
+  std::vector<Slot> slots_;
+  std::vector<std::string_view> keys_;
+  size_t mask_ = 0;
+};
+
+/// Body names in numbering order, with their index.
 struct BodyNames {
   std::vector<std::string> names;
-  std::unordered_map<std::string, int> index;
+  NameIndex index;
 };
 
 /// Index of the body named by `f`, which must be one of `bodies`.
 int body_reference(const Reader& r, const Field& f, const BodyNames& bodies) {
-  const std::string name = r.text(f);
-  const auto it = bodies.index.find(name);
-  if (it == bodies.index.end()) {
+  const std::string_view name = r.text_view(f);
+  const int index = bodies.index.find(name);
+  if (index < 0) {
     // List the bodies when there are few; a long list helps nobody.
     r.fail(f, "unknown body " + quote(name) +
                   name_hint(name, bodies.names, bodies.names.size(), "; bodies: "));
   }
-  return it->second;
+  return index;
 }
 
 struct BodiesSection {
@@ -884,17 +981,16 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     const Mapping& m = maps.emplace_back(r.mapping(items[i]));
     m.allow({"name", "parent", "mass", "inertia", "com", "joint", "initial"});
     const Field name_field = m.require("name");
-    const std::string name = r.text(name_field);
+    const std::string_view name = r.text_view(name_field);
     if (!valid_body_name(name))
       r.fail(name_field,
              "body name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
     if (name == "ground")
       r.fail(name_field, "'ground' is reserved for the inertial frame; choose another body name");
-    if (const auto it = index_of.find(name); it != index_of.end())
+    if (const int previous = index_of.insert(name); previous >= 0)
       r.fail(name_field, "duplicate body name " + quote(name) + " (already used by " +
-                             index_path("bodies", it->second) + ")");
-    index_of.emplace(name, static_cast<int>(i));
-    names.push_back(name);
+                             index_path("bodies", static_cast<size_t>(previous)) + ")");
+    names.emplace_back(name);
   }
   section.specs.reserve(items.size());
   section.initial.reserve(items.size());
@@ -904,14 +1000,14 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     BodySpec b;
     b.name = names[i];
     const Field parent_field = m.require("parent");
-    const std::string parent = r.text(parent_field);
+    const std::string_view parent = r.text_view(parent_field);
     if (parent == "ground") {
       b.lower_body = kGround;
     } else {
-      const auto it = index_of.find(parent);
-      const int j =
-          it == index_of.end() ? static_cast<int>(names.size()) : static_cast<int>(it->second);
-      if (it == index_of.end())
+      // A chain's parent is the body before: that comparison spares most lookups.
+      const int found = i > 0 && names[i - 1] == parent ? k - 1 : index_of.find(parent);
+      const int j = found < 0 ? static_cast<int>(names.size()) : found;
+      if (found < 0)
         r.fail(parent_field,
                "unknown parent " + quote(parent) + "; expected 'ground'" +
                    (i == 0 ? "" : " or an earlier body" + name_hint(parent, names, i, ": ")));
@@ -987,10 +1083,18 @@ SimulationSection read_simulation(const Reader& r, const Field& f) {
   return s;
 }
 
-ModelFile parse(const std::string& text, const std::string& source_name) {
+/// Reads `text`; the fast scanner is tried first when `fast`, and `fast_used` tells whether it
+/// read the text (set before any check can throw).
+ModelFile parse(const std::string& text, const std::string& source_name, bool fast,
+                bool& fast_used) {
   Reader r(source_name);
-  const Node root_node = r.load(text);
-  const Field root{root_node, "", root_node.mark(), root_node.mark()};
+  struct Report {
+    const Reader& r;
+    bool& used;
+    ~Report() { used = r.fast_used(); }
+  } report{r, fast_used};
+  const Node root_node = r.load(text, fast);
+  const Field root{root_node, KeyPath(), root_node.mark(), root_node.mark()};
   const Mapping top = r.mapping(root);
 
   // The format first: a file of some other kind should be told so, not about its keys.
@@ -1041,7 +1145,16 @@ ModelFile parse(const std::string& text, const std::string& source_name) {
 
 ModelFile parse_model_file(const std::string& text, const std::string& source_name) {
   try {
-    return parse(text, source_name);
+    bool fast_used = false;
+    try {
+      return parse(text, source_name, true, fast_used);
+    } catch (const ModelFileError&) {
+      if (!fast_used) throw;
+    }
+    // Whatever refused the fast scanner's tree, libyaml's path refuses too (the trees are the
+    // same); reading it again there gives the one message that path gives, syntax errors and
+    // all.
+    return parse(text, source_name, false, fast_used);
   } catch (const std::bad_alloc&) {
     out_of_memory(source_name);
   }
@@ -1090,5 +1203,37 @@ ModelFile load_model_file(const std::string& path) {
   }
   return parse_model_file(text, path);
 }
+
+namespace detail {
+
+ModelFile parse_model_file_with_libyaml(const std::string& text, const std::string& source_name) {
+  try {
+    bool fast_used = false;
+    return parse(text, source_name, false, fast_used);
+  } catch (const std::bad_alloc&) {
+    out_of_memory(source_name);
+  }
+}
+
+FrontEnds compare_front_ends(std::string_view text) {
+  FrontEnds result;
+  Tree fast;
+  result.fast_accepted = build_fast_tree(text, fast);
+  try {
+    Reader reader("text");
+    const Tree& tree = reader.tree_of(text, false);
+    result.libyaml_accepted = true;
+    result.nodes = tree.nodes.size();
+    if (result.fast_accepted) result.difference = tree_difference(fast, tree);
+  } catch (const ModelFileError& e) {
+    result.libyaml_error = e.what();
+    if (result.fast_accepted)
+      result.difference =
+          "the fast scanner read a text that libyaml refuses: " + result.libyaml_error;
+  }
+  return result;
+}
+
+}  // namespace detail
 
 }  // namespace kanedyn::io
