@@ -15,26 +15,41 @@ namespace {
 
 size_t at(long long i) { return static_cast<size_t>(i); }
 
-/// Keeps one copy of each distinct group of constants (equal bit for bit) in plan.params and
-/// points every group of bodies at its copy (plan.param_group).
-/// Along a chain of identical links every group but the first has the same constants, so
-/// past the caches the kernel streams about a third less memory per body; bodies that differ
-/// keep their own (one int per group more).
-void share_equal_param_groups(int groups, int lanes, Plan& plan) {
-  const size_t size = at(kParamFields) * at(lanes);
+/// Keeps one copy of each distinct field of a group (its lanes doubles, equal bit for bit) in
+/// plan.params, and one copy of each distinct row of a group's kParamFields offsets into it
+/// (plan.param_rows); every group of bodies points at its row (plan.param_group).
+/// Along a chain of identical links every group but the first has the same row, so past the
+/// caches the kernel streams about a third less memory per body. Bodies that differ (a random
+/// tree's masses and widths) still share the fields that agree, as the zero products of
+/// inertia, the zero loads, the joint and mass centre of identical link shapes: of the 36 fields
+/// of such a tree 8 differ, and a third of the constants' memory is read per body.
+void share_equal_params(int groups, int lanes, Plan& plan) {
+  const size_t field_size = at(lanes);
+  const size_t field_bytes = field_size * sizeof(double);
   std::vector<double> unique;
-  // The groups seen so far, as views of their bytes in plan.params (kept until the end).
-  std::unordered_map<std::string_view, int> index;
+  // The fields and rows seen so far, as views of their bytes in plan.params and rows (both
+  // kept until the end).
+  std::unordered_map<std::string_view, int> field_index, row_index;
+  std::vector<int> rows(at(groups) * at(kParamFields));
+  for (size_t f = 0; f < rows.size(); ++f) {
+    const double* p = plan.params.data() + f * field_size;
+    const std::string_view bytes(reinterpret_cast<const char*>(p), field_bytes);
+    const auto [it, added] = field_index.emplace(bytes, static_cast<int>(unique.size()));
+    if (added) unique.insert(unique.end(), p, p + field_size);
+    rows[f] = it->second;
+  }
   plan.param_group.assign(at(groups), 0);
   for (int g = 0; g < groups; ++g) {
-    const double* p = plan.params.data() + at(g) * size;
-    const std::string_view bytes(reinterpret_cast<const char*>(p), size * sizeof(double));
-    const auto [it, added] = index.emplace(bytes, static_cast<int>(unique.size() / size));
-    if (added) unique.insert(unique.end(), p, p + size);
+    const int* row = rows.data() + at(g) * at(kParamFields);
+    const std::string_view bytes(reinterpret_cast<const char*>(row), kParamFields * sizeof(int));
+    const auto [it, added] =
+        row_index.emplace(bytes, static_cast<int>(plan.param_rows.size()) / kParamFields);
+    if (added) plan.param_rows.insert(plan.param_rows.end(), row, row + kParamFields);
     plan.param_group[at(g)] = it->second;
   }
   unique.shrink_to_fit();
   plan.params = std::move(unique);
+  plan.param_rows.shrink_to_fit();
 }
 
 }  // namespace
@@ -56,7 +71,8 @@ int chosen_lanes(int max_simd_lanes) {
 
 size_t Plan::memory_bytes() const {
   return lower.capacity() * sizeof(int) + ready.capacity() * sizeof(int) +
-         params.capacity() * sizeof(double) + param_group.capacity() * sizeof(int);
+         params.capacity() * sizeof(double) + param_rows.capacity() * sizeof(int) +
+         param_group.capacity() * sizeof(int);
 }
 
 std::shared_ptr<const Plan> compile(const Model& model, int kLanes) {
@@ -118,7 +134,7 @@ std::shared_ptr<const Plan> compile(const Model& model, int kLanes) {
       return nullptr;
     }
   }
-  share_equal_param_groups(groups, kLanes, *plan);
+  share_equal_params(groups, kLanes, *plan);
   // Pass 1 keeps its intermediate results for pass 2 (~9% fewer instructions) when they are
   // still in cache for pass 2: in a small model, or where pass 2 of every group comes soon
   // after its pass 1 (a chain: one group later). Otherwise (a large bushy tree, whose bodies'
@@ -150,6 +166,7 @@ void forward_dynamics(const Model& model, const State& state, Data& data) {
                   plan.lower.data(),
                   plan.ready.data(),
                   plan.params.data(),
+                  plan.param_rows.data(),
                   plan.param_group.data(),
                   data.fused_scratch.data(),
                   stride,

@@ -28,8 +28,11 @@ struct Plan {
   int lanes = 2;                 // bodies per SIMD pass
   std::vector<int> lower;        // L(K) per body, padded to whole SIMD groups
   std::vector<int> ready;        // per group: the last group holding a child
-  std::vector<double> params;    // Param fields per distinct group of constants
-  std::vector<int> param_group;  // per group of bodies: its group of constants in params
+  /// The constants: each distinct field of a group (its kLanes doubles, equal bit for bit) once
+  std::vector<double> params;
+  /// per distinct group of constants: where in params each of its kParamFields fields starts
+  std::vector<int> param_rows;
+  std::vector<int> param_group;  // per group of bodies: its group of constants in param_rows
   /// pass 1 keeps its results for pass 2 (small models, chain-like large ones), or pass 2
   /// redoes them (large bushy trees)
   bool keep = false;
@@ -101,8 +104,9 @@ struct Args {
   const double* y;         // State::y (6N)
   const int* lower;        // L(K) per body, padded to whole groups (kGround = -1)
   const int* ready;        // per group: the last group holding a child
-  const double* params;    // Param fields per group of constants
-  const int* param_group;  // per group of bodies: its group of constants in params
+  const double* params;    // the distinct fields of the groups of constants, kLanes doubles each
+  const int* param_rows;   // per group of constants: kParamFields offsets into params
+  const int* param_group;  // per group of bodies: its group of constants in param_rows
   double* scratch;         // Scratch fields per group
   int scratch_stride;      // doubles per group: kScratchFields or kAccelFields times the lanes
   int scratch_mask;        // group g's scratch is slot g & scratch_mask (a ring, 2^k slots)
