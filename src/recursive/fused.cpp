@@ -52,6 +52,38 @@ void share_equal_params(int groups, int lanes, Plan& plan) {
   plan.param_rows.shrink_to_fit();
 }
 
+/// The bodies in depth-first pre-order: each root, then its children's subtrees one after the
+/// other, children in the Model's order. Every body then comes after its lower body, and its
+/// lower body's data (and the path up to the root) was touched shortly before, where in a
+/// random numbering it is anywhere in memory. Children taken in the Model's order reach each
+/// lower body's loads in the same order as in the Model's numbering, so the sums are the same
+/// bit for bit.
+std::vector<int> depth_first_order(const Model& model) {
+  const int n = model.num_bodies();
+  // The children of each body (and of the ground, slot n), in increasing number.
+  std::vector<int> first(at(n) + 2, 0), children(at(n));
+  for (int k = 0; k < n; ++k) {
+    const int j = model.body(k).lower_body;
+    ++first[at(j == kGround ? n : j) + 1];
+  }
+  for (int k = 0; k <= n; ++k) first[at(k) + 1] += first[at(k)];
+  std::vector<int> fill(first.begin(), first.end() - 1);
+  for (int k = 0; k < n; ++k) {
+    const int j = model.body(k).lower_body;
+    children[at(fill[at(j == kGround ? n : j)]++)] = k;
+  }
+  std::vector<int> order, stack;
+  order.reserve(at(n));
+  for (int c = first[at(n) + 1]; c-- > first[at(n)];) stack.push_back(children[at(c)]);
+  while (!stack.empty()) {
+    const int k = stack.back();
+    stack.pop_back();
+    order.push_back(k);
+    for (int c = first[at(k) + 1]; c-- > first[at(k)];) stack.push_back(children[at(c)]);
+  }
+  return order;
+}
+
 }  // namespace
 
 int widest_supported_lanes() {
@@ -70,15 +102,32 @@ int chosen_lanes(int max_simd_lanes) {
 }
 
 size_t Plan::memory_bytes() const {
-  return lower.capacity() * sizeof(int) + ready.capacity() * sizeof(int) +
-         params.capacity() * sizeof(double) + param_rows.capacity() * sizeof(int) +
-         param_group.capacity() * sizeof(int);
+  return user.capacity() * sizeof(int) + lower.capacity() * sizeof(int) +
+         ready.capacity() * sizeof(int) + params.capacity() * sizeof(double) +
+         param_rows.capacity() * sizeof(int) + param_group.capacity() * sizeof(int);
 }
 
 std::shared_ptr<const Plan> compile(const Model& model, int kLanes) {
+  return compile(model, kLanes, kRenumberFrom);
+}
+
+std::shared_ptr<const Plan> compile(const Model& model, int kLanes, int renumber_from) {
   const int n = model.num_bodies();
   auto plan = std::make_shared<Plan>();
   plan->lanes = kLanes;
+  // Plan body k is the Model's body user[k]; rank is the inverse (empty: the same numbering).
+  std::vector<int> rank;
+  if (n >= renumber_from) {
+    std::vector<int> order = depth_first_order(model);
+    bool same = true;
+    for (int k = 0; k < n && same; ++k) same = order[at(k)] == k;
+    if (!same) {
+      rank.assign(at(n), 0);
+      for (int k = 0; k < n; ++k) rank[at(order[at(k)])] = k;
+      plan->user = std::move(order);
+    }
+  }
+  const auto plan_body = [&](int k) { return rank.empty() || k == kGround ? k : rank[at(k)]; };
   const int groups = (n + kLanes - 1) / kLanes;
   const auto padded = at(groups) * kLanes;
   plan->lower.assign(padded, kGround);
@@ -103,22 +152,23 @@ std::shared_ptr<const Plan> compile(const Model& model, int kLanes) {
       set_symmetric(k, kInvInertia, Matrix3::Identity());
       continue;
     }
-    const BodySpec& b = model.body(k);
-    const int j = b.lower_body;
+    const int u = plan->user.empty() ? k : plan->user[at(k)];
+    const BodySpec& b = model.body(u);
+    const int j = plan_body(b.lower_body);
     plan->lower[at(k)] = j;
     if (j != kGround)  // J's loads are complete once K's group has done pass 1
       plan->ready[at(j / kLanes)] = std::max(plan->ready[at(j / kLanes)], k / kLanes);
     param(k, kInvMass) = 1.0 / b.mass;
     set_symmetric(k, kInertia, b.inertia);
-    set_symmetric(k, kInvInertia, model.inverse_inertia(k));
+    set_symmetric(k, kInvInertia, model.inverse_inertia(u));
     set3(k, kCom, b.com);
     set3(k, kJoint, b.joint);
-    set3(k, kArm, j == kGround ? b.joint : Vector3(b.joint - model.body(j).com));
+    set3(k, kArm, j == kGround ? b.joint : Vector3(b.joint - model.body(b.lower_body).com));
     set3(k, kForce, b.mass * model.gravity());
   }
   // Loads grouped per body: the laws are linear in k, c, kr, cr and in the constant loads.
   for (const auto& element : model.forces()) {
-    const int k = element->body();
+    const int k = plan_body(element->body());
     if (const auto* bushing = dynamic_cast<const Bushing*>(element.get())) {
       for (int i = 0; i < 3; ++i) {
         param(k, kStiffness + i) += bushing->stiffness[i];
@@ -153,16 +203,58 @@ std::shared_ptr<const Plan> compile(const Model& model, int kLanes) {
   plan->scratch_mask = slots - 1;
   plan->scratch_size =
       at(std::min(slots, groups)) * (plan->keep ? kScratchFields : kAccelFields) * at(kLanes);
+  plan->copies_at = plan->scratch_size;
+  if (!plan->user.empty()) plan->scratch_size += 26 * at(n);
   return plan;
 }
+
+namespace {
+
+// The state (x: 4N Euler parameters, then 3N translations; y: 3N angular velocities, then 3N
+// translation rates) or its derivatives, copied from one numbering of the bodies into another:
+// to[body k] = from[body user[k]] (gather) or to[body user[k]] = from[body k] (scatter). Tight
+// loops of independent copies, so that the cache misses of the scattered side overlap.
+template <bool kGather>
+void permute(const int* user, int n, const double* from_x, const double* from_y, double* to_x,
+             double* to_y) {
+  const size_t bodies = at(n);
+  for (size_t k = 0; k < bodies; ++k) {
+    const size_t u = at(user[k]);
+    const size_t src = kGather ? u : k, dst = kGather ? k : u;
+    for (size_t c = 0; c < 4; ++c) to_x[4 * dst + c] = from_x[4 * src + c];
+    for (size_t c = 0; c < 3; ++c)
+      to_x[4 * bodies + 3 * dst + c] = from_x[4 * bodies + 3 * src + c];
+    for (size_t c = 0; c < 3; ++c) to_y[3 * dst + c] = from_y[3 * src + c];
+    for (size_t c = 0; c < 3; ++c)
+      to_y[3 * bodies + 3 * dst + c] = from_y[3 * bodies + 3 * src + c];
+  }
+}
+
+}  // namespace
 
 void forward_dynamics(const Model& model, const State& state, Data& data) {
   const Plan& plan = *data.fused_plan;
   const int lanes = plan.lanes;
+  const int n = model.num_bodies();
   const int stride = (plan.keep ? kScratchFields : kAccelFields) * lanes;
-  const Args args{model.num_bodies(),
-                  state.x.data(),
-                  state.y.data(),
+  // A renumbered plan runs on copies in its own numbering, kept after the kernel's scratch:
+  // x (7N), y (6N), xdot (7N), ydot (6N).
+  const bool renumbered = !plan.user.empty();
+  const double* x = state.x.data();
+  const double* y = state.y.data();
+  double* xdot = data.xdot.data();
+  double* ydot = data.ydot.data();
+  if (renumbered) {
+    double* copies = data.fused_scratch.data() + plan.copies_at;
+    permute<true>(plan.user.data(), n, x, y, copies, copies + 7 * at(n));
+    x = copies;
+    y = copies + 7 * at(n);
+    xdot = copies + 13 * at(n);
+    ydot = copies + 20 * at(n);
+  }
+  const Args args{n,
+                  x,
+                  y,
                   plan.lower.data(),
                   plan.ready.data(),
                   plan.params.data(),
@@ -171,8 +263,8 @@ void forward_dynamics(const Model& model, const State& state, Data& data) {
                   data.fused_scratch.data(),
                   stride,
                   plan.scratch_mask,
-                  data.ydot.data(),
-                  data.xdot.data()};
+                  ydot,
+                  xdot};
   switch (lanes) {
     case 8:
       lanes8::evaluate(args);
@@ -183,6 +275,8 @@ void forward_dynamics(const Model& model, const State& state, Data& data) {
     default:
       lanes2::evaluate(args);
   }
+  if (renumbered)
+    permute<false>(plan.user.data(), n, xdot, ydot, data.xdot.data(), data.ydot.data());
 }
 
 }  // namespace kanedyn::fused

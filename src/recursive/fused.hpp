@@ -25,9 +25,14 @@ namespace kanedyn::fused {
 /// compile(), never changed after; Data owns it (Data::fused_plan) and keeps the scratch the
 /// evaluations write (Data::fused_scratch, scratch_size doubles).
 struct Plan {
-  int lanes = 2;                 // bodies per SIMD pass
-  std::vector<int> lower;        // L(K) per body, padded to whole SIMD groups
-  std::vector<int> ready;        // per group: the last group holding a child
+  int lanes = 2;  // bodies per SIMD pass
+  /// The plan numbers the bodies depth first (each body's subtree follows it) when the Model's
+  /// numbering is not that already and the model is large (kRenumberFrom): then user[k] is the
+  /// Model's number of the plan's body k, and the evaluation copies the state into the plan's
+  /// numbering and the derivatives back. Empty when the two numberings are the same.
+  std::vector<int> user;
+  std::vector<int> lower;  // L(K) per body, padded to whole SIMD groups
+  std::vector<int> ready;  // per group: the last group holding a child
   /// The constants: each distinct field of a group (its kLanes doubles, equal bit for bit) once
   std::vector<double> params;
   /// per distinct group of constants: where in params each of its kParamFields fields starts
@@ -38,6 +43,9 @@ struct Plan {
   bool keep = false;
   int scratch_mask = 0;     // group g's scratch is slot g & scratch_mask (a ring, 2^k slots)
   size_t scratch_size = 0;  // doubles of scratch the evaluations need
+  /// Where in the scratch a renumbered plan keeps the state and its derivatives in its own
+  /// numbering (26 N doubles); the kernel's scratch comes before.
+  size_t copies_at = 0;
 
   size_t memory_bytes() const;
 };
@@ -48,6 +56,8 @@ int chosen_lanes(int max_simd_lanes);
 /// The plan of the model for that many lanes; null when a force element is not a Bushing,
 /// ConstantForce or ConstantTorque (the staged route is then taken).
 std::shared_ptr<const Plan> compile(const Model& model, int lanes);
+/// The same, renumbering from renumber_from bodies on instead of kRenumberFrom (for tests).
+std::shared_ptr<const Plan> compile(const Model& model, int lanes, int renumber_from);
 
 /// {y dot} and {x dot} into data.ydot, data.xdot. Needs data.fused_plan.
 void forward_dynamics(const Model& model, const State& state, Data& data);
@@ -56,6 +66,11 @@ void forward_dynamics(const Model& model, const State& state, Data& data);
 /// beyond, it does so when no group's pass 2 comes more than kKeepLag bodies after its pass 1.
 constexpr int kKeepLimit = 4096;
 constexpr int kKeepLag = 64;
+
+/// From this many bodies on, a model not numbered depth first is renumbered so (Plan::user).
+/// The copies into and out of the plan's numbering cost about what the locality saves while the
+/// model's arrays fit in the last-level cache (docs/performance-internal.md, "Random trees").
+constexpr int kRenumberFrom = 65536;
 
 /// The widest kernel this CPU runs (lanes: 2, 4 or 8).
 int widest_supported_lanes();
