@@ -4,13 +4,14 @@
 // random trees and forests, small and large (bushy ones past the kept-scratch limit, where
 // pass 2 recomputes), renumbered or not, give the staged route's ydot to round-off and its
 // xdot exactly, in the user's numbering; renumbering changes no bit (children reach their
-// lower body's loads in the same order); and a chain keeps its numbering.
+// lower body's loads in the same order), without allocating; and a chain keeps its numbering.
 #include <gtest/gtest.h>
 
 #include <memory>
 #include <random>
 #include <vector>
 
+#include "alloc_counter.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/generate.hpp"
@@ -152,6 +153,13 @@ TEST(RecursivePlan, LargeRandomTreeIsRenumberedByDefault) {
   EXPECT_FALSE(plan.keep);
   expect_valid_numbering(g.model, plan);
   forward_dynamics(g.model, g.initial, fused_data, Method::recursive);
+  // The copies into and out of the plan's numbering live in the scratch: nothing allocated
+  // (operator new counted by tests/test_no_alloc.cpp, malloc by the shared counter).
+  alloc_counter::count = 0;
+  alloc_counter::counting = true;
+  forward_dynamics(g.model, g.initial, fused_data, Method::recursive);
+  alloc_counter::counting = false;
+  EXPECT_EQ(alloc_counter::count.load(), 0);
   Data reference(g.model, DataOptions{false, false});
   staged(g.model, g.initial, reference);
   EXPECT_LE((fused_data.ydot - reference.ydot).norm(), 1e-12 * reference.ydot.norm());
