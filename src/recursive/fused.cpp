@@ -211,23 +211,30 @@ std::shared_ptr<const Plan> compile(const Model& model, int kLanes, int renumber
 namespace {
 
 // The state (x: 4N Euler parameters, then 3N translations; y: 3N angular velocities, then 3N
-// translation rates) or its derivatives, copied from one numbering of the bodies into another:
-// to[body k] = from[body user[k]] (gather) or to[body user[k]] = from[body k] (scatter). Tight
-// loops of independent copies, so that the cache misses of the scattered side overlap.
-template <bool kGather>
-void permute(const int* user, int n, const double* from_x, const double* from_y, double* to_x,
-             double* to_y) {
+// translation rates) copied into the plan's numbering, to[body k] = from[body user[k]]; and
+// back, the derivatives but Eq. (40)'s s' dot (= y2, copied in order from the state instead),
+// to[body user[k]] = from[body k]. Tight loops of independent copies, so that the cache misses
+// of the scattered side overlap.
+void gather(const int* user, int n, const double* x, const double* y, double* to_x, double* to_y) {
   const size_t bodies = at(n);
   for (size_t k = 0; k < bodies; ++k) {
     const size_t u = at(user[k]);
-    const size_t src = kGather ? u : k, dst = kGather ? k : u;
-    for (size_t c = 0; c < 4; ++c) to_x[4 * dst + c] = from_x[4 * src + c];
-    for (size_t c = 0; c < 3; ++c)
-      to_x[4 * bodies + 3 * dst + c] = from_x[4 * bodies + 3 * src + c];
-    for (size_t c = 0; c < 3; ++c) to_y[3 * dst + c] = from_y[3 * src + c];
-    for (size_t c = 0; c < 3; ++c)
-      to_y[3 * bodies + 3 * dst + c] = from_y[3 * bodies + 3 * src + c];
+    for (size_t c = 0; c < 4; ++c) to_x[4 * k + c] = x[4 * u + c];
+    for (size_t c = 0; c < 3; ++c) to_x[4 * bodies + 3 * k + c] = x[4 * bodies + 3 * u + c];
+    for (size_t c = 0; c < 3; ++c) to_y[3 * k + c] = y[3 * u + c];
+    for (size_t c = 0; c < 3; ++c) to_y[3 * bodies + 3 * k + c] = y[3 * bodies + 3 * u + c];
   }
+}
+void scatter(const int* user, int n, const double* xdot, const double* ydot, const double* y,
+             double* to_xdot, double* to_ydot) {
+  const size_t bodies = at(n);
+  for (size_t k = 0; k < bodies; ++k) {
+    const size_t u = at(user[k]);
+    for (size_t c = 0; c < 4; ++c) to_xdot[4 * u + c] = xdot[4 * k + c];
+    for (size_t c = 0; c < 3; ++c) to_ydot[3 * u + c] = ydot[3 * k + c];
+    for (size_t c = 0; c < 3; ++c) to_ydot[3 * bodies + 3 * u + c] = ydot[3 * bodies + 3 * k + c];
+  }
+  std::copy(y + 3 * bodies, y + 6 * bodies, to_xdot + 4 * bodies);
 }
 
 }  // namespace
@@ -246,7 +253,7 @@ void forward_dynamics(const Model& model, const State& state, Data& data) {
   double* ydot = data.ydot.data();
   if (renumbered) {
     double* copies = data.fused_scratch.data() + plan.copies_at;
-    permute<true>(plan.user.data(), n, x, y, copies, copies + 7 * at(n));
+    gather(plan.user.data(), n, x, y, copies, copies + 7 * at(n));
     x = copies;
     y = copies + 7 * at(n);
     xdot = copies + 13 * at(n);
@@ -276,7 +283,7 @@ void forward_dynamics(const Model& model, const State& state, Data& data) {
       lanes2::evaluate(args);
   }
   if (renumbered)
-    permute<false>(plan.user.data(), n, xdot, ydot, data.xdot.data(), data.ydot.data());
+    scatter(plan.user.data(), n, xdot, ydot, state.y.data(), data.xdot.data(), data.ydot.data());
 }
 
 }  // namespace kanedyn::fused
