@@ -25,16 +25,27 @@ namespace kanedyn::fused {
 /// compile(), never changed after; a Data keeps it in its private workspace (src/workspace.hpp)
 /// with the scratch the evaluations write (scratch_size doubles).
 struct Plan {
-  int lanes = 2;                 // bodies per SIMD pass
-  std::vector<int> lower;        // L(K) per body, padded to whole SIMD groups
-  std::vector<int> ready;        // per group: the last group holding a child
-  std::vector<double> params;    // Param fields per distinct group of constants
-  std::vector<int> param_group;  // per group of bodies: its group of constants in params
+  int lanes = 2;  // bodies per SIMD pass
+  /// The plan numbers the bodies depth first (each body's subtree follows it) when the Model's
+  /// numbering is not that already and the model is large (kRenumberFrom): then user[k] is the
+  /// Model's number of the plan's body k, and the evaluation copies the state into the plan's
+  /// numbering and the derivatives back. Empty when the two numberings are the same.
+  std::vector<int> user;
+  std::vector<int> lower;  // L(K) per body, padded to whole SIMD groups
+  std::vector<int> ready;  // per group: the last group holding a child
+  /// The constants: each distinct field of a group (its kLanes doubles, equal bit for bit) once
+  std::vector<double> params;
+  /// per distinct group of constants: where in params each of its kParamFields fields starts
+  std::vector<int> param_rows;
+  std::vector<int> param_group;  // per group of bodies: its group of constants in param_rows
   /// pass 1 keeps its results for pass 2 (small models, chain-like large ones), or pass 2
   /// redoes them (large bushy trees)
   bool keep = false;
   int scratch_mask = 0;     // group g's scratch is slot g & scratch_mask (a ring, 2^k slots)
   size_t scratch_size = 0;  // doubles of scratch the evaluations need
+  /// Where in the scratch a renumbered plan keeps the state and its derivatives in its own
+  /// numbering (26 N doubles); the kernel's scratch comes before.
+  size_t copies_at = 0;
 
   size_t memory_bytes() const;
 };
@@ -45,6 +56,8 @@ int chosen_lanes(int max_simd_lanes);
 /// The plan of the model for that many lanes; null when a force element is not a Bushing,
 /// ConstantForce or ConstantTorque (the staged route is then taken).
 std::shared_ptr<const Plan> compile(const Model& model, int lanes);
+/// The same, renumbering from renumber_from bodies on instead of kRenumberFrom (for tests).
+std::shared_ptr<const Plan> compile(const Model& model, int lanes, int renumber_from);
 
 /// {y dot} and {x dot} into data.ydot, data.xdot. Needs the plan in data's workspace.
 void forward_dynamics(const Model& model, const State& state, Data& data);
@@ -53,6 +66,11 @@ void forward_dynamics(const Model& model, const State& state, Data& data);
 /// beyond, it does so when no group's pass 2 comes more than kKeepLag bodies after its pass 1.
 constexpr int kKeepLimit = 4096;
 constexpr int kKeepLag = 64;
+
+/// From this many bodies on, a model not numbered depth first is renumbered so (Plan::user).
+/// The copies into and out of the plan's numbering cost about what the locality saves while the
+/// model's arrays fit in the last-level cache (docs/performance-internal.md, "Random trees").
+constexpr int kRenumberFrom = 65536;
 
 /// The widest kernel this CPU runs (lanes: 2, 4 or 8).
 int widest_supported_lanes();
@@ -101,8 +119,9 @@ struct Args {
   const double* y;         // State::y (6N)
   const int* lower;        // L(K) per body, padded to whole groups (kGround = -1)
   const int* ready;        // per group: the last group holding a child
-  const double* params;    // Param fields per group of constants
-  const int* param_group;  // per group of bodies: its group of constants in params
+  const double* params;    // the distinct fields of the groups of constants, kLanes doubles each
+  const int* param_rows;   // per group of constants: kParamFields offsets into params
+  const int* param_group;  // per group of bodies: its group of constants in param_rows
   double* scratch;         // Scratch fields per group
   int scratch_stride;      // doubles per group: kScratchFields or kAccelFields times the lanes
   int scratch_mask;        // group g's scratch is slot g & scratch_mask (a ring, 2^k slots)
