@@ -230,7 +230,12 @@ bool print_row(const io::ModelFile& file, const Inspection& in, const std::strin
     scale = std::max({scale, std::abs(s.fy), std::abs(s.fy_star)});
     if (s.fy != 0.0 || s.fy_star != 0.0) shares.push_back(s);
   }
-  const auto size = [](const Share& s) { return std::max(std::abs(s.fy), std::abs(s.fy_star)); };
+  // Largest first, by the size rounded to 9 digits of the largest share, so that shares equal
+  // but for round-off (a symmetric pair of legs) keep the body order on every machine.
+  const auto size = [&](const Share& s) {
+    return scale > 0.0 ? std::round(std::max(std::abs(s.fy), std::abs(s.fy_star)) / scale * 1e9)
+                       : 0.0;
+  };
   std::stable_sort(shares.begin(), shares.end(),
                    [&](const Share& a, const Share& b) { return size(a) > size(b); });
   const std::string label = speed_label(n, i);
@@ -243,7 +248,8 @@ bool print_row(const io::ModelFile& file, const Inspection& in, const std::strin
                 io::printable(file.model.body(s.K - 1).name, 20).c_str(), s.fy, s.fy_star);
   std::printf("  (%d of %d bodies contribute)\n", static_cast<int>(shares.size()), n);
   const double sum = in.F_y[i] + in.F_y_star[i];
-  // The residual of the tree LDL^T solve: backward stable, ~6N eps times the largest term.
+  // The residual of Newton-Euler per body (the recursive route solved for {y dot}): ~6N eps
+  // times the largest term.
   const double tolerance = 1e-12 * std::max(scale, 1e-300) * std::max(1, n / 100);
   const bool ok = std::abs(sum) <= tolerance;
   std::printf("  sum  %-20s % 16.9g % 16.9g\n  F_y + F_y* = %.3g: %s (round-off bound %.3g)\n", "",

@@ -4,7 +4,8 @@
 #include <stdexcept>
 
 #include "kanedyn/data.hpp"
-#include "kanedyn/kane.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/kinematics.hpp"
 
 namespace kanedyn {
@@ -26,8 +27,14 @@ Inspection inspect(const Model& model, const State& state, double t,
     if (k < 0 || k >= n)
       throw std::out_of_range("inspect: body index " + std::to_string(k) + " outside 0.." +
                               std::to_string(n - 1));
-  Data data(model, DataOptions{.dense_mass_matrix = false});
-  kane_equations(model, state, data);
+  // {y dot} by the O(N) route: the assembled route's tree LDL^T costs O(N d^2), cubic for a
+  // long chain (a 1000-body chain: seconds), and both solve Eq. (36) to round-off.
+  Data data(model, DataOptions{.kane_terms = false, .dense_mass_matrix = false});
+  compute_kinematics(model, state, data);
+  compute_partials_recursive(model, state, data);
+  compute_partial_rates(model, state, data);
+  compute_resultants(model, state, data);
+  forward_dynamics(model, state, data, Route::recursive);
   Inspection out;
   out.N = n;
   out.t = t;

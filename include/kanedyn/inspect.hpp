@@ -45,14 +45,17 @@ struct Inspection {
   double t = 0.0;    ///< the time of the state (for output; the equations do not depend on it)
   VectorX F_y;       ///< Eq. (31), 6N: the sum of every body's term
   VectorX F_y_star;  ///< the sum of every body's generalized inertia force, 6N
-  VectorX ydot;      ///< the solution of Eq. (36), 6N
+  VectorX ydot;      ///< the solution of Eq. (36), 6N (forward_dynamics, Route::recursive)
   std::vector<BodyInspection> bodies;  ///< the selected bodies, in numbering order
 };
 
-/// Evaluates Kane's equations at the state (the assembled route, kane_equations) and fills an
-/// Inspection. `bodies` lists 0-based indices to include (empty: every body); the sums F_y,
-/// F_y_star and ydot are over every body regardless. Cost: O(sum of chain lengths) for the
-/// sums plus O(N) per selected body for its dense 3 x 6N matrices. Throws ModelError for a
+/// Evaluates the notes' quantities at the state and fills an Inspection: the kinematics, the
+/// partial velocity matrices and their rates, the resultants, and {y dot} by the O(N)
+/// recursive route (which solves Eq. 36 as the assembled route does, to round-off, without
+/// its O(N d^2) factorization). `bodies` lists 0-based indices to include (empty: every body);
+/// the sums F_y, F_y_star and ydot are over every body regardless. Cost: O(sum of chain
+/// lengths) in time and memory for the partials and the sums, plus O(N) per selected body for
+/// its dense 3 x 6N matrices. Throws ModelError for a
 /// model whose chains are too long for the partial velocity blocks
 /// (Model::kMaxFlatChainEntries) and std::out_of_range for an index outside 0..N-1.
 Inspection inspect(const Model& model, const State& state, double t = 0.0,
