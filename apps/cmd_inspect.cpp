@@ -302,8 +302,7 @@ void add_inspect(CLI::App& app) {
   cmd->add_option("--body", opt->bodies, "a body by number (1..N) or name (repeatable)");
   cmd->add_option("--quantity", opt->quantities,
                   "a per-body quantity: R, p_O, p_G, v_O, v_G, w, w_y, v_O_y, v_G_y, v_O_y_dot, "
-                  "v_G_y_dot, F, M, F_y, F_y_star (repeatable; default: all)")
-      ->check(CLI::IsMember(quantity_names()));
+                  "v_G_y_dot, F, M, F_y, F_y_star (repeatable; default: all)");
   auto* row = cmd->add_option(
       "--row", opt->row,
       "explain one row of Kane's equations: each body's share of F_y and F_y* (1..6N, or a "
@@ -313,6 +312,15 @@ void add_inspect(CLI::App& app) {
   row->excludes(cmd->get_option("--body"));
   row->excludes(cmd->get_option("--quantity"));
   cmd->callback([opt] {
+    // An unknown quantity is bad input like an unknown body: exit 1, with the closest name.
+    for (const std::string& q : opt->quantities)
+      if (std::find(quantity_names().begin(), quantity_names().end(), q) ==
+          quantity_names().end()) {
+        const std::string hint = io::closest_word(q, quantity_names());
+        throw std::runtime_error("--quantity " + io::printable(q, 40) + ": no such quantity (" +
+                                 (hint.empty() ? "" : "did you mean '" + hint + "'? ") +
+                                 "see kanedyn inspect --help)");
+      }
     const io::ModelFile file = io::load_model_file(opt->path);
     const std::vector<int> bodies = select_bodies(file.model, opt->path, opt->bodies);
     if (!file.model.has_flat_chains())

@@ -264,7 +264,10 @@ TEST(InspectCommand, SelectionAndErrors) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("give 1..8"), std::string::npos) << r.err;
   r = test::run_in(dir, "inspect " + eight + " --quantity v_Q_y");
-  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(r.err,
+            "kanedyn: error: --quantity v_Q_y: no such quantity (did you mean 'v_O_y'? "
+            "see kanedyn inspect --help)\n");
   // The text names the notes' forms.
   r = test::run_in(dir, "inspect " + eight + " --body 8 --quantity v_G_y");
   ASSERT_EQ(r.exit_code, 0) << r.err;
