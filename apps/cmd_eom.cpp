@@ -17,12 +17,6 @@
 namespace kanedyn::cli {
 namespace {
 
-/// Label of speed i of {y}: w'_K components then s'_K dot components (Eq. 1).
-std::string speed_label(int n, int i) {
-  const int part = i / (3 * n), k = (i % (3 * n)) / 3, c = i % 3;
-  return (part == 0 ? "w" : "sd") + std::to_string(k + 1) + "." + std::to_string(c + 1);
-}
-
 /// Label of coordinate i of {x}: eps_K components then s'_K components.
 std::string coordinate_label(int n, int i) {
   if (i < 4 * n) return "e" + std::to_string(i / 4 + 1) + "." + std::to_string(i % 4 + 1);

@@ -198,12 +198,6 @@ void print_text(const io::ModelFile& file, const Inspection& in, const std::stri
   }
 }
 
-/// Label of speed i (0-based) of {y}: wK.c (w'_K component c) or sdK.c (s'_K dot).
-std::string speed_label(int n, int i) {
-  const int part = i / (3 * n), k = (i % (3 * n)) / 3, c = i % 3;
-  return (part == 0 ? "w" : "sd") + std::to_string(k + 1) + "." + std::to_string(c + 1);
-}
-
 /// A row of Kane's equations: its number 1..6N in the notes' numbering of {y}, or its label
 /// (w8.2, sd3.1); 0-based. Throws naming the problem.
 int parse_row(const std::string& path, const std::string& text, int n) {

@@ -29,6 +29,11 @@ CLI::Validator decimal_number(bool positive) {
       positive ? "NUMBER>0" : "NUMBER");
 }
 
+std::string speed_label(int n, int i) {
+  const int part = i / (3 * n), k = (i % (3 * n)) / 3, c = i % 3;
+  return (part == 0 ? "w" : "sd") + std::to_string(k + 1) + "." + std::to_string(c + 1);
+}
+
 void add_state_options(CLI::App* cmd, StateChoice& choice) {
   auto* trajectory = cmd->add_option("--trajectory", choice.trajectory,
                                      "take the state from a row of this trajectory CSV "

@@ -15,6 +15,11 @@ namespace kanedyn::cli {
 CLI::Validator decimal_number(bool positive);
 inline CLI::Validator positive_number() { return decimal_number(true); }
 
+/// Label of speed i (0-based) of {y} in an N-body model, in the order of Eq. (1): wK.c
+/// (w'_K component c) or sdK.c (s'_K dot component c), as eom prints them and inspect --row
+/// reads them.
+std::string speed_label(int n, int i);
+
 /// `--trajectory FILE.csv --t T`, each needing the other.
 struct StateChoice {
   std::string trajectory;
