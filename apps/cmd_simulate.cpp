@@ -28,17 +28,16 @@
 namespace kanedyn::cli {
 namespace {
 
-// Defaults where neither the command line nor the model file says otherwise.
-constexpr double kDefaultTEnd = 10.0;
-constexpr double kDefaultDtOut = 0.01;
-constexpr double kDefaultRk4Step = 1e-3;
+// The defaults where neither the command line nor the model file says otherwise are
+// SimulationSettings' own (io::simulation_settings).
+const SimulationSettings kDefaults{};
 
 struct Options {
   std::string model;
   std::string out;
-  double t_end = kDefaultTEnd, dt_out = kDefaultDtOut;
-  std::string integrator = "dopri5", route = "recursive";
-  double rtol = 1e-8, atol = 1e-10, step = kDefaultRk4Step;
+  double t_end = kDefaults.t_end, dt_out = kDefaults.dt_out;
+  std::string integrator, route;
+  double rtol = kDefaults.rtol, atol = kDefaults.atol, step = kDefaults.step;
   // Which flags were given (they win over the model file's `simulation:` section).
   CLI::Option *t_end_opt = nullptr, *dt_out_opt = nullptr, *integrator_opt = nullptr,
               *route_opt = nullptr, *rtol_opt = nullptr, *atol_opt = nullptr, *step_opt = nullptr;
@@ -145,22 +144,15 @@ class Progress {
 // ---------------------------------------------------------------------------------------------
 
 SimulationSettings settings_from(const Options& o, const io::SimulationSection& file) {
-  SimulationSettings s;
-  auto pick = [](CLI::Option* flag, double flag_value, const std::optional<double>& file_value,
-                 double fallback) {
-    if (flag && flag->count() > 0) return flag_value;
-    return file_value ? *file_value : fallback;
-  };
-  s.t_end = pick(o.t_end_opt, o.t_end, file.t_end, kDefaultTEnd);
-  s.dt_out = pick(o.dt_out_opt, o.dt_out, file.dt_out, kDefaultDtOut);
-  s.rtol = pick(o.rtol_opt, o.rtol, file.rtol, s.rtol);
-  s.atol = pick(o.atol_opt, o.atol, file.atol, s.atol);
-  s.step = pick(o.step_opt, o.step, file.step, kDefaultRk4Step);
-  const bool integrator_flag = o.integrator_opt->count() > 0;
-  s.integrator =
-      parse_integrator(integrator_flag ? o.integrator : file.integrator.value_or(o.integrator));
-  const bool route_flag = o.route_opt->count() > 0;
-  s.route = parse_route(route_flag ? o.route : file.route.value_or(o.route));
+  SimulationSettings s = io::simulation_settings(file);
+  const auto given = [](const CLI::Option* flag) { return flag && flag->count() > 0; };
+  if (given(o.t_end_opt)) s.t_end = o.t_end;
+  if (given(o.dt_out_opt)) s.dt_out = o.dt_out;
+  if (given(o.rtol_opt)) s.rtol = o.rtol;
+  if (given(o.atol_opt)) s.atol = o.atol;
+  if (given(o.step_opt)) s.step = o.step;
+  if (given(o.integrator_opt)) s.integrator = parse_integrator(o.integrator);
+  if (given(o.route_opt)) s.route = parse_route(o.route);
   return s;
 }
 

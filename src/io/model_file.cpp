@@ -1204,6 +1204,18 @@ ModelFile load_model_file(const std::string& path) {
   return parse_model_file(text, path);
 }
 
+SimulationSettings simulation_settings(const SimulationSection& section) {
+  SimulationSettings s;
+  s.t_end = section.t_end.value_or(s.t_end);
+  s.dt_out = section.dt_out.value_or(s.dt_out);
+  s.rtol = section.rtol.value_or(s.rtol);
+  s.atol = section.atol.value_or(s.atol);
+  s.step = section.step.value_or(s.step);
+  if (section.integrator) s.integrator = parse_integrator(*section.integrator);
+  if (section.route) s.route = parse_route(*section.route);
+  return s;
+}
+
 namespace detail {
 
 ModelFile parse_model_file_with_libyaml(const std::string& text, const std::string& source_name) {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "kanedyn/model.hpp"
+#include "kanedyn/simulate.hpp"
 #include "kanedyn/state.hpp"
 
 namespace kanedyn::io {
@@ -39,6 +40,11 @@ struct SimulationSection {
   /// assembled route)
   std::optional<std::string> route;
 };
+
+/// The settings a run starts from: SimulationSettings' defaults (those of `kanedyn simulate`)
+/// with every field the section sets taken from it. The CLI's flags and the Python module's
+/// keywords then override single fields, so both start from the same numbers.
+SimulationSettings simulation_settings(const SimulationSection& section);
 
 /// What a model file holds.
 struct ModelFile {
