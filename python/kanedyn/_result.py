@@ -1,0 +1,186 @@
+"""Simulation results and the progress bar (the Python side of Model.simulate)."""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import os
+import sys
+import time
+from typing import Any, Dict, List, Optional, Tuple, Union
+
+import numpy as np
+
+_SUFFIXES = ("x", "y", "z", "e1", "e2", "e3", "e4", "s1", "s2", "s3", "w1", "w2", "w3", "sd1", "sd2", "sd3")
+
+
+class Result:
+    """A trajectory: one row per output time.
+
+    t (T,), x (T, 7N) and y (T, 6N) are the states of Eq. (1) in the notes' order, p_G (T, N, 3)
+    the mass centres G_K (inertial), energy (T,) the total energy; stats is a dict (status,
+    steps_accepted, steps_rejected, evaluations, wall_seconds, energy_initial, energy_final,
+    relative_energy_change, max_euler_drift, message, ...). r["torso.w2"] is a column of the
+    trajectory CSV by name (r.columns lists them); r.to_csv(path) writes the CSV that
+    `kanedyn simulate` writes.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        t: np.ndarray,
+        x: np.ndarray,
+        y: np.ndarray,
+        p_G: np.ndarray,
+        energy: np.ndarray,
+        stats: Dict[str, Any],
+        path: Optional[str] = None,
+    ) -> None:
+        self.model = model
+        self.t = t
+        self.x = x
+        self.y = y
+        self.p_G = p_G
+        self.energy = energy
+        self.stats = stats
+        self.path = path  #: the CSV streamed during the run, if any
+
+    @property
+    def columns(self) -> List[str]:
+        """The trajectory CSV's columns, in order."""
+        return list(self.model.columns)
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def __repr__(self) -> str:
+        status = self.stats.get("status", "read from a file")
+        return f"<kanedyn.Result {len(self)} rows, N={self.model.N}, {status}>"
+
+    def _locate(self, name: str) -> Tuple[np.ndarray, Tuple[Any, ...]]:
+        if name == "t":
+            return self.t, (slice(None),)
+        if name == "energy":
+            return self.energy, (slice(None),)
+        body, _, suffix = name.rpartition(".")
+        n = self.model.N
+        if body and suffix in _SUFFIXES:
+            try:
+                k = self.model.body_number(body) - 1
+            except KeyError:
+                k = -1
+            if k >= 0:
+                i = _SUFFIXES.index(suffix)
+                if i < 3:
+                    return self.p_G, (slice(None), k, i)
+                if i < 7:
+                    return self.x, (slice(None), 4 * k + i - 3)
+                if i < 10:
+                    return self.x, (slice(None), 4 * n + 3 * k + i - 7)
+                if i < 13:
+                    return self.y, (slice(None), 3 * k + i - 10)
+                return self.y, (slice(None), 3 * n + 3 * k + i - 13)
+        near = difflib.get_close_matches(name, self.columns, n=1)
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        raise KeyError(f"no column {name!r}{hint}; r.columns lists them")
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """The column `name` of the trajectory CSV (e.g. "torso.w2", "pelvis.z", "energy"), a
+        C-contiguous copy of shape (T,)."""
+        if not isinstance(name, str):
+            raise TypeError(f"columns are named by str, e.g. r['t'], not {type(name).__name__}")
+        array, index = self._locate(name)
+        return np.ascontiguousarray(array[index])
+
+    def state(self, row: int) -> Any:
+        """The State of one row (a copy)."""
+        from ._kanedyn import State
+
+        return State(self.x[row], self.y[row])
+
+    def table(self) -> np.ndarray:
+        """Every column of the CSV, (T, 2 + 16N), in the order of r.columns."""
+        n = self.model.N
+        T = len(self)
+        out = np.empty((T, 2 + 16 * n))
+        out[:, 0] = self.t
+        per_body = out[:, 1 : 1 + 16 * n].reshape(T, n, 16)
+        per_body[:, :, 0:3] = self.p_G
+        per_body[:, :, 3:7] = self.x[:, : 4 * n].reshape(T, n, 4)
+        per_body[:, :, 7:10] = self.x[:, 4 * n :].reshape(T, n, 3)
+        per_body[:, :, 10:13] = self.y[:, : 3 * n].reshape(T, n, 3)
+        per_body[:, :, 13:16] = self.y[:, 3 * n :].reshape(T, n, 3)
+        out[:, -1] = self.energy
+        return out
+
+    def to_csv(self, path: Union[str, os.PathLike]) -> None:
+        """Writes the trajectory CSV, byte for byte what `kanedyn simulate` writes for the same
+        run: to PATH.partial, renamed to PATH when complete."""
+        self.model._write_csv(path, self.t, self.x, self.y, self.energy)
+
+    @classmethod
+    def read_csv(cls, model: Any, path: Union[str, os.PathLike]) -> "Result":
+        """A trajectory CSV of this model, read back to the same doubles."""
+        path = os.fspath(path)
+        with open(path, newline="") as f:
+            reader = csv.reader(f)
+            header = next(reader, None)
+            expected = list(model.columns)
+            if header != expected:
+                if header is None:
+                    raise ValueError(f"{path}: empty file; expected the header of this model's trajectory")
+                where = next(
+                    (i for i, (a, b) in enumerate(zip(header, expected)) if a != b),
+                    min(len(header), len(expected)),
+                )
+                got = header[where] if where < len(header) else "(end of line)"
+                want = expected[where] if where < len(expected) else "(end of line)"
+                raise ValueError(
+                    f"{path}:1: not a trajectory of this model: column {where + 1} is {got!r}, expected {want!r}"
+                )
+            rows: List[List[float]] = []
+            for line, fields in enumerate(reader, start=2):
+                if len(fields) != len(expected):
+                    raise ValueError(f"{path}:{line}: {len(fields)} fields, expected {len(expected)}")
+                try:
+                    rows.append([float(v) for v in fields])
+                except ValueError as e:
+                    raise ValueError(f"{path}:{line}: {e}") from None
+        n = model.N
+        table = np.array(rows, dtype=np.float64).reshape(len(rows), 2 + 16 * n)
+        per_body = table[:, 1 : 1 + 16 * n].reshape(len(rows), n, 16)
+        x = np.concatenate([per_body[:, :, 3:7].reshape(len(rows), 4 * n), per_body[:, :, 7:10].reshape(len(rows), 3 * n)], axis=1)
+        y = np.concatenate(
+            [per_body[:, :, 10:13].reshape(len(rows), 3 * n), per_body[:, :, 13:16].reshape(len(rows), 3 * n)], axis=1
+        )
+        return cls(
+            model,
+            np.ascontiguousarray(table[:, 0]),
+            np.ascontiguousarray(x),
+            np.ascontiguousarray(y),
+            np.ascontiguousarray(per_body[:, :, 0:3]),
+            np.ascontiguousarray(table[:, -1]),
+            {},
+            path,
+        )
+
+
+class ProgressBar:
+    """progress=True of Model.simulate: a bar on stderr, redrawn in place, cleared at the end."""
+
+    def __init__(self, stream: Any = None, width: int = 30) -> None:
+        self.stream = stream if stream is not None else sys.stderr
+        self.width = width
+        self.start = time.monotonic()
+        self.drawn = False
+
+    def __call__(self, t: float, t_end: float) -> None:
+        fraction = min(max(t / t_end if t_end > 0 else 1.0, 0.0), 1.0)
+        elapsed = time.monotonic() - self.start
+        filled = int(fraction * self.width)
+        bar = "#" * filled + "." * (self.width - filled)
+        left = elapsed * (1 - fraction) / fraction if fraction > 0 else 0.0
+        end = "\n" if fraction >= 1.0 else ""
+        self.stream.write(f"\r[{bar}] {100 * fraction:5.1f}%  t = {t:.4g} of {t_end:.4g}  elapsed {elapsed:.1f} s  left ~{left:.0f} s {end}")
+        self.stream.flush()
+        self.drawn = True

@@ -1,0 +1,395 @@
+// kanedyn.Model: loading, the model's description, the state, and the equations at one state
+// (eom, inspect, energy), each a thin call of the library's public API.
+#include <pybind11/stl.h>
+
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "kanedyn/energy.hpp"
+#include "kanedyn/inspect.hpp"
+#include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/text.hpp"
+#include "kanedyn/kane.hpp"
+
+namespace kanedyn::python {
+
+PyModel::Lease::Lease(const PyModel& owner) : owner_(owner) {
+  {
+    const std::lock_guard<std::mutex> lock(owner_.pool_mutex_);
+    if (!owner_.pool_.empty()) {
+      work_ = std::move(owner_.pool_.back());
+      owner_.pool_.pop_back();
+    }
+  }
+  if (!work_) work_ = std::make_unique<Workspace>(owner_.model());
+}
+
+PyModel::Lease::~Lease() {
+  const std::lock_guard<std::mutex> lock(owner_.pool_mutex_);
+  owner_.pool_.push_back(std::move(work_));
+}
+
+namespace {
+
+/// [A], {f}, {y dot}, {x dot} and {F_y} at one state, as numpy arrays.
+struct Equations {
+  int N = 0;
+  py::array_t<double> A, f, ydot, xdot, F_y;
+};
+
+/// The largest N whose dense [A] eom computes: 36 N^2 doubles, 288 MB at 1000 bodies.
+constexpr int kMaxDenseBodies = 1000;
+
+Equations equations_of_motion(const PyModel& m, py::handle state_obj) {
+  const State state = state_argument(m, state_obj);
+  if (m.N() > kMaxDenseBodies)
+    throw py::value_error("eom() forms the dense 6N x 6N [A], and N = " + std::to_string(m.N()) +
+                          " is more than " + std::to_string(kMaxDenseBodies) +
+                          "; derivatives() and simulate() run models of any size");
+  Equations e;
+  {
+    py::gil_scoped_release release;
+    Data data(m.model(), DataOptions{.partials = false});  // [A] dense, as eom --json prints it
+    kane_equations(m.model(), state, data);
+    py::gil_scoped_acquire acquire;
+    e.N = m.N();
+    e.A = to_numpy(data.kane.A);
+    e.f = to_numpy(data.kane.f);
+    e.ydot = to_numpy(data.ydot);
+    e.xdot = to_numpy(data.xdot);
+    e.F_y = to_numpy(data.kane.F_y);
+  }
+  return e;
+}
+
+/// 0-based indices of the bodies named by 1-based numbers or by names.
+std::vector<int> body_indices(const Model& model, py::handle bodies) {
+  std::vector<int> out;
+  if (bodies.is_none()) return out;
+  std::vector<py::object> items;
+  if (py::isinstance<py::str>(bodies) || py::isinstance<py::int_>(bodies))
+    items.push_back(py::reinterpret_borrow<py::object>(bodies));
+  else
+    for (py::handle item : bodies) items.push_back(py::reinterpret_borrow<py::object>(item));
+  for (const py::object& item : items) {
+    int k = -1;
+    if (py::isinstance<py::bool_>(item)) {
+      throw py::type_error("bodies: expected body numbers K (1..N) or names, got a bool");
+    } else if (py::isinstance<py::int_>(item)) {
+      const long K = item.cast<long>();
+      if (K < 1 || K > model.num_bodies())
+        throw py::value_error("bodies: body number " + std::to_string(K) + " is not in 1.." +
+                              std::to_string(model.num_bodies()));
+      k = static_cast<int>(K - 1);
+    } else if (py::isinstance<py::str>(item)) {
+      const std::string name = item.cast<std::string>();
+      k = model.body_index(name);
+      if (k < 0) {
+        std::vector<std::string> names;
+        for (const BodySpec& b : model.bodies()) names.push_back(b.name);
+        const std::string near = io::closest_word(name, names);
+        throw py::value_error("bodies: no body named '" + io::printable(name, 60) + "'" +
+                              (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+      }
+    } else {
+      throw py::type_error("bodies: expected body numbers K (1..N) or names, got " +
+                           std::string(py::str(item.get_type().attr("__name__"))));
+    }
+    out.push_back(k);
+  }
+  return out;
+}
+
+Point point_argument(const std::string& point) {
+  if (point == "O") return Point::O;
+  if (point == "G") return Point::G;
+  throw py::value_error("point must be 'O' or 'G', got '" + io::printable(point, 20) + "'");
+}
+
+template <class T>
+py::list to_list(const std::vector<T>& values) {
+  py::list out;
+  for (const T& v : values) out.append(v);
+  return out;
+}
+
+void register_inspection(py::module_& m) {
+  py::class_<BodyInspection>(m, "BodyInspection",
+                             "One body's quantities at a state (kanedyn inspect --json, one "
+                             "entry of 'bodies'). Inertial components unless said; "
+                             "3 x 6N matrices have their columns in the order of {y}.")
+      .def_readonly("K", &BodyInspection::K, "body number of the notes (1-based)")
+      .def_readonly("name", &BodyInspection::name)
+      .def_readonly("L", &BodyInspection::L, "L(K), 0 for the inertial frame")
+      .def_readonly("u", &BodyInspection::u, "u_K, bodies between K and the inertial frame")
+      .def_readonly("chain", &BodyInspection::chain, "K, L(K), ..., 0")
+#define KANEDYN_FIELD(field, doc) \
+  .def_property_readonly(         \
+      #field, [](const BodyInspection& b) { return to_numpy(b.field); }, doc)
+          KANEDYN_FIELD(R, "[R_K] (Eqs. 3-4), 3x3: inertial -> body-K components") KANEDYN_FIELD(
+              p_O, "{p_O_K} (Eq. 12), position of O_K")
+              KANEDYN_FIELD(p_G, "{p_G_K} (Eq. 13), position of the mass centre G_K") KANEDYN_FIELD(
+                  v_O, "{v_O_K} (Eq. 15)") KANEDYN_FIELD(v_G, "{v_G_K} (Eq. 17)")
+                  KANEDYN_FIELD(w, "{w'_K}, body-K components") KANEDYN_FIELD(
+                      w_y, "[w'_K,y] (Eq. 8), 3 x 6N")
+                      KANEDYN_FIELD(v_O_y, "[v_O_K,y] (Eqs. 18-19, 22-24), 3 x 6N") KANEDYN_FIELD(
+                          v_G_y, "[v_G_K,y] (Eqs. 20-21, 25-27), 3 x 6N")
+                          KANEDYN_FIELD(v_O_y_dot, "d/dt [v_O_K,y] (Eq. 29), 3 x 6N") KANEDYN_FIELD(
+                              v_G_y_dot, "d/dt [v_G_K,y] (Eq. 30), 3 x 6N")
+                              KANEDYN_FIELD(F, "{F_K}: resultant force at G_K (Eq. 31)")
+                                  KANEDYN_FIELD(
+                                      M, "{M'_K}: resultant moment about G_K, body-K components")
+                                      KANEDYN_FIELD(F_y, "K's term of {F_y} (Eq. 31), 6N")
+                                          KANEDYN_FIELD(F_y_star,
+                                                        "K's generalized inertia force at the "
+                                                        "solved {y dot}, 6N")
+#undef KANEDYN_FIELD
+      .def("__repr__", [](const BodyInspection& b) {
+        return "<kanedyn.BodyInspection K=" + std::to_string(b.K) + " '" + b.name + "'>";
+      });
+
+  py::class_<Inspection>(m, "Inspection",
+                         "Every quantity of the notes at one state (kanedyn inspect --json). "
+                         "Index by body number K or name: q[8], q['head'].")
+      .def_readonly("N", &Inspection::N)
+      .def_readonly("t", &Inspection::t)
+      .def_property_readonly(
+          "F_y", [](const Inspection& q) { return to_numpy(q.F_y); },
+          "{F_y} (Eq. 31), 6N: the sum over every body")
+      .def_property_readonly(
+          "F_y_star", [](const Inspection& q) { return to_numpy(q.F_y_star); },
+          "the generalized inertia forces, 6N: {F_y} + {F_y*} = 0 at the solution")
+      .def_property_readonly(
+          "ydot", [](const Inspection& q) { return to_numpy(q.ydot); }, "{y dot} (Eq. 36), 6N")
+      .def_readonly("bodies", &Inspection::bodies, "the selected bodies, in numbering order")
+      .def(
+          "__getitem__",
+          [](const Inspection& q, py::object key) -> const BodyInspection& {
+            for (const BodyInspection& b : q.bodies)
+              if ((py::isinstance<py::int_>(key) && !py::isinstance<py::bool_>(key) &&
+                   key.cast<long>() == b.K) ||
+                  (py::isinstance<py::str>(key) && key.cast<std::string>() == b.name))
+                return b;
+            throw py::key_error("no body " + std::string(py::repr(key)) + " in this inspection");
+          },
+          py::return_value_policy::reference_internal)
+      .def("__len__", [](const Inspection& q) { return q.bodies.size(); })
+      .def("__repr__", [](const Inspection& q) {
+        return "<kanedyn.Inspection N=" + std::to_string(q.N) + " t=" + std::to_string(q.t) + ", " +
+               std::to_string(q.bodies.size()) + " bodies>";
+      });
+}
+
+py::array_t<int> int_array(const std::vector<int>& values) {
+  py::array_t<int> out(static_cast<py::ssize_t>(values.size()));
+  for (size_t i = 0; i < values.size(); ++i) out.mutable_data()[i] = values[i];
+  return out;
+}
+
+py::dict simulation_section(const io::SimulationSection& s) {
+  py::dict d;
+  if (s.t_end) d["t_end"] = *s.t_end;
+  if (s.dt_out) d["dt_out"] = *s.dt_out;
+  if (s.integrator) d["integrator"] = *s.integrator;
+  if (s.rtol) d["rtol"] = *s.rtol;
+  if (s.atol) d["atol"] = *s.atol;
+  if (s.step) d["step"] = *s.step;
+  if (s.route) d["route"] = to_string(parse_route(*s.route));
+  return d;
+}
+
+}  // namespace
+
+void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls) {
+  py::class_<Equations>(m, "EquationsOfMotion",
+                        "Kane's equations [A]{y dot} = {f} (Eq. 36) at one state, as "
+                        "kanedyn eom --json prints them.")
+      .def_readonly("N", &Equations::N)
+      .def_readonly("A", &Equations::A, "[A] (Eq. 37), 6N x 6N, symmetric positive definite")
+      .def_readonly("f", &Equations::f, "{f} (Eq. 38), 6N")
+      .def_readonly("ydot", &Equations::ydot, "{y dot}, the solution of Eq. (36), 6N")
+      .def_readonly("xdot", &Equations::xdot, "{x dot} (Eqs. 39-40), 7N")
+      .def_readonly("F_y", &Equations::F_y, "{F_y}, the generalized active forces (Eq. 31), 6N")
+      .def("__repr__", [](const Equations& e) {
+        return "<kanedyn.EquationsOfMotion N=" + std::to_string(e.N) + ">";
+      });
+  register_inspection(m);
+
+  m.def(
+      "_load_file",
+      [](const std::string& path) {
+        try {
+          py::gil_scoped_release release;
+          return std::make_shared<PyModel>(io::load_model_file(path));
+        } catch (const io::ModelFileError& e) {
+          raise_model_error(e);
+        }
+      },
+      py::arg("path"));
+  m.def(
+      "_load_text",
+      [](const std::string& text, const std::string& name) {
+        try {
+          py::gil_scoped_release release;
+          return std::make_shared<PyModel>(io::parse_model_file(text, name));
+        } catch (const io::ModelFileError& e) {
+          raise_model_error(e);
+        }
+      },
+      py::arg("text"), py::arg("name"));
+
+  cls.def_property_readonly("N", &PyModel::N, "N, the number of bodies")
+      .def_property_readonly(
+          "name", [](const PyModel& p) { return p.model().name(); }, "the model's name")
+      .def_property_readonly(
+          "path", [](const PyModel& p) { return p.file().path; },
+          "the file it was loaded from ('<string>' or '<dict>' otherwise)")
+      .def_property_readonly(
+          "L",
+          [](const PyModel& p) {
+            std::vector<int> L;
+            for (int k = 0; k < p.N(); ++k) L.push_back(p.model().lower_body(k) + 1);
+            return int_array(L);
+          },
+          "L(K) for K = 1..N as the notes print it (1-based; 0 is the inertial frame), "
+          "array (N,)")
+      .def_property_readonly(
+          "u",
+          [](const PyModel& p) {
+            std::vector<int> u;
+            for (int k = 0; k < p.N(); ++k) u.push_back(p.model().depth(k));
+            return int_array(u);
+          },
+          "u_K, the number of bodies below K, array (N,)")
+      .def_property_readonly(
+          "body_names",
+          [](const PyModel& p) {
+            std::vector<std::string> names;
+            for (const BodySpec& b : p.model().bodies()) names.push_back(b.name);
+            return names;
+          },
+          "the bodies' names, in numbering order (body K is body_names[K-1])")
+      .def_property_readonly(
+          "total_mass", [](const PyModel& p) { return p.model().total_mass(); }, "sum of m_K")
+      .def_property_readonly(
+          "gravity", [](const PyModel& p) { return to_numpy(p.model().gravity()); },
+          "{g}, inertial components, (3,)")
+      .def_property_readonly(
+          "mass",
+          [](const PyModel& p) {
+            VectorX v(p.N());
+            for (int k = 0; k < p.N(); ++k) v[k] = p.model().body(k).mass;
+            return to_numpy(v);
+          },
+          "m_K, (N,)")
+      .def_property_readonly(
+          "inertia",
+          [](const PyModel& p) {
+            py::array_t<double> out({p.N(), 3, 3});
+            auto o = out.mutable_unchecked<3>();
+            for (int k = 0; k < p.N(); ++k)
+              for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) o(k, i, j) = p.model().body(k).inertia(i, j);
+            return out;
+          },
+          "[I'_G_K] about G_K, body-K components, (N, 3, 3)")
+      .def_property_readonly(
+          "com",
+          [](const PyModel& p) {
+            std::vector<double> v;
+            for (const BodySpec& b : p.model().bodies())
+              v.insert(v.end(), b.com.begin(), b.com.end());
+            return to_numpy(v, p.N(), 3);
+          },
+          "{r'_K}: O_K to G_K, body-K components, (N, 3)")
+      .def_property_readonly(
+          "joint",
+          [](const PyModel& p) {
+            std::vector<double> v;
+            for (const BodySpec& b : p.model().bodies())
+              v.insert(v.end(), b.joint.begin(), b.joint.end());
+            return to_numpy(v, p.N(), 3);
+          },
+          "{q'_K}: O_J to Q_K, body-J components (inertial for a root), (N, 3)")
+      .def_property_readonly(
+          "columns", [](const PyModel& p) { return io::trajectory_columns(p.model()); },
+          "the trajectory CSV's columns: t, NAME.x .. NAME.sd3 per body, energy")
+      .def_property_readonly(
+          "simulation", [](const PyModel& p) { return simulation_section(p.file().simulation); },
+          "the file's simulation: section (only the keys it sets)")
+      .def(
+          "body_number",
+          [](const PyModel& p, const std::string& name) {
+            const int k = p.model().body_index(name);
+            if (k < 0) throw py::key_error("no body named '" + io::printable(name, 60) + "'");
+            return k + 1;
+          },
+          py::arg("name"), "K (1-based) of the body with this name")
+      .def(
+          "initial_state", [](const PyModel& p) { return p.file().initial; },
+          "The model file's initial state (Euler parameters normalized), a new kanedyn.State.")
+      .def(
+          "state", [](const PyModel& p) { return State(p.model()); },
+          "The zero state: identity orientations, zero translations and speeds.")
+      .def("eom", &equations_of_motion, py::arg("state") = py::none(),
+           "Kane's equations at a state (default: the initial state): [A] (Eq. 37), {f} (Eq. "
+           "38), {y dot} (Eq. 36), {x dot} (Eqs. 39-40) and {F_y} (Eq. 31), the same numbers as "
+           "`kanedyn eom --json`. At most 1000 bodies (the dense [A]).")
+      .def(
+          "inspect",
+          [](const PyModel& p, py::handle state_obj, double t, py::handle bodies) {
+            const State state = state_argument(p, state_obj);
+            const std::vector<int> selected = body_indices(p.model(), bodies);
+            try {
+              py::gil_scoped_release release;
+              return inspect(p.model(), state, t, selected);
+            } catch (const ModelError& e) {
+              throw py::value_error(e.what());
+            }
+          },
+          py::arg("state") = py::none(), py::arg("t") = 0.0, py::arg("bodies") = py::none(),
+          "Every quantity of the notes at a state (default: the initial state), as `kanedyn "
+          "inspect --json` gives them: bodies is None (all), a body number K, a name, or a list "
+          "of them; t is only reported.")
+      .def(
+          "symbolic_partial",
+          [](const PyModel& p, py::object body, const std::string& point, bool rate) {
+            const std::vector<int> k = body_indices(p.model(), body);
+            if (k.size() != 1) throw py::value_error("body: give one body number K or name");
+            const Point pt = point_argument(point);
+            return format_symbolic(p.model(), k[0], pt, rate, 1) + "\n" +
+                   format_symbolic(p.model(), k[0], pt, rate, 2);
+          },
+          py::arg("body"), py::arg("point") = "G", py::arg("rate") = false,
+          "The notes' block form of [v_P_K,y] (Eqs. 22-27), or of its time derivative with "
+          "rate=True (Eqs. 29-30), for P = 'O' or 'G': two lines, the y1 and y2 parts.")
+      .def(
+          "energy",
+          [](const PyModel& p, py::handle state_obj) {
+            const State state = state_argument(p, state_obj);
+            Data data(p.model(), DataOptions::recursive_only());
+            return py::make_tuple(kinetic_energy(p.model(), state, data),
+                                  potential_energy(p.model(), state, data),
+                                  total_energy(p.model(), state, data));
+          },
+          py::arg("state") = py::none(),
+          "(kinetic, potential, total) energy at a state (total is the CSV's energy column).")
+      .def(
+          "momentum",
+          [](const PyModel& p, py::handle state_obj) {
+            const State state = state_argument(p, state_obj);
+            Data data(p.model(), DataOptions::recursive_only());
+            return py::make_tuple(to_numpy(linear_momentum(p.model(), state, data)),
+                                  to_numpy(angular_momentum(p.model(), state, data)));
+          },
+          py::arg("state") = py::none(),
+          "(linear momentum, angular momentum about the inertial origin), inertial components.")
+      .def("__repr__", [](const PyModel& p) {
+        return "<kanedyn.Model '" +
+               io::printable(p.model().name().empty() ? p.file().path : p.model().name(), 60) +
+               "' N=" + std::to_string(p.N()) + ">";
+      });
+}
+
+}  // namespace kanedyn::python

@@ -1,0 +1,377 @@
+// The motion: {x dot}, {y dot} at one state or a batch of states (the O(N) route, no Python
+// in the loop), simulate() with its trajectory in numpy arrays and optionally a CSV file, and
+// writing a stored trajectory as the CSV the command-line tool writes.
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "bindings.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/energy.hpp"
+#include "kanedyn/io/csv.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "kanedyn/simulate.hpp"
+
+namespace kanedyn::python {
+
+namespace {
+
+std::string sizes(const char* what, int n, int per_body) {
+  return std::string("(") + what + ",) = (" + std::to_string(per_body * n) +
+         ",) for N = " + std::to_string(n);
+}
+
+/// Runs forward_dynamics without the GIL for models large enough that releasing it pays
+/// (it costs about 0.1 us).
+constexpr int kReleaseGilBodies = 32;
+
+py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
+  const int n = m.N();
+  if (!std::isfinite(t)) throw py::value_error("t must be finite");
+  const auto xa = float64_array(x, "x", {7 * n}, sizes("7N", n, 7));
+  const auto ya = float64_array(y, "y", {6 * n}, sizes("6N", n, 6));
+  PyModel::Lease work(m);
+  std::string problem =
+      copy_coordinates(m.model(), xa.data(), xa.strides(0) / 8, work->state.x, "x");
+  if (problem.empty())
+    problem = copy_speeds(m.model(), ya.data(), ya.strides(0) / 8, work->state.y, "y");
+  if (!problem.empty()) throw py::value_error(problem);
+  if (n >= kReleaseGilBodies) {
+    py::gil_scoped_release release;
+    forward_dynamics(m.model(), work->state, work->data, Route::recursive);
+  } else {
+    forward_dynamics(m.model(), work->state, work->data, Route::recursive);
+  }
+  return py::make_tuple(to_numpy(work->data.xdot), to_numpy(work->data.ydot));
+}
+
+py::tuple derivatives_batch(const PyModel& m, py::handle X, py::handle Y, int threads) {
+  const int n = m.N();
+  const auto xa =
+      float64_array(X, "X", {-1, 7 * n},
+                    "(M, 7N) = (M, " + std::to_string(7 * n) + ") for N = " + std::to_string(n));
+  const py::ssize_t rows = xa.shape(0);
+  const auto ya = float64_array(
+      Y, "Y", {rows, 6 * n},
+      "(M, 6N) = (" + std::to_string(rows) + ", " + std::to_string(6 * n) + ") (M from X)");
+  if (threads < 0) throw py::value_error("threads must be >= 0 (0: every core)");
+  py::array_t<double> xd({rows, static_cast<py::ssize_t>(7 * n)});
+  py::array_t<double> yd({rows, static_cast<py::ssize_t>(6 * n)});
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const py::ssize_t workers =
+      std::max<py::ssize_t>(1, std::min<py::ssize_t>(threads > 0 ? threads : cores, rows));
+  const double* x_in = xa.data();
+  const double* y_in = ya.data();
+  const py::ssize_t xs0 = xa.strides(0) / 8, xs1 = xa.strides(1) / 8;
+  const py::ssize_t ys0 = ya.strides(0) / 8, ys1 = ya.strides(1) / 8;
+  double* x_out = xd.mutable_data();
+  double* y_out = yd.mutable_data();
+  // Each worker records the first bad row of its share; the lowest row is reported.
+  std::vector<py::ssize_t> bad_row(static_cast<size_t>(workers), -1);
+  std::vector<std::string> bad(static_cast<size_t>(workers));
+  const auto work = [&](py::ssize_t w) {
+    PyModel::Lease lease(m);
+    const py::ssize_t first = rows * w / workers, last = rows * (w + 1) / workers;
+    for (py::ssize_t r = first; r < last; ++r) {
+      const std::string label = "[" + std::to_string(r) + "]";
+      std::string problem =
+          copy_coordinates(m.model(), x_in + r * xs0, xs1, lease->state.x, "X" + label);
+      if (problem.empty())
+        problem = copy_speeds(m.model(), y_in + r * ys0, ys1, lease->state.y, "Y" + label);
+      if (!problem.empty()) {
+        bad_row[static_cast<size_t>(w)] = r;
+        bad[static_cast<size_t>(w)] = problem;
+        return;
+      }
+      forward_dynamics(m.model(), lease->state, lease->data, Route::recursive);
+      std::copy_n(lease->data.xdot.data(), 7 * n, x_out + r * 7 * n);
+      std::copy_n(lease->data.ydot.data(), 6 * n, y_out + r * 6 * n);
+    }
+  };
+  {
+    py::gil_scoped_release release;
+    std::vector<std::thread> pool;
+    for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
+    work(0);
+    for (std::thread& th : pool) th.join();
+  }
+  for (size_t w = 0; w < bad_row.size(); ++w)
+    if (bad_row[w] >= 0) throw py::value_error(bad[w]);
+  return py::make_tuple(xd, yd);
+}
+
+/// A (shape) float64 array that owns `values` without copying them.
+py::array_t<double> adopt(std::vector<double>&& values, std::vector<py::ssize_t> shape) {
+  auto* heap = new std::vector<double>(std::move(values));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<double>*>(p); });
+  return py::array_t<double>(shape, heap->data(), owner);
+}
+
+double positive_setting(py::handle value, const char* name) {
+  const double v = value.cast<double>();
+  if (!(std::isfinite(v) && v > 0.0))
+    throw py::value_error(std::string(name) + " must be a finite number > 0, got " +
+                          std::string(py::repr(value)));
+  return v;
+}
+
+SimulationSettings settings_from(const PyModel& m, const py::dict& given) {
+  SimulationSettings s = io::simulation_settings(m.file().simulation);
+  const auto set = [&](const char* key, double& field) {
+    if (given.contains(key) && !given[key].is_none()) field = positive_setting(given[key], key);
+  };
+  set("t_end", s.t_end);
+  set("dt_out", s.dt_out);
+  set("rtol", s.rtol);
+  set("atol", s.atol);
+  set("step", s.step);
+  set("max_step", s.max_step);
+  if (given.contains("integrator") && !given["integrator"].is_none())
+    s.integrator = parse_integrator(given["integrator"].cast<std::string>());
+  if (given.contains("route") && !given["route"].is_none())
+    s.route = parse_route(given["route"].cast<std::string>());
+  validate_settings(m.model(), s);
+  return s;
+}
+
+py::dict stats_dict(const Model& model, const SimulationStats& st) {
+  py::dict d;
+  d["status"] = to_string(st.status);
+  d["t_reached"] = st.t_reached;
+  d["steps_accepted"] = st.steps_accepted;
+  d["steps_rejected"] = st.steps_rejected;
+  d["evaluations"] = st.evaluations;
+  d["outputs"] = st.outputs;
+  d["energy_initial"] = st.energy_initial;
+  d["energy_final"] = st.energy_final;
+  d["relative_energy_change"] = st.relative_energy_change();
+  d["max_euler_drift"] = st.max_euler_drift;
+  d["wall_seconds"] = st.wall_seconds;
+  d["failed_body"] =
+      st.failed_body >= 0 ? py::object(py::str(model.body(st.failed_body).name)) : py::none();
+  d["message"] = st.message;
+  return d;
+}
+
+/// The rows simulate() keeps: t, x, y, the mass centres and the energy of each output state.
+struct Rows {
+  std::vector<double> t, x, y, p_G, energy;
+};
+
+/// What on_step does while the GIL is released: about every 50 ms it takes the GIL to let
+/// Python run its signal handlers (Ctrl-C) and, every 0.1 s, the progress callback. An
+/// exception of either stops the run and is raised when simulate() returns.
+class StepHook {
+ public:
+  StepHook(py::object progress, double t_end) : progress_(std::move(progress)), t_end_(t_end) {}
+  ~StepHook() {
+    if (type_) {
+      py::gil_scoped_acquire acquire;
+      Py_XDECREF(type_);
+      Py_XDECREF(value_);
+      Py_XDECREF(trace_);
+    }
+  }
+  StepHook(const StepHook&) = delete;
+  StepHook& operator=(const StepHook&) = delete;
+
+  bool operator()(double t, bool force = false) {
+    const auto now = Clock::now();
+    if (!force && now - last_check_ < std::chrono::milliseconds(50)) return true;
+    last_check_ = now;
+    py::gil_scoped_acquire acquire;
+    if (PyErr_CheckSignals() != 0) return stash();
+    if (!progress_.is_none() && (force || now - last_progress_ >= std::chrono::milliseconds(100))) {
+      last_progress_ = now;
+      try {
+        progress_(t, t_end_);
+      } catch (py::error_already_set& e) {
+        e.restore();
+        return stash();
+      }
+    }
+    return true;
+  }
+  bool failed() const { return type_ != nullptr; }
+  /// Sets the stashed exception as Python's error (ownership passes to it).
+  void restore() {
+    PyErr_Restore(type_, value_, trace_);
+    type_ = value_ = trace_ = nullptr;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  bool stash() {
+    PyErr_Fetch(&type_, &value_, &trace_);
+    PyErr_NormalizeException(&type_, &value_, &trace_);
+    return false;
+  }
+  py::object progress_;
+  double t_end_;
+  Clock::time_point last_check_ = Clock::now(), last_progress_ = last_check_;
+  PyObject *type_ = nullptr, *value_ = nullptr, *trace_ = nullptr;
+};
+
+std::string kept_note(const io::BackgroundTrajectoryWriter& writer) {
+  return "partial trajectory (" + std::to_string(writer.rows()) + " rows) kept in " +
+         writer.partial_path();
+}
+
+py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& given,
+                          py::handle initial_obj, py::object output, bool store,
+                          py::object progress) {
+  const PyModel& m = *self;
+  const Model& model = m.model();
+  const SimulationSettings base = settings_from(m, given);
+  const State initial = state_argument(m, initial_obj);
+  std::unique_ptr<io::BackgroundTrajectoryWriter> writer;
+  std::string out;
+  if (!output.is_none()) {
+    out = py::str(py::module_::import("os").attr("fspath")(output));
+    io::check_output_path(out, m.file().path);
+  }
+  if (progress.is(py::bool_(true)))
+    progress = py::module_::import("kanedyn._result").attr("ProgressBar")();
+  else if (progress.is(py::bool_(false)))
+    progress = py::none();
+  else if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+    throw py::type_error("progress must be True, False, None or a callable(t, t_end)");
+
+  Rows rows;
+  const int n = model.num_bodies();
+  StepHook hook(progress, base.t_end);
+  SimulationSettings settings = base;
+  settings.observer_kinematics = store;
+  settings.on_step = [&hook](double t) { return hook(t); };
+  SimulationStats stats;
+  if (!out.empty()) writer = std::make_unique<io::BackgroundTrajectoryWriter>(model, out);
+  const Observer observer = [&](double t, const State& state, Data& data) {
+    if (writer) writer->write_row(t, state);
+    if (!store) return;
+    rows.t.push_back(t);
+    rows.x.insert(rows.x.end(), state.x.begin(), state.x.end());
+    rows.y.insert(rows.y.end(), state.y.begin(), state.y.end());
+    for (const Vector3& p : data.kinematics.p_G)
+      rows.p_G.insert(rows.p_G.end(), p.begin(), p.end());
+    rows.energy.push_back(total_energy_of_kinematics(model, state, data));
+  };
+  try {
+    py::gil_scoped_release release;
+    stats = simulate(model, initial, settings, observer);
+    if (!hook.failed()) hook(stats.t_reached, true);  // the progress callback sees the end
+  } catch (const std::exception& e) {
+    const std::string kept = writer ? "; " + kept_note(*writer) : "";
+    if (writer) try {
+        writer->close();
+      } catch (...) {  // e is the error to report
+      }
+    throw std::runtime_error(std::string(e.what()) + kept);
+  }
+  if (hook.failed()) {
+    if (writer) writer->close();
+    hook.restore();
+    py::error_already_set error;
+    if (writer) {
+      py::object value = error.value();
+      if (py::hasattr(value, "add_note")) value.attr("add_note")(kept_note(*writer));
+    }
+    throw error;
+  }
+  if (writer) {
+    if (stats.ok())
+      writer->finish();
+    else
+      writer->close();
+  }
+  const auto T = static_cast<py::ssize_t>(rows.t.size());
+  py::object result = py::none();
+  if (store)
+    result = py::module_::import("kanedyn._result")
+                 .attr("Result")(
+                     self, adopt(std::move(rows.t), {T}), adopt(std::move(rows.x), {T, 7 * n}),
+                     adopt(std::move(rows.y), {T, 6 * n}), adopt(std::move(rows.p_G), {T, n, 3}),
+                     adopt(std::move(rows.energy), {T}), stats_dict(model, stats),
+                     out.empty() ? py::object(py::none()) : py::object(py::str(out)));
+  if (!stats.ok()) {
+    const std::string message =
+        stats.message + (writer ? "; " + kept_note(*writer) : std::string());
+    py::object type = py::module_::import("kanedyn._kanedyn").attr("SimulationError");
+    py::object error = type(message);
+    error.attr("result") = result;
+    error.attr("stats") = stats_dict(model, stats);
+    PyErr_SetObject(type.ptr(), error.ptr());
+    throw py::error_already_set();
+  }
+  return store ? result : py::object(stats_dict(model, stats));
+}
+
+/// Writes stored rows as the trajectory CSV: the kinematics of each row are computed again
+/// (compute_kinematics gives the same bits as at run time), the energy is the stored one.
+void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::handle x_obj,
+               py::handle y_obj, py::handle energy_obj) {
+  const Model& model = m.model();
+  const int n = m.N();
+  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_obj));
+  const auto t = float64_array(t_obj, "t", {-1}, "(T,)");
+  const py::ssize_t rows = t.shape(0);
+  const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
+  const auto y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
+  const auto energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
+  const auto tv = t.unchecked<1>();
+  const auto xv = x.unchecked<2>();
+  const auto yv = y.unchecked<2>();
+  const auto ev = energy.unchecked<1>();
+  io::TrajectoryWriter writer(model, path);
+  Data data(model, DataOptions::recursive_only());
+  State state(model);
+  for (py::ssize_t r = 0; r < rows; ++r) {
+    for (int i = 0; i < 7 * n; ++i) state.x[i] = xv(r, i);
+    for (int i = 0; i < 6 * n; ++i) state.y[i] = yv(r, i);
+    compute_kinematics(model, state, data);
+    writer.write_row(tv(r), state, data, ev(r));
+  }
+  writer.finish();
+}
+
+/// Seconds per forward_dynamics call, looped in C++: the baseline of the call-overhead
+/// benchmark (bench/python/bench_python.py).
+double time_derivatives(const PyModel& m, py::handle state_obj, long calls) {
+  const State state = state_argument(m, state_obj);
+  PyModel::Lease work(m);
+  work->state = state;
+  py::gil_scoped_release release;
+  const auto start = std::chrono::steady_clock::now();
+  for (long i = 0; i < calls; ++i)
+    forward_dynamics(m.model(), work->state, work->data, Route::recursive);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() /
+         static_cast<double>(std::max(1L, calls));
+}
+
+}  // namespace
+
+void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls) {
+  cls.def("derivatives", &derivatives, py::arg("x"), py::arg("y"), py::arg("t") = 0.0,
+          "(xdot, ydot) at the state (x, y): {x dot} (Eqs. 39-40, 7N) and {y dot} (Eq. 36, 6N) "
+          "by the O(N) recursive route. x (7N,) and y (6N,) are float64 arrays (or sequences "
+          "of numbers), finite, with unit Euler parameters. t is the time, for the signature "
+          "f(t, x, y) of ODE solvers: the model's force laws do not depend on it.")
+      .def("derivatives_batch", &derivatives_batch, py::arg("X"), py::arg("Y"),
+           py::arg("threads") = 0,
+           "(Xd, Yd) for M states at once: X (M, 7N), Y (M, 6N) -> Xd (M, 7N), Yd (M, 6N), row "
+           "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0: every core) with "
+           "the GIL released.")
+      .def("_simulate", &simulate_model, py::arg("settings"), py::arg("initial"), py::arg("output"),
+           py::arg("store"), py::arg("progress"))
+      .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),
+           py::arg("energy"))
+      .def("_time_derivatives", &time_derivatives, py::arg("state"), py::arg("calls"));
+  (void)m;
+}
+
+}  // namespace kanedyn::python
