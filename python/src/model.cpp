@@ -41,7 +41,7 @@ struct Equations {
 /// The largest N whose dense [A] eom computes: 36 N^2 doubles, 288 MB at 1000 bodies.
 constexpr int kMaxDenseBodies = 1000;
 
-Equations equations_of_motion(const PyModel& m, py::handle state_obj) {
+Equations equations_of_motion(const PyModel& m, py::object state_obj) {
   const State state = state_argument(m, state_obj);
   if (m.N() > kMaxDenseBodies)
     throw py::value_error("eom() forms the dense 6N x 6N [A], and N = " + std::to_string(m.N()) +
@@ -338,7 +338,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
            "`kanedyn eom --json`. At most 1000 bodies (the dense [A]).")
       .def(
           "inspect",
-          [](const PyModel& p, py::handle state_obj, double t, py::handle bodies) {
+          [](const PyModel& p, py::object state_obj, double t, py::object bodies) {
             const State state = state_argument(p, state_obj);
             const std::vector<int> selected = body_indices(p.model(), bodies);
             try {
@@ -366,7 +366,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "rate=True (Eqs. 29-30), for P = 'O' or 'G': two lines, the y1 and y2 parts.")
       .def(
           "energy",
-          [](const PyModel& p, py::handle state_obj) {
+          [](const PyModel& p, py::object state_obj) {
             const State state = state_argument(p, state_obj);
             Data data(p.model(), DataOptions::recursive_only());
             return py::make_tuple(kinetic_energy(p.model(), state, data),
@@ -377,7 +377,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "(kinetic, potential, total) energy at a state (total is the CSV's energy column).")
       .def(
           "momentum",
-          [](const PyModel& p, py::handle state_obj) {
+          [](const PyModel& p, py::object state_obj) {
             const State state = state_argument(p, state_obj);
             Data data(p.model(), DataOptions::recursive_only());
             return py::make_tuple(to_numpy(linear_momentum(p.model(), state, data)),

@@ -62,7 +62,7 @@ void register_state(py::module_& m) {
                     "(w'_1..w'_N, s'_1 dot..s'_N dot), 6N. eps_K = (e1, e2, e3, e4) with e4 the "
                     "scalar part; w'_K in body-K components; s'_K and its rate in body-L(K) "
                     "components. x and y are numpy views: s.x[3] = 1.0 changes the state.")
-      .def(py::init([](py::handle x, py::handle y) {
+      .def(py::init([](py::object x, py::object y) {
              const auto xa = float64_array(x, "x", {-1}, "(7N,)");
              const py::ssize_t n = xa.shape(0) / 7;
              if (xa.shape(0) % 7 != 0 || n == 0)
@@ -85,7 +85,7 @@ void register_state(py::module_& m) {
             State& s = self.cast<State&>();
             return py::array_t<double>({s.x.size()}, {sizeof(double)}, s.x.data(), self);
           },
-          [](State& s, py::handle value) {
+          [](State& s, py::object value) {
             const auto a =
                 float64_array(value, "x", {s.x.size()}, "(" + std::to_string(s.x.size()) + ",)");
             const auto v = a.unchecked<1>();
@@ -98,7 +98,7 @@ void register_state(py::module_& m) {
             State& s = self.cast<State&>();
             return py::array_t<double>({s.y.size()}, {sizeof(double)}, s.y.data(), self);
           },
-          [](State& s, py::handle value) {
+          [](State& s, py::object value) {
             const auto a =
                 float64_array(value, "y", {s.y.size()}, "(" + std::to_string(s.y.size()) + ",)");
             const auto v = a.unchecked<1>();

@@ -31,7 +31,7 @@ std::string sizes(const char* what, int n, int per_body) {
 /// (it costs about 0.1 us).
 constexpr int kReleaseGilBodies = 32;
 
-py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
+py::tuple derivatives(const PyModel& m, py::object x, py::object y, double t) {
   const int n = m.N();
   if (!std::isfinite(t)) throw py::value_error("t must be finite");
   const auto xa = float64_array(x, "x", {7 * n}, sizes("7N", n, 7));
@@ -51,7 +51,7 @@ py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
   return py::make_tuple(to_numpy(work->data.xdot), to_numpy(work->data.ydot));
 }
 
-py::tuple derivatives_batch(const PyModel& m, py::handle X, py::handle Y, int threads) {
+py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int threads) {
   const int n = m.N();
   const auto xa =
       float64_array(X, "X", {-1, 7 * n},
@@ -114,7 +114,14 @@ py::array_t<double> adopt(std::vector<double>&& values, std::vector<py::ssize_t>
 }
 
 double positive_setting(py::handle value, const char* name) {
-  const double v = value.cast<double>();
+  double v = 0.0;
+  try {
+    if (py::isinstance<py::bool_>(value) || py::isinstance<py::str>(value)) throw py::cast_error();
+    v = value.cast<double>();
+  } catch (const py::cast_error&) {
+    throw py::type_error(std::string(name) + " must be a number, got " +
+                         std::string(py::str(value.get_type().attr("__name__"))));
+  }
   if (!(std::isfinite(v) && v > 0.0))
     throw py::value_error(std::string(name) + " must be a finite number > 0, got " +
                           std::string(py::repr(value)));
@@ -224,7 +231,7 @@ std::string kept_note(const io::BackgroundTrajectoryWriter& writer) {
 }
 
 py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& given,
-                          py::handle initial_obj, py::object output, bool store,
+                          py::object initial_obj, py::object output, bool store,
                           py::object progress) {
   const PyModel& m = *self;
   const Model& model = m.model();
@@ -341,7 +348,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
 
 /// Seconds per forward_dynamics call, looped in C++: the baseline of the call-overhead
 /// benchmark (bench/python/bench_python.py).
-double time_derivatives(const PyModel& m, py::handle state_obj, long calls) {
+double time_derivatives(const PyModel& m, py::object state_obj, long calls) {
   const State state = state_argument(m, state_obj);
   PyModel::Lease work(m);
   work->state = state;

@@ -1,0 +1,102 @@
+"""The module's surface: what a model and a state show, docstrings, and the installed package."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import pydoc
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import kanedyn
+from conftest import EXAMPLES, run_tool, tool_json
+
+
+def test_model_description_matches_the_tool(eight) -> None:
+    printed = tool_json(["eom", EXAMPLES / "eight_body.yaml", "--json"])
+    assert eight.N == 8
+    assert eight.L.tolist() == printed["L"] == [0, 1, 2, 2, 1, 1, 1, 7]
+    assert eight.u.tolist() == printed["u"]
+    assert eight.body_names[0] == "torso" and len(eight.body_names) == 8
+    assert eight.total_mass == pytest.approx(eight.mass.sum(), rel=1e-15)
+    assert eight.inertia.shape == (8, 3, 3) and eight.com.shape == (8, 3) and eight.joint.shape == (8, 3)
+    assert eight.gravity.tolist() == [0.0, 0.0, -9.81]
+    assert eight.columns[0] == "t" and eight.columns[-1] == "energy" and len(eight.columns) == 2 + 16 * 8
+    assert eight.body_number("left_forearm") == 8
+    assert "eight-body" in repr(eight)
+
+
+def test_state_views_write_through(eight) -> None:
+    s = eight.initial_state()
+    assert s.x.shape == (56,) and s.y.shape == (48,) and s.N == 8
+    assert s.x.flags["C_CONTIGUOUS"] and s.x.dtype == np.float64
+    s.y[0] = 0.25
+    assert s.y[0] == 0.25
+    view = s.x
+    s.x = np.arange(56.0)
+    assert view[3] == 3.0  # the same memory
+    t = s.copy()
+    t.y[1] = 7.0
+    assert s.y[1] != 7.0
+    assert eight.initial_state().y[0] != 0.25  # the model's initial state is untouched
+    s = eight.initial_state()
+    s.x[0:4] = [0.0, 0.0, 0.0, 3.0]
+    assert s.normalize() == pytest.approx(2.0, rel=1e-15)
+    assert s.x[3] == 1.0
+    zero = eight.state()
+    assert zero.x[3] == 1.0 and not zero.y.any()
+
+
+def test_a_dict_and_a_text_give_the_same_model_as_the_file() -> None:
+    import json
+
+    path = EXAMPLES / "eight_body.json"
+    from_file = kanedyn.load(path)
+    from_dict = kanedyn.load(json.loads(path.read_text()))
+    from_text = kanedyn.loads(path.read_text())
+    want = from_file.eom()
+    for m in (from_dict, from_text):
+        got = m.eom()
+        assert got.A.tobytes() == want.A.tobytes() and got.ydot.tobytes() == want.ydot.tobytes()
+    assert from_dict.path == "<dict>" and from_text.path == "<string>"
+
+
+def test_docstrings_describe_the_api() -> None:
+    text = pydoc.render_doc(kanedyn.Model, renderer=pydoc.plaintext)
+    for name in ("derivatives", "derivatives_batch", "eom", "inspect", "simulate", "initial_state", "total_mass"):
+        assert name in text, name
+    assert "Eq. 36" in kanedyn.Model.derivatives.__doc__ and "x: object" in kanedyn.Model.derivatives.__doc__
+    assert "kanedyn simulate" in kanedyn.Model.simulate.__doc__
+    assert "e4" in kanedyn.State.__doc__
+    assert kanedyn.load.__doc__ and kanedyn.Result.__doc__ and kanedyn.ModelError.__doc__
+
+
+def test_version_is_the_tools() -> None:
+    assert run_tool(["--version"]).stdout.split()[-1] == kanedyn.__version__
+
+
+def test_cmake_install_puts_an_importable_package_under_the_prefix(tmp_path) -> None:
+    build = os.environ.get("KANEDYN_BUILD_DIR")
+    if not build:
+        pytest.fail("KANEDYN_BUILD_DIR is not set (ctest sets it)")
+    prefix = tmp_path / "prefix"
+    done = subprocess.run(["cmake", "--install", build, "--prefix", str(prefix)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    found = sorted(prefix.glob("lib/python3*/*-packages/kanedyn/__init__.py"))
+    assert len(found) == 1, sorted(str(p) for p in prefix.rglob("kanedyn/*"))
+    site = found[0].parents[1]
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "KANEDYN_TOOL")}
+    env["PYTHONPATH"] = str(site)
+    code = (
+        "import kanedyn, sys\n"
+        f"m = kanedyn.load({str(EXAMPLES / 'eight_body.yaml')!r})\n"
+        "print(kanedyn.__file__)\n"
+        "print(m.eom().A.shape)\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[0].startswith(str(site)) and lines[1] == "(48, 48)"
