@@ -18,6 +18,11 @@ std::string shape_text(const py::array& a) {
   return s + (a.ndim() == 1 ? ",)" : ")");
 }
 
+/// "x", or "X[12]" for a row of a batch.
+std::string label(const char* name, py::ssize_t row) {
+  return row < 0 ? std::string(name) : std::string(name) + "[" + std::to_string(row) + "]";
+}
+
 std::string number(double v) {
   if (std::isnan(v)) return "nan";
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
@@ -28,16 +33,17 @@ std::string number(double v) {
 
 }  // namespace
 
-py::array_t<double> float64_array(py::handle obj, const char* name,
-                                  const std::vector<py::ssize_t>& shape, const std::string& what) {
+py::array float64_array(py::handle obj, const char* name, const std::vector<py::ssize_t>& shape,
+                        const std::string& what) {
   py::array array;
   if (py::isinstance<py::array>(obj)) {
-    if (!py::isinstance<py::array_t<double>>(obj)) {
-      const std::string dtype = py::str(obj.attr("dtype"));
-      throw py::type_error(std::string(name) + " must be a float64 array, got dtype " + dtype +
-                           "; convert it with " + name + ".astype(numpy.float64)");
-    }
     array = py::reinterpret_borrow<py::array>(obj);
+    const py::dtype dtype = array.dtype();
+    constexpr int kFloat64 = 12;  // NPY_DOUBLE
+    if (dtype.num() != kFloat64 || dtype.byteorder() == '>')
+      throw py::type_error(std::string(name) + " must be a float64 array, got dtype " +
+                           std::string(py::str(static_cast<py::handle>(dtype))) +
+                           "; convert it with " + name + ".astype(numpy.float64)");
   } else {
     if (obj.is_none() || py::isinstance<py::str>(obj) || py::isinstance<py::bytes>(obj))
       throw py::type_error(std::string(name) + " must be a float64 array of shape " + what +
@@ -61,40 +67,64 @@ py::array_t<double> float64_array(py::handle obj, const char* name,
   for (py::ssize_t i = 0; aligned && i < array.ndim(); ++i)
     aligned = array.strides(i) % static_cast<py::ssize_t>(sizeof(double)) == 0;
   if (!aligned) array = py::module_::import("numpy").attr("ascontiguousarray")(array);
-  return py::array_t<double>(array);
+  return array;
 }
 
-std::string copy_coordinates(const Model& model, const double* values, py::ssize_t stride,
-                             VectorX& x, const std::string& label) {
-  const int n = model.num_bodies();
-  for (int i = 0; i < 7 * n; ++i) {
-    const double v = values[i * stride];
-    if (!std::isfinite(v))
-      return label + "[" + std::to_string(i) + "] is " + number(v) + " (" +
-             describe_state_component(model, i) + ")";
-    x[i] = v;
+bool plain_vector(py::handle obj, py::ssize_t size, const double*& data, py::ssize_t& stride) {
+  if (!py::isinstance<py::array>(obj)) return false;
+  const auto& a = py::reinterpret_borrow<py::array>(obj);
+  constexpr int kFloat64 = 12;  // NPY_DOUBLE
+  const auto* descr = py::detail::array_descriptor_proxy(py::detail::array_proxy(a.ptr())->descr);
+  if (descr->type_num != kFloat64 || descr->byteorder == '>' || a.ndim() != 1 ||
+      a.shape(0) != size || a.strides(0) % static_cast<py::ssize_t>(sizeof(double)) != 0 ||
+      reinterpret_cast<std::uintptr_t>(a.data()) % alignof(double) != 0)
+    return false;
+  data = static_cast<const double*>(a.data());
+  stride = a.strides(0) / static_cast<py::ssize_t>(sizeof(double));
+  return true;
+}
+
+namespace {
+
+/// Copies n doubles from values (stride in doubles) into out; returns the index of the first
+/// that is not finite, or -1.
+Eigen::Index copy_finite(const double* values, py::ssize_t stride, Eigen::Index n, double* out) {
+  if (stride == 1) {
+    std::memcpy(out, values, sizeof(double) * static_cast<size_t>(n));
+  } else {
+    for (Eigen::Index i = 0; i < n; ++i) out[i] = values[i * stride];
   }
+  if (Eigen::Map<const VectorX>(out, n).allFinite()) return -1;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!std::isfinite(out[i])) return i;
+  return -1;
+}
+
+}  // namespace
+
+std::string copy_coordinates(const Model& model, const double* values, py::ssize_t stride,
+                             VectorX& x, const char* name, py::ssize_t row) {
+  const int n = model.num_bodies();
+  if (const Eigen::Index i = copy_finite(values, stride, 7 * n, x.data()); i >= 0)
+    return label(name, row) + "[" + std::to_string(i) + "] is " + number(x[i]) + " (" +
+           describe_state_component(model, static_cast<int>(i)) + ")";
   for (int k = 0; k < n; ++k) {
     const double norm = x.segment<4>(4 * k).norm();
     if (!(std::abs(norm - 1.0) <= kUnitTolerance))
-      return label + ": the Euler parameters of body '" + model.body(k).name + "' (" + label + "[" +
-             std::to_string(4 * k) + ":" + std::to_string(4 * k + 4) + "]) have norm " +
-             number(norm) +
+      return label(name, row) + ": the Euler parameters of body '" + model.body(k).name + "' (" +
+             label(name, row) + "[" + std::to_string(4 * k) + ":" + std::to_string(4 * k + 4) +
+             "]) have norm " + number(norm) +
              "; they must be a unit quaternion (within 1e-6): divide them by their norm";
   }
   return "";
 }
 
 std::string copy_speeds(const Model& model, const double* values, py::ssize_t stride, VectorX& y,
-                        const std::string& label) {
+                        const char* name, py::ssize_t row) {
   const int n = model.num_bodies();
-  for (int i = 0; i < 6 * n; ++i) {
-    const double v = values[i * stride];
-    if (!std::isfinite(v))
-      return label + "[" + std::to_string(i) + "] is " + number(v) + " (" +
-             describe_state_component(model, 7 * n + i) + ")";
-    y[i] = v;
-  }
+  if (const Eigen::Index i = copy_finite(values, stride, 6 * n, y.data()); i >= 0)
+    return label(name, row) + "[" + std::to_string(i) + "] is " + number(y[i]) + " (" +
+           describe_state_component(model, 7 * n + static_cast<int>(i)) + ")";
   return "";
 }
 
@@ -115,10 +145,18 @@ State state_argument(const PyModel& m, py::handle obj) {
 }
 
 py::array_t<double> to_numpy(const VectorX& v) {
-  py::array_t<double> out(v.size());
-  if (v.size() > 0)
-    std::memcpy(out.mutable_data(), v.data(), sizeof(double) * static_cast<size_t>(v.size()));
-  return out;
+  // Straight through numpy's C API: py::array_t's shape and stride containers cost four heap
+  // allocations, a fifth of derivatives()'s call overhead.
+  auto& api = py::detail::npy_api::get();
+  Py_intptr_t size = v.size();
+  constexpr int kFloat64 = 12;  // NPY_DOUBLE
+  PyObject* out = api.PyArray_NewFromDescr_(api.PyArray_Type_, api.PyArray_DescrFromType_(kFloat64),
+                                            1, &size, nullptr, nullptr, 0, nullptr);
+  if (!out) throw py::error_already_set();
+  auto array = py::reinterpret_steal<py::array_t<double>>(out);
+  if (size > 0)
+    std::memcpy(array.mutable_data(), v.data(), sizeof(double) * static_cast<size_t>(size));
+  return array;
 }
 
 py::array_t<double> to_numpy(const MatrixX& m) {

@@ -63,16 +63,27 @@ class PyModel {
 /// strides (so non-contiguous arrays are read correctly). A numpy array of another dtype
 /// raises TypeError; a sequence of numbers is converted; a wrong shape raises ValueError.
 /// `what` describes the expected shape in words, e.g. "(7N,) = (56,) for N = 8".
-py::array_t<double> float64_array(py::handle obj, const char* name,
-                                  const std::vector<py::ssize_t>& shape, const std::string& what);
+py::array float64_array(py::handle obj, const char* name, const std::vector<py::ssize_t>& shape,
+                        const std::string& what);
+/// True when obj is already what float64_array would return for shape (size,): a native
+/// float64 1-d numpy array of that length, aligned; then sets data and stride (in doubles).
+/// The per-call fast path of derivatives(): no conversion, no message built.
+bool plain_vector(py::handle obj, py::ssize_t size, const double*& data, py::ssize_t& stride);
+
+/// The first double of a float64_array and its strides in doubles.
+inline const double* doubles(const py::array& a) { return static_cast<const double*>(a.data()); }
+inline py::ssize_t stride(const py::array& a, int dim) {
+  return a.strides(dim) / static_cast<py::ssize_t>(sizeof(double));
+}
 
 /// The 7N {x} or 6N {y} of one state from `values` (stride in doubles), checked: every
 /// component finite, and every eps_K of unit norm within kUnitTolerance. Returns "" or the
-/// problem ("x[3] is nan (body 'torso' e4)"), with `label` for the array ("x", "X[4]").
+/// problem ("x[3] is nan (body 'torso' e4)"), naming the array `name`, or its row `row` of a
+/// batch ("X[4]") when row >= 0.
 std::string copy_coordinates(const Model& model, const double* values, py::ssize_t stride,
-                             VectorX& x, const std::string& label);
+                             VectorX& x, const char* name, py::ssize_t row = -1);
 std::string copy_speeds(const Model& model, const double* values, py::ssize_t stride, VectorX& y,
-                        const std::string& label);
+                        const char* name, py::ssize_t row = -1);
 constexpr double kUnitTolerance = 1e-6;
 
 /// A State from a Python State, or the model's initial state when obj is None; ValueError

@@ -72,10 +72,8 @@ void register_state(py::module_& m) {
                                            "(6N,) = (" + std::to_string(6 * n) +
                                                ",) for N = " + std::to_string(n) + " (from x)");
              State s(static_cast<int>(n));
-             const auto xv = xa.unchecked<1>();
-             const auto yv = ya.unchecked<1>();
-             for (py::ssize_t i = 0; i < 7 * n; ++i) s.x[i] = xv(i);
-             for (py::ssize_t i = 0; i < 6 * n; ++i) s.y[i] = yv(i);
+             for (py::ssize_t i = 0; i < 7 * n; ++i) s.x[i] = doubles(xa)[i * stride(xa, 0)];
+             for (py::ssize_t i = 0; i < 6 * n; ++i) s.y[i] = doubles(ya)[i * stride(ya, 0)];
              return s;
            }),
            py::arg("x"), py::arg("y"), "A state from copies of x (7N,) and y (6N,).")
@@ -88,8 +86,7 @@ void register_state(py::module_& m) {
           [](State& s, py::object value) {
             const auto a =
                 float64_array(value, "x", {s.x.size()}, "(" + std::to_string(s.x.size()) + ",)");
-            const auto v = a.unchecked<1>();
-            for (py::ssize_t i = 0; i < s.x.size(); ++i) s.x[i] = v(i);
+            for (py::ssize_t i = 0; i < s.x.size(); ++i) s.x[i] = doubles(a)[i * stride(a, 0)];
           },
           "{x}, 7N: Euler parameters eps_K then translations s'_K (a view)")
       .def_property(
@@ -101,8 +98,7 @@ void register_state(py::module_& m) {
           [](State& s, py::object value) {
             const auto a =
                 float64_array(value, "y", {s.y.size()}, "(" + std::to_string(s.y.size()) + ",)");
-            const auto v = a.unchecked<1>();
-            for (py::ssize_t i = 0; i < s.y.size(); ++i) s.y[i] = v(i);
+            for (py::ssize_t i = 0; i < s.y.size(); ++i) s.y[i] = doubles(a)[i * stride(a, 0)];
           },
           "{y}, 6N: angular velocities w'_K then translation rates s'_K dot (a view)")
       .def_property_readonly("N", &State::num_bodies, "the number of bodies")

@@ -34,13 +34,22 @@ constexpr int kReleaseGilBodies = 32;
 py::tuple derivatives(const PyModel& m, py::object x, py::object y, double t) {
   const int n = m.N();
   if (!std::isfinite(t)) throw py::value_error("t must be finite");
-  const auto xa = float64_array(x, "x", {7 * n}, sizes("7N", n, 7));
-  const auto ya = float64_array(y, "y", {6 * n}, sizes("6N", n, 6));
+  const double *x_data = nullptr, *y_data = nullptr;
+  py::ssize_t x_stride = 1, y_stride = 1;
+  py::array xa, ya;  // converted copies, when the arguments are not plain float64 vectors
+  if (!plain_vector(x, 7 * n, x_data, x_stride)) {
+    xa = float64_array(x, "x", {7 * n}, sizes("7N", n, 7));
+    x_data = doubles(xa);
+    x_stride = stride(xa, 0);
+  }
+  if (!plain_vector(y, 6 * n, y_data, y_stride)) {
+    ya = float64_array(y, "y", {6 * n}, sizes("6N", n, 6));
+    y_data = doubles(ya);
+    y_stride = stride(ya, 0);
+  }
   PyModel::Lease work(m);
-  std::string problem =
-      copy_coordinates(m.model(), xa.data(), xa.strides(0) / 8, work->state.x, "x");
-  if (problem.empty())
-    problem = copy_speeds(m.model(), ya.data(), ya.strides(0) / 8, work->state.y, "y");
+  std::string problem = copy_coordinates(m.model(), x_data, x_stride, work->state.x, "x");
+  if (problem.empty()) problem = copy_speeds(m.model(), y_data, y_stride, work->state.y, "y");
   if (!problem.empty()) throw py::value_error(problem);
   if (n >= kReleaseGilBodies) {
     py::gil_scoped_release release;
@@ -66,10 +75,10 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const py::ssize_t workers =
       std::max<py::ssize_t>(1, std::min<py::ssize_t>(threads > 0 ? threads : cores, rows));
-  const double* x_in = xa.data();
-  const double* y_in = ya.data();
-  const py::ssize_t xs0 = xa.strides(0) / 8, xs1 = xa.strides(1) / 8;
-  const py::ssize_t ys0 = ya.strides(0) / 8, ys1 = ya.strides(1) / 8;
+  const double* x_in = doubles(xa);
+  const double* y_in = doubles(ya);
+  const py::ssize_t xs0 = stride(xa, 0), xs1 = stride(xa, 1);
+  const py::ssize_t ys0 = stride(ya, 0), ys1 = stride(ya, 1);
   double* x_out = xd.mutable_data();
   double* y_out = yd.mutable_data();
   // Each worker records the first bad row of its share; the lowest row is reported.
@@ -79,11 +88,10 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
     PyModel::Lease lease(m);
     const py::ssize_t first = rows * w / workers, last = rows * (w + 1) / workers;
     for (py::ssize_t r = first; r < last; ++r) {
-      const std::string label = "[" + std::to_string(r) + "]";
       std::string problem =
-          copy_coordinates(m.model(), x_in + r * xs0, xs1, lease->state.x, "X" + label);
+          copy_coordinates(m.model(), x_in + r * xs0, xs1, lease->state.x, "X", r);
       if (problem.empty())
-        problem = copy_speeds(m.model(), y_in + r * ys0, ys1, lease->state.y, "Y" + label);
+        problem = copy_speeds(m.model(), y_in + r * ys0, ys1, lease->state.y, "Y", r);
       if (!problem.empty()) {
         bad_row[static_cast<size_t>(w)] = r;
         bad[static_cast<size_t>(w)] = problem;
@@ -330,10 +338,10 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
   const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
   const auto y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
   const auto energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
-  const auto tv = t.unchecked<1>();
-  const auto xv = x.unchecked<2>();
-  const auto yv = y.unchecked<2>();
-  const auto ev = energy.unchecked<1>();
+  const auto tv = py::array_t<double>(t).unchecked<1>();
+  const auto xv = py::array_t<double>(x).unchecked<2>();
+  const auto yv = py::array_t<double>(y).unchecked<2>();
+  const auto ev = py::array_t<double>(energy).unchecked<1>();
   io::TrajectoryWriter writer(model, path);
   Data data(model, DataOptions::recursive_only());
   State state(model);
