@@ -187,6 +187,14 @@ py::array_t<int> int_array(const std::vector<int>& values) {
   return out;
 }
 
+/// One 3-vector of every body's spec, (N, 3).
+py::array_t<double> per_body(const PyModel& p, Vector3 BodySpec::*field) {
+  std::vector<double> v;
+  for (const BodySpec& b : p.model().bodies())
+    v.insert(v.end(), (b.*field).begin(), (b.*field).end());
+  return to_numpy(v, p.N(), 3);
+}
+
 py::dict simulation_section(const io::SimulationSection& s) {
   py::dict d;
   if (s.t_end) d["t_end"] = *s.t_end;
@@ -295,22 +303,10 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           },
           "[I'_G_K] about G_K, body-K components, (N, 3, 3)")
       .def_property_readonly(
-          "com",
-          [](const PyModel& p) {
-            std::vector<double> v;
-            for (const BodySpec& b : p.model().bodies())
-              v.insert(v.end(), b.com.begin(), b.com.end());
-            return to_numpy(v, p.N(), 3);
-          },
+          "com", [](const PyModel& p) { return per_body(p, &BodySpec::com); },
           "{r'_K}: O_K to G_K, body-K components, (N, 3)")
       .def_property_readonly(
-          "joint",
-          [](const PyModel& p) {
-            std::vector<double> v;
-            for (const BodySpec& b : p.model().bodies())
-              v.insert(v.end(), b.joint.begin(), b.joint.end());
-            return to_numpy(v, p.N(), 3);
-          },
+          "joint", [](const PyModel& p) { return per_body(p, &BodySpec::joint); },
           "{q'_K}: O_J to Q_K, body-J components (inertial for a root), (N, 3)")
       .def_property_readonly(
           "columns", [](const PyModel& p) { return io::trajectory_columns(p.model()); },

@@ -56,6 +56,27 @@ void register_errors(py::module_& m) {
   });
 }
 
+namespace {
+
+/// The getter of State.x or State.y: a numpy view of the vector, keeping the State alive.
+auto view(VectorX State::*field) {
+  return [field](py::object self) {
+    VectorX& v = self.cast<State&>().*field;
+    return py::array_t<double>({v.size()}, {sizeof(double)}, v.data(), self);
+  };
+}
+
+/// The setter: copies a float64 array of the vector's length in.
+auto assign(VectorX State::*field, const char* name) {
+  return [field, name](State& s, py::object value) {
+    VectorX& v = s.*field;
+    const auto a = float64_array(value, name, {v.size()}, "(" + std::to_string(v.size()) + ",)");
+    for (py::ssize_t i = 0; i < v.size(); ++i) v[i] = doubles(a)[i * stride(a, 0)];
+  };
+}
+
+}  // namespace
+
 void register_state(py::module_& m) {
   py::class_<State>(m, "State",
                     "The state of Eq. (1): x = (eps_1..eps_N, s'_1..s'_N), 7N, and y = "
@@ -77,30 +98,10 @@ void register_state(py::module_& m) {
              return s;
            }),
            py::arg("x"), py::arg("y"), "A state from copies of x (7N,) and y (6N,).")
-      .def_property(
-          "x",
-          [](py::object self) {
-            State& s = self.cast<State&>();
-            return py::array_t<double>({s.x.size()}, {sizeof(double)}, s.x.data(), self);
-          },
-          [](State& s, py::object value) {
-            const auto a =
-                float64_array(value, "x", {s.x.size()}, "(" + std::to_string(s.x.size()) + ",)");
-            for (py::ssize_t i = 0; i < s.x.size(); ++i) s.x[i] = doubles(a)[i * stride(a, 0)];
-          },
-          "{x}, 7N: Euler parameters eps_K then translations s'_K (a view)")
-      .def_property(
-          "y",
-          [](py::object self) {
-            State& s = self.cast<State&>();
-            return py::array_t<double>({s.y.size()}, {sizeof(double)}, s.y.data(), self);
-          },
-          [](State& s, py::object value) {
-            const auto a =
-                float64_array(value, "y", {s.y.size()}, "(" + std::to_string(s.y.size()) + ",)");
-            for (py::ssize_t i = 0; i < s.y.size(); ++i) s.y[i] = doubles(a)[i * stride(a, 0)];
-          },
-          "{y}, 6N: angular velocities w'_K then translation rates s'_K dot (a view)")
+      .def_property("x", view(&State::x), assign(&State::x, "x"),
+                    "{x}, 7N: Euler parameters eps_K then translations s'_K (a view)")
+      .def_property("y", view(&State::y), assign(&State::y, "y"),
+                    "{y}, 6N: angular velocities w'_K then translation rates s'_K dot (a view)")
       .def_property_readonly("N", &State::num_bodies, "the number of bodies")
       .def(
           "normalize", [](State& s) { return s.normalize_euler_parameters(); },
