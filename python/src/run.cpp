@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <thread>
@@ -31,7 +32,7 @@ std::string sizes(const char* what, int n, int per_body) {
 /// (it costs about 0.1 us).
 constexpr int kReleaseGilBodies = 32;
 
-py::tuple derivatives(const PyModel& m, py::object x, py::object y, double t) {
+py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
   const int n = m.N();
   if (!std::isfinite(t)) throw py::value_error("t must be finite");
   const double *x_data = nullptr, *y_data = nullptr;
@@ -59,6 +60,64 @@ py::tuple derivatives(const PyModel& m, py::object x, py::object y, double t) {
   }
   return py::make_tuple(to_numpy(work->data.xdot), to_numpy(work->data.ydot));
 }
+
+/// derivatives() as a plain CPython method (METH_FASTCALL): pybind11's general dispatcher
+/// (argument vectors on the heap, a type lookup per argument) would double the call's cost
+/// for small models. The arguments and errors are those of the pybind11 functions.
+PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t nargs,
+                               PyObject* kwnames) {
+  try {
+    PyObject* given[3] = {nullptr, nullptr, nullptr};
+    static const char* const names[3] = {"x", "y", "t"};
+    if (nargs > 3) throw py::type_error("derivatives() takes x, y and t, got more arguments");
+    for (Py_ssize_t i = 0; i < nargs; ++i) given[i] = args[i];
+    const Py_ssize_t keywords = kwnames ? PyTuple_GET_SIZE(kwnames) : 0;
+    for (Py_ssize_t i = 0; i < keywords; ++i) {
+      const char* key = PyUnicode_AsUTF8(PyTuple_GET_ITEM(kwnames, i));
+      if (!key) throw py::error_already_set();
+      int slot = -1;
+      for (int j = 0; j < 3; ++j)
+        if (std::strcmp(key, names[j]) == 0) slot = j;
+      if (slot < 0)
+        throw py::type_error("derivatives() got an unexpected keyword argument '" +
+                             std::string(key) + "'");
+      if (given[slot])
+        throw py::type_error("derivatives() got multiple values for argument '" + std::string(key) +
+                             "'");
+      given[slot] = args[nargs + i];
+    }
+    if (!given[0] || !given[1]) throw py::type_error("derivatives() needs x and y");
+    double t = 0.0;
+    if (given[2]) {
+      t = PyFloat_AsDouble(given[2]);
+      if (t == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        throw py::type_error("t must be a number");
+      }
+    }
+    auto* model =
+        reinterpret_cast<py::detail::instance*>(self)->get_value_and_holder().value_ptr<PyModel>();
+    if (!model) throw py::type_error("derivatives() called on an uninitialized Model");
+    return derivatives(*model, py::handle(given[0]), py::handle(given[1]), t).release().ptr();
+  } catch (py::error_already_set& e) {
+    e.restore();
+  } catch (const py::builtin_exception& e) {
+    e.set_error();
+  } catch (const std::exception& e) {
+    PyErr_SetString(PyExc_RuntimeError, e.what());
+  }
+  return nullptr;
+}
+
+PyMethodDef derivatives_method = {
+    "derivatives",
+    reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(derivatives_fastcall)),
+    METH_FASTCALL | METH_KEYWORDS,
+    "derivatives($self, x, y, t=0.0)\n--\n\n"
+    "(xdot, ydot) at the state (x, y): {x dot} (Eqs. 39-40, 7N) and {y dot} (Eq. 36, 6N) by the "
+    "O(N) recursive route. x (7N,) and y (6N,) are float64 arrays (or sequences of numbers), "
+    "finite, with unit Euler parameters. t is the time, for the signature f(t, x, y) of ODE "
+    "solvers: the model's force laws do not depend on it."};
 
 py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int threads) {
   const int n = m.N();
@@ -371,16 +430,14 @@ double time_derivatives(const PyModel& m, py::object state_obj, long calls) {
 }  // namespace
 
 void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls) {
-  cls.def("derivatives", &derivatives, py::arg("x"), py::arg("y"), py::arg("t") = 0.0,
-          "(xdot, ydot) at the state (x, y): {x dot} (Eqs. 39-40, 7N) and {y dot} (Eq. 36, 6N) "
-          "by the O(N) recursive route. x (7N,) and y (6N,) are float64 arrays (or sequences "
-          "of numbers), finite, with unit Euler parameters. t is the time, for the signature "
-          "f(t, x, y) of ODE solvers: the model's force laws do not depend on it.")
-      .def("derivatives_batch", &derivatives_batch, py::arg("X"), py::arg("Y"),
-           py::arg("threads") = 0,
-           "(Xd, Yd) for M states at once: X (M, 7N), Y (M, 6N) -> Xd (M, 7N), Yd (M, 6N), row "
-           "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0: every core) with "
-           "the GIL released.")
+  // A method descriptor of the class, as a def() would make, without pybind11's dispatcher.
+  cls.attr("derivatives") = py::reinterpret_steal<py::object>(
+      PyDescr_NewMethod(reinterpret_cast<PyTypeObject*>(cls.ptr()), &derivatives_method));
+  cls.def("derivatives_batch", &derivatives_batch, py::arg("X"), py::arg("Y"),
+          py::arg("threads") = 0,
+          "(Xd, Yd) for M states at once: X (M, 7N), Y (M, 6N) -> Xd (M, 7N), Yd (M, 6N), row "
+          "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0: every core) with "
+          "the GIL released.")
       .def("_simulate", &simulate_model, py::arg("settings"), py::arg("initial"), py::arg("output"),
            py::arg("store"), py::arg("progress"))
       .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),

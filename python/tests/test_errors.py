@@ -99,6 +99,26 @@ def test_wrong_shapes_dtypes_and_values(eight) -> None:
         eight.derivatives(x, y, t=float("nan"))
 
 
+def test_derivatives_arguments(eight) -> None:
+    s = eight.initial_state()
+    x, y = s.x, s.y
+    want = eight.derivatives(x, y)[1].tobytes()
+    assert eight.derivatives(x=x, y=y, t=2.0)[1].tobytes() == want
+    assert eight.derivatives(x, y, 1)[1].tobytes() == want  # t does not enter the equations
+    with pytest.raises(TypeError, match="needs x and y"):
+        eight.derivatives(x)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'z'"):
+        eight.derivatives(x, y, z=1)
+    with pytest.raises(TypeError, match="multiple values for argument 'x'"):
+        eight.derivatives(x, y, x=x)
+    with pytest.raises(TypeError, match="takes x, y and t"):
+        eight.derivatives(x, y, 0.0, 1)
+    with pytest.raises(TypeError, match="t must be a number"):
+        eight.derivatives(x, y, t="now")
+    with pytest.raises(TypeError, match="doesn't apply"):
+        kanedyn.Model.derivatives(s, x, y)
+
+
 def test_batch_errors_name_the_row(eight) -> None:
     s = eight.initial_state()
     X = np.tile(s.x, (10, 1))
