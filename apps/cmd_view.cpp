@@ -210,8 +210,8 @@ void write_page(const std::string& path, const std::string& input, const std::st
     ::unlink(partial.c_str());
   }
   // O_EXCL|O_NOFOLLOW: never write through a link someone placed there meanwhile.
-  const int fd = ::open(partial.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC,
-                        0666);
+  const int fd =
+      ::open(partial.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
   if (fd < 0)
     throw std::runtime_error("cannot create " + io::printable(partial) + ": " +
                              std::strerror(errno));
@@ -232,8 +232,7 @@ void write_page(const std::string& path, const std::string& input, const std::st
   if (::close(fd) != 0) {
     const int err = errno;
     ::unlink(partial.c_str());
-    throw std::runtime_error("cannot write " + io::printable(partial) + ": " +
-                             std::strerror(err));
+    throw std::runtime_error("cannot write " + io::printable(partial) + ": " + std::strerror(err));
   }
   if (std::rename(partial.c_str(), path.c_str()) != 0) {
     const int err = errno;
@@ -262,8 +261,9 @@ void run(const Options& o) {
   if (at == std::string_view::npos)
     throw std::logic_error("the viewer bundle has no data marker: the build is broken");
   const std::string data =
-      page_data(file, traj, have_traj ? std::filesystem::path(o.trajectory).filename().string()
-                                      : std::string("initial state"));
+      page_data(file, traj,
+                have_traj ? std::filesystem::path(o.trajectory).filename().string()
+                          : std::string("initial state"));
   std::string text;
   text.reserve(page.size() + data.size());
   text.append(page.substr(0, at));
@@ -276,7 +276,7 @@ void run(const Options& o) {
     std::printf("%zu rows", traj.rows());
   else
     std::printf("the initial state");
-  if (stride > 1) std::printf(", every %zu-th row shown", stride);
+  if (stride > 1) std::printf(", decimated to 1 row in %zu", stride);
   std::printf(")\n");
 #endif
 }

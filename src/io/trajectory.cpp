@@ -69,8 +69,8 @@ void parse_row(std::string_view line, int line_no, const std::vector<std::string
     const char* end = f[c].data() + f[c].size();
     const auto [ptr, ec] = std::from_chars(f[c].data(), end, row[c]);
     if (ec != std::errc() || ptr != end || !std::isfinite(row[c]))
-      throw fail(line_no,
-                 "column '" + columns[c] + "': '" + printable(f[c], 40) + "' is not a finite number");
+      throw fail(line_no, "column '" + columns[c] + "': '" + printable(f[c], 40) +
+                              "' is not a finite number");
   }
 }
 

@@ -176,6 +176,7 @@ function start() {
     ready: true,
     rows: traj.rows,
     rowsInFile: d.rows_in_file,
+    softwareRendering: view.software,
     stride: d.stride,
     start: motion.start,
     end: motion.end,

@@ -12,6 +12,12 @@ export function h(tag, attrs = {}, ...children) {
   return el;
 }
 
+/** 2 -> '2nd', 11 -> '11th'. */
+export function ordinal(n) {
+  const s = n % 100 >= 11 && n % 100 <= 13 ? 'th' : ['th', 'st', 'nd', 'rd'][n % 10] || 'th';
+  return `${n}${s}`;
+}
+
 export function layout(body, d) {
   const m = d.model;
   const canvas = h('canvas', { id: 'scene' });
@@ -37,7 +43,7 @@ export function layout(body, d) {
   const plots = h('div', { class: 'plots' }, energyPlot, picker, list, chips, pickedPlot);
   const n = m.bodies.length;
   const note = d.stride > 1
-    ? h('p', { class: 'note', id: 'decimated' }, `Decimated: the trajectory has ${d.rows_in_file} rows; this page holds every ${d.stride}th row and the last (${d.rows} rows).`)
+    ? h('p', { class: 'note', id: 'decimated' }, `Decimated: the trajectory has ${d.rows_in_file} rows; this page holds every ${ordinal(d.stride)} row and the last (${d.rows} rows).`)
     : '';
   const about = h('div', { class: 'about' },
     h('h1', {}, m.name || m.file),
@@ -45,7 +51,7 @@ export function layout(body, d) {
     note,
     h('p', { class: 'controls' }, h('label', {}, 'follow ', follow), ' ',
       h('label', {}, axes, ' body axes'), ' ', fit),
-    h('p', { class: 'hint' }, 'Drag: orbit; wheel: zoom; right-drag: pan. Space: play/pause; arrows: step a row. Click a plot to seek.'));
+    h('p', { class: 'hint' }, 'Drag: orbit; wheel: zoom; right-drag: pan. Space: play/pause; arrows: step a row. Click a plot to seek. Blue arrow: gravity; lines: O_J \u2192 Q_K \u2192 O_K.'));
   const side = h('div', { class: 'side' }, about, plots);
   const main = h('div', { class: 'main' }, h('div', { class: 'left' }, stage, bar), side);
   body.append(main);

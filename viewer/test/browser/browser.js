@@ -1,6 +1,6 @@
 // Starting Debian's chromium headless through puppeteer-core (no browser download), with a
 // fresh profile and no background networking (the machine's network is closed).
-import { mkdtempSync, rmSync } from 'node:fs';
+import { existsSync, mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import puppeteer from 'puppeteer-core';
@@ -8,6 +8,9 @@ import puppeteer from 'puppeteer-core';
 export const CHROMIUM = process.env.KANEDYN_CHROMIUM || '/usr/bin/chromium';
 
 export async function launch() {
+  if (!existsSync(CHROMIUM)) {
+    throw new Error(`no chromium at ${CHROMIUM}: scripts/install-deps.sh installs Debian's (or set KANEDYN_CHROMIUM)`);
+  }
   const profile = mkdtempSync(join(tmpdir(), 'kanedyn-chromium-'));
   const browser = await puppeteer.launch({
     executablePath: CHROMIUM,

@@ -1,0 +1,171 @@
+// The checks every browser test makes on a page kanedyn view wrote (docs/viewer.md, "Tests").
+import assert from 'node:assert/strict';
+import { writeFileSync } from 'node:fs';
+import { pathToFileURL } from 'node:url';
+import { launch } from './browser.js';
+import { decodePng } from './png.js';
+import { interpolate } from '../support.js';
+
+export const VIEWPORT = { width: 1000, height: 560, deviceScaleFactor: 1 };
+// The scene's background, 0xf4f5f7 (src/scene.js): a pixel is "drawn" when a channel differs
+// by more than this (anti-aliasing at an edge blends towards the background).
+const BACKGROUND = [0xf4, 0xf5, 0xf7];
+const DRAWN = 24;
+const drawn = (p) => p.some((c, i) => Math.abs(c - BACKGROUND[i]) > DRAWN);
+
+/** Opens the page; returns { page, close, errors, requests }. */
+export async function openPage(htmlPath) {
+  const { browser, close } = await launch();
+  const page = await browser.newPage();
+  await page.setViewport(VIEWPORT);
+  const errors = [];
+  const requests = [];
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('requestfailed', (r) => errors.push(`request failed: ${r.url()}`));
+  page.on('request', (r) => requests.push(r.url()));
+  const url = pathToFileURL(htmlPath).href;
+  await page.goto(url, { waitUntil: 'load' });
+  await page.waitForFunction(() => window.kanedynViewer && window.kanedynViewer.ready, { timeout: 30000 });
+  return { page, close, errors, requests, url };
+}
+
+/**
+ * Seeks to t and checks the drawn mass centres against the CSV interpolated at t (1e-6 m:
+ * the page holds G as float64 and interpolates linearly like the test, so the two differ by
+ * round-off, ~1e-15 m; a row off or a wrong column is off by millimetres or more).
+ */
+export async function checkPositions(page, csv, t) {
+  const got = await page.evaluate((time) => { window.kanedynViewer.seek(time); return window.kanedynViewer.bodyPositions(); }, t);
+  let worst = 0;
+  for (const b of got) {
+    ['x', 'y', 'z'].forEach((a) => {
+      const c = csv.header.indexOf(`${b.name}.${a}`);
+      assert.ok(c > 0, `${b.name}.${a} in the CSV`);
+      const want = interpolate(csv, c, t);
+      const err = Math.abs(b[a] - want);
+      worst = Math.max(worst, err);
+      assert.ok(err <= 1e-6, `${b.name}.${a} at t = ${t}: drawn ${b[a]}, CSV ${want}`);
+    });
+  }
+  return { bodies: got.length, worst };
+}
+
+/**
+ * A screenshot at the current time: every projected mass centre has a drawn pixel within
+ * 2 px (a body seen edge-on may be 2-3 px wide; its link segment through G is drawn too),
+ * and the canvas's top-left corner, where no body is, is background (the check can fail).
+ */
+export async function checkScreenshot(page, savePath) {
+  const png = await page.screenshot({ type: 'png' });
+  if (savePath) writeFileSync(savePath, png);
+  const img = decodePng(png);
+  const centres = await page.evaluate(() => window.kanedynViewer.projectedCentres());
+  const missing = [];
+  for (const c of centres) {
+    const x0 = Math.round(c.x);
+    const y0 = Math.round(c.y);
+    assert.ok(x0 >= 2 && y0 >= 2 && x0 < img.width - 2 && y0 < img.height - 2, `${c.name} projects into the view (${x0}, ${y0})`);
+    let hit = false;
+    for (let dy = -2; dy <= 2 && !hit; ++dy) for (let dx = -2; dx <= 2 && !hit; ++dx) hit = drawn(img.rgb(x0 + dx, y0 + dy));
+    if (!hit) missing.push(`${c.name} at (${x0}, ${y0})`);
+  }
+  assert.deepEqual(missing, [], 'mass centres with no drawn pixel near them');
+  assert.ok(!drawn(img.rgb(3, 3)), 'the corner of the scene is background');
+  return { centres: centres.length, bytes: png.length };
+}
+
+/** The plot canvases have lines on them: more than 300 non-blank pixels each. */
+export async function checkPlots(page) {
+  const counts = await page.evaluate(() => window.kanedynViewer.plotCanvases().map((cv) => {
+    const d = cv.getContext('2d').getImageData(0, 0, cv.width, cv.height).data;
+    let n = 0;
+    for (let i = 0; i < d.length; i += 4) if (d[i + 3] > 0 && !(d[i] > 250 && d[i + 1] > 250 && d[i + 2] > 250)) ++n;
+    return n;
+  }));
+  assert.ok(counts.length >= 1, 'a plot');
+  counts.forEach((n, i) => assert.ok(n > 300, `plot ${i} has ${n} drawn pixels`));
+  return counts;
+}
+
+/**
+ * Clicking the energy plot at time tc seeks there, to within one pixel's worth of time (the
+ * click lands on a whole pixel).
+ */
+export async function checkPlotClick(page, tc) {
+  await page.evaluate(() => window.kanedynViewer.seek(window.kanedynViewer.start));
+  const p = await page.evaluate((time) => window.kanedynViewer.plotPoint(0, time), tc);
+  await page.mouse.click(p.x, p.y);
+  const { t, span, width } = await page.evaluate(() => ({
+    t: window.kanedynViewer.time(),
+    span: window.kanedynViewer.end - window.kanedynViewer.start,
+    width: window.kanedynViewer.plotCanvases()[0].getBoundingClientRect().width,
+  }));
+  const pixel = span / (width - 80); // the plot area is narrower than the canvas
+  assert.ok(Math.abs(t - tc) <= 1.5 * pixel, `clicked at t = ${tc}, the viewer is at t = ${t} (one pixel = ${pixel} s)`);
+  return t;
+}
+
+/** Space plays and pauses; the right arrow steps to the next row. */
+export async function checkKeys(page, csv) {
+  await page.evaluate((t) => window.kanedynViewer.seek(t), csv.rows[1][0]);
+  await page.keyboard.press('Space');
+  assert.equal(await page.evaluate(() => window.kanedynViewer.playing()), true, 'space plays');
+  await page.keyboard.press('Space');
+  assert.equal(await page.evaluate(() => window.kanedynViewer.playing()), false, 'space pauses');
+  await page.evaluate((t) => window.kanedynViewer.seek(t), csv.rows[1][0]);
+  await page.keyboard.press('ArrowRight');
+  assert.equal(await page.evaluate(() => window.kanedynViewer.time()), csv.rows[2][0], 'right arrow: the next row');
+  await page.keyboard.press('ArrowLeft');
+  await page.keyboard.press('ArrowLeft');
+  assert.equal(await page.evaluate(() => window.kanedynViewer.time()), csv.rows[0][0], 'left arrow twice: two rows back');
+}
+
+/** Picking a column from the list adds a plot of it. */
+export async function checkPicker(page, column) {
+  await page.click('#picker');
+  await page.keyboard.type(column);
+  await page.keyboard.press('Enter');
+  const n = await page.evaluate(() => window.kanedynViewer.plotCanvases().length);
+  assert.equal(n, 2, `a plot of ${column}`);
+  const chips = await page.$$eval('.chip', (els) => els.map((e) => e.textContent));
+  assert.deepEqual(chips, [`${column} \u00d7`]);
+}
+
+/** Plays at 1x for `seconds` and returns the frame statistics (ms). */
+export async function measureFrames(page, seconds) {
+  return page.evaluate(async (s) => {
+    const v = window.kanedynViewer;
+    v.seek(v.start);
+    v.setSpeed(1);
+    v.clearFrameTimes();
+    const stamps = [];
+    v.play();
+    await new Promise((done) => {
+      const t0 = performance.now();
+      const tick = (now) => {
+        stamps.push(now);
+        if (now - t0 < s * 1000) requestAnimationFrame(tick);
+        else done();
+      };
+      requestAnimationFrame(tick);
+    });
+    v.pause();
+    const work = v.frameTimes().sort((a, b) => a - b);
+    const gaps = stamps.slice(1).map((x, i) => x - stamps[i]).sort((a, b) => a - b);
+    const q = (a, f) => a[Math.min(a.length - 1, Math.floor(f * a.length))];
+    return {
+      frames: work.length,
+      workMedian: q(work, 0.5),
+      workP95: q(work, 0.95),
+      intervalMedian: q(gaps, 0.5),
+      intervalP95: q(gaps, 0.95),
+    };
+  }, seconds);
+}
+
+/** No console error, and no request but the page itself. */
+export function checkQuiet(ctx) {
+  assert.deepEqual(ctx.errors, [], 'console errors');
+  assert.deepEqual(ctx.requests, [ctx.url], 'requests beyond the page itself');
+}

@@ -1,0 +1,42 @@
+// The eight-body example's 10 s page in headless chromium.
+import { test, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { join } from 'node:path';
+import { EXAMPLES, SOURCE, kanedyn, readCsv, workDir } from '../support.js';
+import {
+  openPage, checkPositions, checkScreenshot, checkPlots, checkPlotClick, checkKeys, checkPicker, checkQuiet,
+} from './check_page.js';
+
+const dir = workDir('browser-eight-body');
+const model = join(EXAMPLES, 'eight_body.yaml');
+assert.equal(kanedyn(dir, 'simulate', model, '-o', 'eight_body.csv').code, 0);
+assert.equal(kanedyn(dir, 'view', model, 'eight_body.csv').code, 0);
+const csv = readCsv(join(dir, 'eight_body.csv'));
+const ctx = await openPage(join(dir, 'eight_body.html'));
+after(() => ctx.close());
+
+test('the drawn mass centres are the CSV interpolated, between rows', async () => {
+  // 2.3437 s lies 37% of the way from the row at 2.34 s to the one at 2.35 s.
+  const r = await checkPositions(ctx.page, csv, 2.3437);
+  assert.equal(r.bodies, 8);
+  console.log(`largest difference from the CSV: ${r.worst.toExponential(2)} m`);
+});
+
+test('the screenshot has the bodies where their mass centres project', async () => {
+  await checkScreenshot(ctx.page, join(SOURCE, 'docs/viewer-eight-body.png'));
+});
+
+test('the plots are drawn, and clicking one seeks', async () => {
+  await checkPlots(ctx.page);
+  await checkPlotClick(ctx.page, 6.5);
+});
+
+test('keyboard and column picker', async () => {
+  await checkKeys(ctx.page, csv);
+  await checkPicker(ctx.page, 'torso.w2');
+  await checkPlots(ctx.page);
+});
+
+test('no console error and no network request', () => {
+  checkQuiet(ctx);
+});
