@@ -33,9 +33,10 @@
 
 #ifdef KANEDYN_HAVE_VIEWER
 namespace kanedyn::cli {
-// The page template, generated at build time from viewer/ (cmake/embed_viewer.cmake).
-extern const char kViewerTemplate[];
-extern const std::size_t kViewerTemplateSize;
+// The page template, generated at build time from viewer/ (cmake/embed_viewer.cmake), in
+// pieces to be joined.
+extern const char* const kViewerTemplate[];
+extern const std::size_t kViewerTemplateParts;
 }  // namespace kanedyn::cli
 #endif
 
@@ -246,8 +247,9 @@ void run(const Options& o) {
 #ifndef KANEDYN_HAVE_VIEWER
   (void)o;
   throw std::runtime_error(
-      "this kanedyn was built without the viewer (KANEDYN_VIEWER=OFF: node and npm were not "
-      "found when it was configured); install them (scripts/install-deps.sh) and rebuild");
+      "this kanedyn was built without the viewer (KANEDYN_VIEWER=OFF, or node and npm were not "
+      "found when it was configured): install them (scripts/install-deps.sh), configure again "
+      "and rebuild");
 #else
   const io::ModelFile file = io::load_model_file(o.model);
   const bool have_traj = !o.trajectory.empty();
@@ -256,7 +258,8 @@ void run(const Options& o) {
   const std::string& input = have_traj ? o.trajectory : o.model;
   std::string out = o.out;
   if (out.empty()) out = std::filesystem::path(input).filename().replace_extension(".html");
-  const std::string_view page(kViewerTemplate, kViewerTemplateSize);
+  std::string page;
+  for (std::size_t i = 0; i < kViewerTemplateParts; ++i) page += kViewerTemplate[i];
   const std::size_t at = page.find(kDataMarker);
   if (at == std::string_view::npos)
     throw std::logic_error("the viewer bundle has no data marker: the build is broken");
@@ -266,9 +269,9 @@ void run(const Options& o) {
                           : std::string("initial state"));
   std::string text;
   text.reserve(page.size() + data.size());
-  text.append(page.substr(0, at));
+  text.append(page, 0, at);
   text.append(data);
-  text.append(page.substr(at + kDataMarker.size()));
+  text.append(page, at + kDataMarker.size());
   write_page(out, input, text);
   const std::size_t stride = (traj.rows() + kMaxRows - 1) / kMaxRows;
   std::printf("wrote %s (%.1f kB; ", io::printable(out).c_str(), text.size() / 1000.0);

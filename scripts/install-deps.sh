@@ -8,6 +8,11 @@
 set -euo pipefail
 pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev libcli11-dev
       nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev)
+# The viewer (kanedyn view): node and npm bundle it with esbuild; its tests drive Debian's
+# chromium headless. A node that is already there (nodesource's, say, whose nodejs package
+# brings its own npm and conflicts with Debian's) is used as it is: node 18 or later works.
+pkgs+=(chromium)
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then pkgs+=(nodejs npm); fi
 for arg in "$@"; do
   case "$arg" in
     --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev) ;;
