@@ -55,6 +55,18 @@ struct Options {
   std::string model, trajectory, out;
 };
 
+#ifdef KANEDYN_HAVE_VIEWER
+constexpr bool kHaveViewer = true;
+std::string viewer_template() {
+  std::string page;
+  for (std::size_t i = 0; i < kViewerTemplateParts; ++i) page += kViewerTemplate[i];
+  return page;
+}
+#else
+constexpr bool kHaveViewer = false;
+std::string viewer_template() { return {}; }
+#endif
+
 std::string base64(const unsigned char* data, std::size_t size) {
   static const char kAlphabet[] =
       "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -244,13 +256,11 @@ void write_page(const std::string& path, const std::string& input, const std::st
 }
 
 void run(const Options& o) {
-#ifndef KANEDYN_HAVE_VIEWER
-  (void)o;
-  throw std::runtime_error(
-      "this kanedyn was built without the viewer (KANEDYN_VIEWER=OFF, or node and npm were not "
-      "found when it was configured): install them (scripts/install-deps.sh), configure again "
-      "and rebuild");
-#else
+  if (!kHaveViewer)
+    throw std::runtime_error(
+        "this kanedyn was built without the viewer (configured with KANEDYN_VIEWER=OFF, or "
+        "without node and npm): install them (scripts/install-deps.sh), configure with "
+        "-DKANEDYN_VIEWER=AUTO and rebuild");
   const io::ModelFile file = io::load_model_file(o.model);
   const bool have_traj = !o.trajectory.empty();
   const io::Trajectory traj =
@@ -258,8 +268,7 @@ void run(const Options& o) {
   const std::string& input = have_traj ? o.trajectory : o.model;
   std::string out = o.out;
   if (out.empty()) out = std::filesystem::path(input).filename().replace_extension(".html");
-  std::string page;
-  for (std::size_t i = 0; i < kViewerTemplateParts; ++i) page += kViewerTemplate[i];
+  const std::string page = viewer_template();
   const std::size_t at = page.find(kDataMarker);
   if (at == std::string_view::npos)
     throw std::logic_error("the viewer bundle has no data marker: the build is broken");
@@ -281,7 +290,6 @@ void run(const Options& o) {
     std::printf("the initial state");
   if (stride > 1) std::printf(", decimated to 1 row in %zu", stride);
   std::printf(")\n");
-#endif
 }
 
 void add_view(CLI::App& app) {
