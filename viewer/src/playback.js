@@ -58,7 +58,9 @@ export function createPlayback(ui, motion, { seek, getTime }) {
     if (e.target instanceof HTMLInputElement && e.target.type === 'text') return;
     if (e.target instanceof HTMLSelectElement) return;
     if (e.key === ' ') {
+      // Not also the focused button's or checkbox's own response to space.
       e.preventDefault();
+      if (e.target instanceof HTMLElement && e.target !== document.body) e.target.blur();
       setPlaying(!playing);
     } else if (e.key === 'ArrowRight' || e.key === 'ArrowLeft') {
       e.preventDefault();

@@ -9,6 +9,9 @@ import {
 import { fitView } from './fit.js';
 
 export const BACKGROUND = 0xf4f5f7;
+/** Body axes x, y, z: red, green, blue (darker than pure, to read on the light background). */
+export const AXIS_HEX = [0xd02020, 0x109010, 0x2040e0];
+const AXIS_COLOURS = AXIS_HEX.map((c) => new Color(c));
 
 /** A colour of its own for body k: hues a golden angle apart. */
 export function bodyColour(k) {
@@ -55,6 +58,7 @@ export function createScene(canvas, model, motion) {
     mesh.userData.body = k;
     frame.add(mesh);
     const axes = new AxesHelper(1.6 * Math.max(...b.semi_axes, 1e-3 * fit.radius));
+    axes.setColors(AXIS_COLOURS[0], AXIS_COLOURS[1], AXIS_COLOURS[2]);
     axes.visible = false;
     frame.add(axes);
     scene.add(frame);

@@ -113,6 +113,11 @@ export async function checkKeys(page, csv) {
   assert.equal(await page.evaluate(() => window.kanedynViewer.playing()), true, 'space plays');
   await page.keyboard.press('Space');
   assert.equal(await page.evaluate(() => window.kanedynViewer.playing()), false, 'space pauses');
+  // After a click on Play the button has the focus: space still pauses, once.
+  await page.click('#play');
+  assert.equal(await page.evaluate(() => window.kanedynViewer.playing()), true, 'the Play button plays');
+  await page.keyboard.press('Space');
+  assert.equal(await page.evaluate(() => window.kanedynViewer.playing()), false, 'space pauses after a click on Play');
   await page.evaluate((t) => window.kanedynViewer.seek(t), csv.rows[1][0]);
   await page.keyboard.press('ArrowRight');
   assert.equal(await page.evaluate(() => window.kanedynViewer.time()), csv.rows[2][0], 'right arrow: the next row');
@@ -168,4 +173,57 @@ export async function measureFrames(page, seconds) {
 export function checkQuiet(ctx) {
   assert.deepEqual(ctx.errors, [], 'console errors');
   assert.deepEqual(ctx.requests, [ctx.url], 'requests beyond the page itself');
+}
+
+/** Hovering over a body's mass centre shows its name. */
+export async function checkHover(page, k, name) {
+  const c = (await page.evaluate(() => window.kanedynViewer.projectedCentres()))[k];
+  await page.mouse.move(c.x, c.y);
+  const tip = await page.$eval('.tip', (e) => ({ hidden: e.hidden, text: e.textContent }));
+  assert.deepEqual(tip, { hidden: false, text: `${k + 1} ${name}` });
+  await page.mouse.move(2, 2);
+  assert.equal(await page.$eval('.tip', (e) => e.hidden), true, 'no name over the background');
+}
+
+/**
+ * Following body k keeps its mass centre where it is on the page (to 0.5 px) while time
+ * moves it; without following it moves.
+ */
+export async function checkFollow(page, k, t0, t1) {
+  const at = (t) => page.evaluate((time, i) => { window.kanedynViewer.seek(time); return window.kanedynViewer.projectedCentres()[i]; }, t, k);
+  const a = await at(t0);
+  const b = await at(t1);
+  const moved = Math.hypot(b.x - a.x, b.y - a.y);
+  assert.ok(moved > 3, `body ${k + 1} moves ${moved} px on the page between t = ${t0} and ${t1}`);
+  await at(t0);
+  await page.select('#follow', String(k));
+  const c = await at(t0);
+  const d = await at(t1);
+  assert.ok(Math.hypot(d.x - c.x, d.y - c.y) < 0.5, `followed, body ${k + 1} moves from (${c.x}, ${c.y}) to (${d.x}, ${d.y})`);
+  await page.select('#follow', '-1');
+}
+
+// The axes' colours (src/scene.js, AXIS_HEX); lines are drawn unlit, in exactly these.
+const AXIS_RGB = [[0xd0, 0x20, 0x20], [0x10, 0x90, 0x10], [0x20, 0x40, 0xe0]];
+
+/** "body axes" draws each body's axes: many more pixels of the axes' colours. */
+export async function checkAxes(page) {
+  const count = async () => {
+    const img = decodePng(await page.screenshot({ type: 'png' }));
+    let n = 0;
+    for (let y = 0; y < img.height; ++y) {
+      for (let x = 0; x < img.width; ++x) {
+        const [r, g, b] = img.rgb(x, y);
+        if (AXIS_RGB.some((c) => Math.abs(r - c[0]) + Math.abs(g - c[1]) + Math.abs(b - c[2]) < 12)) ++n;
+      }
+    }
+    return n;
+  };
+  const before = await count();
+  await page.click('#axes');
+  await page.evaluate(() => window.kanedynViewer.seek(window.kanedynViewer.time()));
+  const after = await count();
+  await page.click('#axes');
+  assert.ok(after > before + 100, `axis-coloured pixels: ${before} without the axes, ${after} with them`);
+  return { before, after };
 }

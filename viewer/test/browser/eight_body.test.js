@@ -4,7 +4,7 @@ import assert from 'node:assert/strict';
 import { join } from 'node:path';
 import { EXAMPLES, SOURCE, kanedyn, readCsv, workDir } from '../support.js';
 import {
-  openPage, checkPositions, checkScreenshot, checkPlots, checkPlotClick, checkKeys, checkPicker, checkQuiet,
+  openPage, checkPositions, checkScreenshot, checkPlots, checkPlotClick, checkKeys, checkPicker, checkQuiet, checkHover, checkFollow, checkAxes,
 } from './check_page.js';
 
 const dir = workDir('browser-eight-body');
@@ -35,6 +35,17 @@ test('keyboard and column picker', async () => {
   await checkKeys(ctx.page, csv);
   await checkPicker(ctx.page, 'torso.w2');
   await checkPlots(ctx.page);
+});
+
+test('names on hover, and following a body', async () => {
+  await checkHover(ctx.page, 0, 'torso');
+  // The torso sways forward and back over the first seconds.
+  await checkFollow(ctx.page, 0, 0, 1.0);
+});
+
+test('the body axes toggle on and off', async () => {
+  const r = await checkAxes(ctx.page);
+  console.log(`axis-coloured pixels: ${r.before} without the axes, ${r.after} with them`);
 });
 
 test('no console error and no network request', () => {
