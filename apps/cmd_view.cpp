@@ -129,6 +129,9 @@ Json body_json(const Model& model, int k) {
   o["name"] = b.name;
   o["L"] = b.lower_body;  // 0-based, -1 for the inertial frame
   o["mass"] = b.mass;
+  o["inertia"] = Json::array();  // [I'_GK], body-K components, row by row
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) o["inertia"].push_back(b.inertia(i, j));
   o["com"] = vec(b.com);
   o["joint"] = vec(b.joint);
   o["semi_axes"] = vec(semi);

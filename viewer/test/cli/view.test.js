@@ -2,7 +2,7 @@
 // .partial rule, decimation and the time it takes.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync, readdirSync, readFileSync, writeFileSync, mkdirSync } from 'node:fs';
+import { existsSync, readdirSync, readFileSync, writeFileSync, mkdirSync, symlinkSync } from 'node:fs';
 import { join } from 'node:path';
 import { EXAMPLES, kanedyn, pageData, readCsv, workDir } from '../support.js';
 import { decodeTrajectory } from '../../src/data.js';
@@ -37,6 +37,9 @@ test('the eight-body 10 s page holds every row: t and G exactly, the rest as flo
   for (const name of ['t', 'torso.x', 'pelvis.y', `${d.model.bodies[7].name}.z`]) assert.ok(d.f64_columns.includes(d.columns.indexOf(name)), name);
   assert.equal(d.model.bodies.length, 8);
   assert.equal(d.model.bodies[1].L, 0); // pelvis on torso
+  assert.equal(d.model.bodies[0].inertia.length, 9);
+  assert.deepEqual(d.model.bodies[0].joint, [0, 0, 1]); // the waist, examples/eight_body.yaml
+  assert.deepEqual(d.model.bodies[2].joint, [0, -0.09, -0.12]); // right hip, in pelvis axes
   assert.deepEqual(d.model.gravity, [0, 0, -9.81]);
 });
 
@@ -117,6 +120,24 @@ test('the .partial rule: a failed write leaves no page, a good one no partial fi
   assert.equal(r.code, 0, r.err);
   assert.ok(readFileSync(join(dir, 'keep.html'), 'utf8').startsWith('<!DOCTYPE html>'));
   assert.deepEqual(readdirSync(dir).filter((f) => f.endsWith('.partial')), []);
+});
+
+test('a model name with </script> in it stays data', () => {
+  const text = readFileSync(racket, 'utf8').replace(/^name: .*$/m, 'name: "a </script><b>x</b>"');
+  writeFileSync(join(dir, 'odd_name.yaml'), text);
+  const r = kanedyn(dir, 'view', 'odd_name.yaml');
+  assert.equal(r.code, 0, r.err);
+  assert.equal(pageData(join(dir, 'odd_name.html')).model.name, 'a </script><b>x</b>');
+});
+
+test('a partial file that is a link is not written through', () => {
+  writeFileSync(join(dir, 'target.txt'), 'keep');
+  symlinkSync('target.txt', join(dir, 'linked.html.partial'));
+  const r = kanedyn(dir, 'view', eight, 'eight.csv', '-o', 'linked.html');
+  assert.equal(r.code, 1);
+  assert.equal(r.err, "kanedyn: error: cannot write linked.html.partial: it exists and is not a regular file\n");
+  assert.equal(readFileSync(join(dir, 'target.txt'), 'utf8'), 'keep');
+  assert.ok(!existsSync(join(dir, 'linked.html')));
 });
 
 test('more than 20,000 rows: every k-th row and the last, and the page says how many', () => {
