@@ -32,7 +32,8 @@ export function createPlot(container, traj, names, { width, height, getTime, see
   const series = [{ label: 't' }];
   const data = [traj.columns[0]];
   names.forEach((name, i) => {
-    series.push({ label: name, stroke: PALETTE[i % PALETTE.length], width: 1.5, points: { show: false } });
+    // Points only for a lone row (the initial state), where a line has no length.
+    series.push({ label: name, stroke: PALETTE[i % PALETTE.length], width: 1.5, points: { show: traj.rows < 2 } });
     data.push(traj.column(name));
   });
   const opts = {
