@@ -39,12 +39,14 @@ export function createScene(canvas, model, motion) {
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   const scene = new Scene();
   scene.background = new Color(BACKGROUND);
-  scene.add(new AmbientLight(0xffffff, 1.2));
+  scene.add(new AmbientLight(0xffffff, 0.8));
   const sun = new DirectionalLight(0xffffff, 2.0);
   scene.add(sun);
 
   const fit = fitView(model, motion);
   const up = new Vector3(...fit.up);
+  // Light from above and from the camera's side, whatever the model's up.
+  sun.position.set(...fit.up.map((u, a) => 2 * u + fit.view[a]));
   const camera = new PerspectiveCamera(40, 1, fit.radius / 1000, fit.radius * 100);
   camera.up.copy(up);
 

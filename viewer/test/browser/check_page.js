@@ -126,15 +126,17 @@ export async function checkKeys(page, csv) {
   assert.equal(await page.evaluate(() => window.kanedynViewer.time()), csv.rows[0][0], 'left arrow twice: two rows back');
 }
 
-/** Picking a column from the list adds a plot of it. */
+/** Picking a column from the list adds it to the plot of picked columns (one uPlot). */
 export async function checkPicker(page, column) {
+  const before = await page.$$eval('.chip', (els) => els.map((e) => e.textContent));
   await page.click('#picker');
   await page.keyboard.type(column);
   await page.keyboard.press('Enter');
   const n = await page.evaluate(() => window.kanedynViewer.plotCanvases().length);
-  assert.equal(n, 2, `a plot of ${column}`);
+  assert.equal(n, 2, `the energy plot and one of the picked columns, ${column} among them`);
   const chips = await page.$$eval('.chip', (els) => els.map((e) => e.textContent));
-  assert.deepEqual(chips, [`${column} \u00d7`]);
+  assert.deepEqual(chips, [...before, `${column} \u00d7`]);
+  assert.equal(await page.$eval('#picker', (e) => e.value), '', 'the list is ready for the next');
 }
 
 /** Plays at 1x for `seconds` and returns the frame statistics (ms). */
