@@ -17,6 +17,11 @@ for arg in "$@"; do
     *) echo "install-deps: unknown option $arg (expected --peers, --clang or --fuzz)" >&2; exit 2 ;;
   esac
 done
+# The viewer (kanedyn view): node and npm bundle it with esbuild; its tests drive Debian's
+# chromium headless. A node that is already there (nodesource's, say, whose nodejs package
+# brings its own npm and conflicts with Debian's) is used as it is: node 18 or later works.
+pkgs+=(chromium)
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then pkgs+=(nodejs npm); fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

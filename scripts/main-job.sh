@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The README's first command: install what is missing, build, and run the main job on the
-# notes' eight-body example.
+# notes' eight-body example: its equations, its 10 s trajectory and a web page of it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -18,3 +18,7 @@ echo "(readable tables: build/kanedyn eom $model)"
 echo
 echo "== build/kanedyn simulate $model"
 build/kanedyn simulate "$model"
+echo
+echo "== build/kanedyn view $model eight_body.csv"
+build/kanedyn view "$model" eight_body.csv
+echo "open eight_body.html in a browser: the run animated, with plots (docs/viewer.md)"

@@ -32,15 +32,14 @@ std::vector<std::string_view> fields(std::string_view line) {
   }
 }
 
-}  // namespace
-
-TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t) {
-  const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
-    return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
-  };
-  std::ifstream in(path, std::ios::binary);
+/// Opens the trajectory and checks that its header is this model's; `fail(line, problem)`
+/// builds the error.
+template <typename Fail>
+std::vector<std::string> open_and_check_header(const Model& model, const std::string& path,
+                                               std::ifstream& in, const Fail& fail) {
+  in.open(path, std::ios::binary);
   if (!in) throw fail(0, "cannot open the trajectory");
-  const std::vector<std::string> columns = trajectory_columns(model);
+  std::vector<std::string> columns = trajectory_columns(model);
   std::string line;
   if (!std::getline(in, line)) throw fail(0, "the trajectory is empty");
   if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -54,6 +53,36 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
                    "trajectory has " + want + ": the trajectory is not of " +
                    (model.name().empty() ? std::string("this model") : "'" + model.name() + "'"));
   }
+  return columns;
+}
+
+/// Parses one data row into `row` (its size is the number of columns).
+template <typename Fail>
+void parse_row(std::string_view line, int line_no, const std::vector<std::string>& columns,
+               std::vector<double>& row, const Fail& fail) {
+  const std::vector<std::string_view> f = fields(line);
+  const size_t width = columns.size();
+  if (f.size() != width)
+    throw fail(line_no, "the row has " + std::to_string(f.size()) + " fields, the header " +
+                            std::to_string(width));
+  for (size_t c = 0; c < width; ++c) {
+    const char* end = f[c].data() + f[c].size();
+    const auto [ptr, ec] = std::from_chars(f[c].data(), end, row[c]);
+    if (ec != std::errc() || ptr != end || !std::isfinite(row[c]))
+      throw fail(line_no, "column '" + columns[c] + "': '" + printable(f[c], 40) +
+                              "' is not a finite number");
+  }
+}
+
+}  // namespace
+
+TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t) {
+  const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
+    return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
+  };
+  std::ifstream in;
+  const std::vector<std::string> columns = open_and_check_header(model, path, in, fail);
+  std::string line;
   // One pass: keep the row nearest to t and the times of its neighbours.
   const size_t width = columns.size();
   std::vector<double> best(width), row(width), prev(width);
@@ -64,17 +93,7 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
-    const std::vector<std::string_view> f = fields(line);
-    if (f.size() != width)
-      throw fail(line_no, "the row has " + std::to_string(f.size()) + " fields, the header " +
-                              std::to_string(width));
-    for (size_t c = 0; c < width; ++c) {
-      const char* end = f[c].data() + f[c].size();
-      const auto [ptr, ec] = std::from_chars(f[c].data(), end, row[c]);
-      if (ec != std::errc() || ptr != end || !std::isfinite(row[c]))
-        throw fail(line_no, "column '" + columns[c] + "': '" + printable(f[c], 40) +
-                                "' is not a finite number");
-    }
+    parse_row(line, line_no, columns, row, fail);
     const double tr = row[0];
     if (take_next) {
       after_best = tr;
@@ -118,6 +137,31 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
       out.state.translation_rate(k)[i] = best[b + 13 + ii];
     }
   }
+  return out;
+}
+
+Trajectory read_trajectory(const Model& model, const std::string& path) {
+  const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
+    return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
+  };
+  std::ifstream in;
+  Trajectory out;
+  out.columns = open_and_check_header(model, path, in, fail);
+  std::vector<double> row(out.columns.size());
+  std::string line;
+  int line_no = 1;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    parse_row(line, line_no, out.columns, row, fail);
+    // Interpolating between rows needs times in order.
+    if (!out.values.empty() && row[0] < out.values[out.values.size() - out.columns.size()])
+      throw fail(line_no, "t = " + number(row[0]) + " is before the previous row's t = " +
+                              number(out.values[out.values.size() - out.columns.size()]));
+    out.values.insert(out.values.end(), row.begin(), row.end());
+  }
+  if (out.values.empty()) throw fail(0, "the trajectory has no rows");
   return out;
 }
 

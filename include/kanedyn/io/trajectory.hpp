@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
@@ -24,5 +25,19 @@ struct TrajectoryRow {
 /// column), a row with the wrong number of fields or a field that is not a number, no rows,
 /// or no row within half a step of t (naming the range of times, or the nearest rows).
 TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t);
+
+/// A whole trajectory: every row, as written.
+struct Trajectory {
+  std::vector<std::string> columns;  ///< the header: trajectory_columns(model)
+  std::vector<double> values;        ///< row-major: rows() x columns.size()
+  std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
+  double at(std::size_t row, std::size_t column) const {
+    return values[row * columns.size() + column];
+  }
+};
+
+/// Every row of the trajectory at `path`. Throws std::runtime_error naming the file, the line
+/// and the problem, as read_trajectory_row does, and also for a time that goes backwards.
+Trajectory read_trajectory(const Model& model, const std::string& path);
 
 }  // namespace kanedyn::io

@@ -1,0 +1,283 @@
+// The page `kanedyn view` writes (docs/viewer.md): the viewer bundle of viewer/, compiled in
+// at build time, with the model and a trajectory inlined as JSON and base64 arrays.
+#include "page.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/energy.hpp"
+#include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/text.hpp"
+#include "kanedyn/kinematics.hpp"
+
+#ifdef KANEDYN_HAVE_VIEWER
+namespace kanedyn::view {
+// The page template, generated at build time from viewer/ (cmake/embed_viewer.cmake), in
+// pieces to be joined.
+extern const char* const kViewerTemplate[];
+extern const std::size_t kViewerTemplateParts;
+}  // namespace kanedyn::view
+#endif
+
+namespace kanedyn::view {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// Where the bundle's page template takes the data.
+constexpr std::string_view kDataMarker = "__KANEDYN_DATA__";
+
+#ifdef KANEDYN_HAVE_VIEWER
+constexpr bool kAvailable = true;
+std::string viewer_template() {
+  std::string page;
+  for (std::size_t i = 0; i < kViewerTemplateParts; ++i) page += kViewerTemplate[i];
+  return page;
+}
+#else
+constexpr bool kAvailable = false;
+std::string viewer_template() { return {}; }
+#endif
+
+std::string base64(const unsigned char* data, std::size_t size) {
+  static const char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((size + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 2 < size; i += 3) {
+    const unsigned v = (data[i] << 16) | (data[i + 1] << 8) | data[i + 2];
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += kAlphabet[v & 63];
+  }
+  if (i + 1 == size) {
+    const unsigned v = data[i] << 16;
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += "==";
+  } else if (i + 2 == size) {
+    const unsigned v = (data[i] << 16) | (data[i + 1] << 8);
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += '=';
+  }
+  return out;
+}
+
+// The page decodes with Float64Array/Float32Array, which use the platform's byte order; every
+// browser platform is little-endian, so the file is written little-endian.
+static_assert(std::endian::native == std::endian::little, "the page's arrays are little-endian");
+
+template <typename T>
+std::string base64_of(const std::vector<T>& v) {
+  return base64(reinterpret_cast<const unsigned char*>(v.data()), v.size() * sizeof(T));
+}
+
+Json vec(const Vector3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+
+/// The solid ellipsoid of the body's mass and inertia about G_K: semi-axes a_i with
+/// I_i = m (a_j^2 + a_k^2) / 5, so a_i^2 = 5 (I_j + I_k - I_i) / (2 m), along the principal
+/// axes. A flat or needle-like body (a triangle inequality near equality) keeps a visible
+/// thickness of 2% of its largest semi-axis.
+Json body_json(const Model& model, int k) {
+  const BodySpec& b = model.body(k);
+  const Eigen::SelfAdjointEigenSolver<Matrix3> eig(b.inertia);
+  Matrix3 axes = eig.eigenvectors();
+  if (axes.determinant() < 0) axes.col(2) = -axes.col(2);  // a rotation, for the quaternion
+  const Vector3 moments = eig.eigenvalues();
+  Vector3 semi;
+  for (int i = 0; i < 3; ++i) {
+    const double sq =
+        5.0 * (moments[(i + 1) % 3] + moments[(i + 2) % 3] - moments[i]) / (2.0 * b.mass);
+    semi[i] = std::sqrt(std::max(sq, 0.0));
+  }
+  const double largest = semi.maxCoeff();
+  for (int i = 0; i < 3; ++i) semi[i] = std::max(semi[i], 0.02 * largest);
+  const Eigen::Quaterniond q(axes);  // principal axes -> body-K axes
+  Json o;
+  o["name"] = b.name;
+  o["L"] = b.lower_body;  // 0-based, -1 for the inertial frame
+  o["mass"] = b.mass;
+  o["inertia"] = Json::array();  // [I'_GK], body-K components, row by row
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) o["inertia"].push_back(b.inertia(i, j));
+  o["com"] = vec(b.com);
+  o["joint"] = vec(b.joint);
+  o["semi_axes"] = vec(semi);
+  o["principal"] = Json::array({q.x(), q.y(), q.z(), q.w()});
+  return o;
+}
+
+}  // namespace
+
+io::Trajectory initial_trajectory(const Model& model, const State& initial) {
+  Data data(model);
+  compute_kinematics(model, initial, data);
+  io::Trajectory out;
+  out.columns = io::trajectory_columns(model);
+  out.values.push_back(0.0);
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const auto put = [&](const auto& v) {
+      for (Eigen::Index i = 0; i < v.size(); ++i) out.values.push_back(v[i]);
+    };
+    put(data.kinematics.p_G[static_cast<std::size_t>(k)]);
+    put(initial.euler_parameters(k));
+    put(initial.translation(k));
+    put(initial.angular_velocity(k));
+    put(initial.translation_rate(k));
+  }
+  out.values.push_back(total_energy_of_kinematics(model, initial, data));
+  return out;
+}
+
+std::size_t stride(std::size_t rows) {
+  return rows <= kMaxRows ? 1 : (rows + kMaxRows - 1) / kMaxRows;
+}
+
+namespace {
+
+/// The JSON the page reads (docs/viewer.md, "What the page holds").
+std::string page_data(const Model& model, const std::string& model_file, const io::Trajectory& traj,
+                      const std::string& source) {
+  const std::size_t rows = traj.rows(), width = traj.columns.size();
+  if (rows == 0) throw std::invalid_argument("view::page: the trajectory has no rows");
+  if (traj.columns != io::trajectory_columns(model))
+    throw std::invalid_argument("view::page: the trajectory's columns are not the model's");
+  // Every stride-th row, and the last one, so that the page ends where the run ends.
+  const std::size_t stride = view::stride(rows);
+  std::vector<std::size_t> kept;
+  for (std::size_t r = 0; r < rows; r += stride) kept.push_back(r);
+  if (kept.back() != rows - 1) kept.push_back(rows - 1);
+  // Time and the mass centres in float64: float32's 6e-8 relative step would be 6 um at
+  // 100 m, coarser than the page's promise that it draws the CSV's positions. The rest
+  // (Euler parameters, speeds, energy: drawing and plotting only) in float32.
+  std::vector<double> f64;
+  std::vector<float> f32;
+  Json f64_columns = Json::array(), f32_columns = Json::array();
+  for (std::size_t c = 0; c < width; ++c) {
+    const std::size_t in_body = (c - 1) % 16;
+    const bool wide = c == 0 || (c + 1 < width && in_body < 3);
+    (wide ? f64_columns : f32_columns).push_back(c);
+    for (const std::size_t r : kept) {
+      if (wide)
+        f64.push_back(traj.at(r, c));
+      else
+        f32.push_back(static_cast<float>(traj.at(r, c)));
+    }
+  }
+  Json d;
+  d["format"] = "kanedyn-view/1";
+  Json m;
+  m["name"] = model.name();
+  m["file"] = model_file;
+  m["gravity"] = vec(model.gravity());
+  m["bodies"] = Json::array();
+  for (int k = 0; k < model.num_bodies(); ++k) m["bodies"].push_back(body_json(model, k));
+  d["model"] = std::move(m);
+  d["source"] = source;
+  d["rows_in_file"] = rows;
+  d["stride"] = stride;
+  d["rows"] = kept.size();
+  d["columns"] = traj.columns;
+  d["f64_columns"] = std::move(f64_columns);
+  d["f32_columns"] = std::move(f32_columns);
+  d["f64"] = base64_of(f64);
+  d["f32"] = base64_of(f32);
+  // Inside <script>, "</" could close the element: JSON allows the escape "<\/".
+  std::string text = d.dump(-1, ' ', false, Json::error_handler_t::replace);
+  for (std::size_t p = text.find("</"); p != std::string::npos; p = text.find("</", p + 3))
+    text.replace(p, 2, "<\\/");
+  return text;
+}
+
+}  // namespace
+
+std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
+                 const std::string& source) {
+  require_available();
+  const std::string page = viewer_template();
+  const std::size_t at = page.find(kDataMarker);
+  if (at == std::string::npos)
+    throw std::logic_error("the viewer bundle has no data marker: the build is broken");
+  const std::string data = page_data(model, model_file, traj, source);
+  std::string text;
+  text.reserve(page.size() + data.size());
+  text.append(page, 0, at);
+  text.append(data);
+  text.append(page, at + kDataMarker.size());
+  return text;
+}
+
+void write_page(const std::string& path, const std::string& input, const std::string& text) {
+  io::check_output_path(path, input);
+  const std::string partial = path + ".partial";
+  struct stat st {};
+  if (::lstat(partial.c_str(), &st) == 0) {
+    if (!S_ISREG(st.st_mode))
+      throw std::runtime_error("cannot write " + io::printable(partial) +
+                               ": it exists and is not a regular file");
+    ::unlink(partial.c_str());
+  }
+  // O_EXCL|O_NOFOLLOW: never write through a link someone placed there meanwhile.
+  const int fd =
+      ::open(partial.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+  if (fd < 0)
+    throw std::runtime_error("cannot create " + io::printable(partial) + ": " +
+                             std::strerror(errno));
+  const auto fail = [&](const std::string& what) {
+    const int err = errno;
+    ::close(fd);
+    ::unlink(partial.c_str());
+    return std::runtime_error(what + " " + io::printable(partial) + ": " + std::strerror(err) +
+                              "; nothing written to " + io::printable(path));
+  };
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) throw fail("cannot write");
+    done += static_cast<std::size_t>(n);
+  }
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(partial.c_str());
+    throw std::runtime_error("cannot write " + io::printable(partial) + ": " + std::strerror(err));
+  }
+  if (std::rename(partial.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(partial.c_str());
+    throw std::runtime_error("cannot rename " + io::printable(partial) + " to " +
+                             io::printable(path) + ": " + std::strerror(err));
+  }
+}
+
+bool available() { return kAvailable; }
+
+void require_available() {
+  if (!kAvailable)
+    throw std::runtime_error(
+        "this kanedyn was built without the viewer (configured with KANEDYN_VIEWER=OFF, or "
+        "without node and npm): install them (scripts/install-deps.sh), configure with "
+        "-DKANEDYN_VIEWER=AUTO and rebuild");
+}
+
+}  // namespace kanedyn::view

@@ -1,0 +1,42 @@
+// The web page of `kanedyn view` (docs/viewer.md), for the tool and for other front ends
+// (the target kanedyn_view): one self-contained HTML file with the viewer bundle, the model
+// and a trajectory inlined.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "kanedyn/io/trajectory.hpp"
+#include "kanedyn/model.hpp"
+#include "kanedyn/state.hpp"
+
+namespace kanedyn::view {
+
+/// Above this many rows the page holds every k-th row and the last: a browser plots and
+/// scrubs 20,000 rows without lag, and the page stays a few megabytes.
+constexpr std::size_t kMaxRows = 20000;
+
+/// True when the viewer bundle was compiled in (KANEDYN_VIEWER); otherwise page() throws.
+bool available();
+/// Throws std::runtime_error, saying how to get the viewer, unless available().
+void require_available();
+
+/// k: the page keeps rows 0, k, 2k, ... and the last; 1 up to kMaxRows rows.
+std::size_t stride(std::size_t rows);
+
+/// The one-row trajectory of a state at t = 0 (positions by compute_kinematics, energy by
+/// total_energy), in the columns of io::trajectory_columns(model).
+io::Trajectory initial_trajectory(const Model& model, const State& initial);
+
+/// The page's text. `traj` must have io::trajectory_columns(model) and at least one row
+/// (std::invalid_argument otherwise); `model_file` and `source` (the trajectory's name, or
+/// "initial state") are shown on the page. Throws std::runtime_error when !available().
+std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
+                 const std::string& source);
+
+/// Writes `text` to PATH.partial and renames it to PATH (io::check_output_path first, with
+/// `input` the file it must not overwrite); on failure removes the partial file (a page cut
+/// short is of no use), leaves PATH as it was and throws naming the file.
+void write_page(const std::string& path, const std::string& input, const std::string& text);
+
+}  // namespace kanedyn::view

@@ -1,0 +1,77 @@
+// Fitting the model in view, whatever its size: the box of all mass centres over the run
+// (sampled), of the O_K and Q_K points, grown by the largest ellipsoid.
+
+/** Up is against gravity; without gravity, +z. */
+export function upDirection(gravity) {
+  const norm = Math.hypot(...gravity);
+  return norm > 0 ? gravity.map((c) => -c / norm) : [0, 0, 1];
+}
+
+/** Any unit vector normal to u. */
+function normalTo(u) {
+  const a = Math.abs(u[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
+  const d = a[0] * u[0] + a[1] * u[1] + a[2] * u[2];
+  const w = a.map((c, i) => c - d * u[i]);
+  const n = Math.hypot(...w);
+  return w.map((c) => c / n);
+}
+
+export function fitView(model, motion, samples = 200) {
+  const lo = [Infinity, Infinity, Infinity];
+  const hi = [-Infinity, -Infinity, -Infinity];
+  const grow = (p) => {
+    for (let a = 0; a < 3; ++a) {
+      lo[a] = Math.min(lo[a], p[a]);
+      hi[a] = Math.max(hi[a], p[a]);
+    }
+  };
+  const rows = motion.times.length;
+  const step = Math.max(1, Math.floor(rows / samples));
+  for (let r = 0; r < rows; r += step) {
+    for (const f of motion.at(motion.times[r])) {
+      grow(f.g);
+      grow(f.o);
+      grow(f.q);
+    }
+  }
+  for (const f of motion.at(motion.end)) grow(f.g);
+  const size = Math.max(...model.bodies.map((b) => Math.max(...b.semi_axes)));
+  for (let a = 0; a < 3; ++a) {
+    lo[a] -= size;
+    hi[a] += size;
+  }
+  const centre = lo.map((l, a) => 0.5 * (l + hi[a]));
+  const radius = Math.max(0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]), 1e-3);
+  const up = upDirection(model.gravity);
+  // The ground: below everything along up, so the grid never cuts a body.
+  let lowest = Infinity;
+  for (const x of [lo[0], hi[0]]) for (const y of [lo[1], hi[1]]) for (const z of [lo[2], hi[2]]) {
+    lowest = Math.min(lowest, x * up[0] + y * up[1] + z * up[2]);
+  }
+  const c = centre[0] * up[0] + centre[1] * up[1] + centre[2] * up[2];
+  const ground = centre.map((x, a) => x + (lowest - c) * up[a]);
+  // Cells a power of ten (about a fifth of the radius or less), as many as span the motion.
+  const gridCell = 10 ** Math.floor(Math.log10(radius / 5));
+  const gridDivisions = Math.max(2, Math.ceil((2.4 * radius) / gridCell));
+  const gridSize = gridDivisions * gridCell;
+  // Looking from the side and somewhat above: a direction normal to up, tilted 25 degrees.
+  const side = normalTo(up);
+  const other = [
+    up[1] * side[2] - up[2] * side[1], up[2] * side[0] - up[0] * side[2], up[0] * side[1] - up[1] * side[0],
+  ];
+  const view = side.map((s, a) => -0.6 * s - 0.8 * other[a] + 0.45 * up[a]);
+  const vn = Math.hypot(...view);
+  return {
+    centre, radius, up, ground, gridSize, gridDivisions, gridCell, side,
+    view: view.map((x) => x / vn),
+    hasGravity: Math.hypot(...model.gravity) > 0,
+  };
+}
+
+/** Camera distance that shows a sphere of this radius whole at vertical field of view fov
+ * (degrees) and aspect ratio (width / height). */
+export function fitDistance(radius, fov, aspect) {
+  const half = (fov * Math.PI) / 360;
+  const horizontal = Math.atan(Math.tan(half) * aspect);
+  return (1.1 * radius) / Math.sin(Math.min(half, horizontal));
+}

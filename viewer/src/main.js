@@ -1,0 +1,207 @@
+// The page: reads its data, builds the scene, the playback controls and the plots, and
+// exposes window.kanedynViewer for tests and scripts (docs/viewer.md, "Page hook").
+import { readPageData, decodeTrajectory } from './data.js';
+import { createMotion } from './motion.js';
+import { createScene, bodyColour } from './scene.js';
+import { fitDistance } from './fit.js';
+import { createPlot } from './plots.js';
+import { createPlayback } from './playback.js';
+import { h, layout } from './ui.js';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { Raycaster, Vector2, Vector3 } from 'three';
+import './style.css';
+
+function start() {
+  const d = readPageData(document);
+  const model = d.model;
+  const traj = decodeTrajectory(d);
+  const motion = createMotion(model, traj);
+  const ui = layout(document.body, d);
+  document.title = `${model.name || model.file} - kanedyn view`;
+
+  const view = createScene(ui.canvas, model, motion);
+  const { renderer, camera, scene } = view;
+  const controls = new OrbitControls(camera, ui.canvas);
+  const fit = view.fit;
+  controls.target.set(...fit.centre);
+
+  let t = motion.start;
+  let dirty = true;
+  let follow = -1;
+  const followed = new Vector3();
+  let frame = motion.at(t);
+
+  function resize() {
+    const w = ui.stage.clientWidth;
+    const hgt = ui.stage.clientHeight;
+    renderer.setSize(w, hgt, false);
+    camera.aspect = w / Math.max(hgt, 1);
+    camera.updateProjectionMatrix();
+    dirty = true;
+  }
+  function fitCamera() {
+    resize();
+    const dist = fitDistance(fit.radius, camera.fov, camera.aspect);
+    camera.position.set(...fit.centre.map((c, a) => c + dist * fit.view[a]));
+    controls.target.set(...fit.centre);
+    camera.near = dist / 1000;
+    camera.far = dist * 100;
+    camera.updateProjectionMatrix();
+    controls.update();
+    dirty = true;
+  }
+
+  const plots = [];
+  const redrawPlots = () => plots.forEach((p) => p && p.redraw(false, false));
+  function seek(time) {
+    t = Math.min(Math.max(time, motion.start), motion.end);
+    frame = motion.at(t);
+    view.place(frame);
+    if (follow >= 0) {
+      const g = frame[follow].g;
+      const delta = new Vector3(g[0], g[1], g[2]).sub(followed);
+      camera.position.add(delta);
+      controls.target.add(delta);
+      followed.set(g[0], g[1], g[2]);
+      controls.update();
+    }
+    playback.show(t);
+    redrawPlots();
+    dirty = true;
+  }
+
+  const playback = createPlayback(ui, motion, { seek, getTime: () => t });
+
+  // Plots: energy, and the picked columns in a second plot.
+  const plotWidth = () => Math.max(ui.plots.clientWidth - 8, 200);
+  const plotOpts = (title) => ({ width: plotWidth(), height: 180, getTime: () => t, seek, title });
+  plots[0] = createPlot(ui.energyPlot, traj, ['energy'], plotOpts('energy (J)'));
+  const picked = [];
+  function redoPicked() {
+    if (plots[1]) plots[1].destroy();
+    plots[1] = null;
+    ui.pickedPlot.replaceChildren();
+    if (picked.length) plots[1] = createPlot(ui.pickedPlot, traj, picked, plotOpts('picked columns'));
+    ui.chips.replaceChildren(...picked.map((name) => h('button', {
+      class: 'chip', title: 'remove', onclick: () => { picked.splice(picked.indexOf(name), 1); redoPicked(); },
+    }, `${name} \u00d7`)));
+  }
+  function pick(name) {
+    if (traj.index(name) === undefined || name === 't' || picked.includes(name)) return false;
+    picked.push(name);
+    redoPicked();
+    return true;
+  }
+  ui.picker.addEventListener('change', () => {
+    if (pick(ui.picker.value.trim())) ui.picker.value = '';
+  });
+  ui.picker.addEventListener('keydown', (e) => {
+    if (e.key === 'Enter' && pick(ui.picker.value.trim())) ui.picker.value = '';
+  });
+
+  // Follow a body: the camera moves with its mass centre.
+  ui.follow.addEventListener('change', () => {
+    follow = Number(ui.follow.value);
+    if (follow >= 0) {
+      const g = frame[follow].g;
+      const delta = new Vector3(g[0], g[1], g[2]).sub(controls.target);
+      camera.position.add(delta);
+      controls.target.add(delta);
+      followed.set(g[0], g[1], g[2]);
+      controls.update();
+    }
+    dirty = true;
+  });
+  ui.axes.addEventListener('change', () => { view.setAxesVisible(ui.axes.checked); dirty = true; });
+  ui.fit.addEventListener('click', fitCamera);
+  controls.addEventListener('change', () => { dirty = true; });
+
+  // Names on hover.
+  const ray = new Raycaster();
+  const pointer = new Vector2();
+  const meshes = view.bodies.map((b) => b.mesh);
+  ui.canvas.addEventListener('pointermove', (e) => {
+    const r = ui.canvas.getBoundingClientRect();
+    pointer.set(((e.clientX - r.left) / r.width) * 2 - 1, -((e.clientY - r.top) / r.height) * 2 + 1);
+    ray.setFromCamera(pointer, camera);
+    const hit = ray.intersectObjects(meshes, false)[0];
+    if (hit) {
+      const k = hit.object.userData.body;
+      ui.tip.textContent = `${k + 1} ${model.bodies[k].name}`;
+      ui.tip.style.borderColor = `#${bodyColour(k).getHexString()}`;
+      ui.tip.style.left = `${e.clientX - r.left + 12}px`;
+      ui.tip.style.top = `${e.clientY - r.top + 12}px`;
+      ui.tip.hidden = false;
+    } else {
+      ui.tip.hidden = true;
+    }
+  });
+  ui.canvas.addEventListener('pointerleave', () => { ui.tip.hidden = true; });
+
+  // The frame loop: advance when playing, render when something changed. work[] holds the
+  // milliseconds each rendered frame took (update and draw), for the frame-time hook.
+  const work = [];
+  let last = performance.now();
+  function tick(now) {
+    const dt = Math.min((now - last) / 1000, 0.25);
+    last = now;
+    const start0 = performance.now();
+    const next = playback.advance(t, dt);
+    if (next !== t) seek(next);
+    if (dirty) {
+      renderer.render(scene, camera);
+      dirty = false;
+      work.push(performance.now() - start0);
+      if (work.length > 2000) work.shift();
+    }
+    requestAnimationFrame(tick);
+  }
+  window.addEventListener('resize', () => {
+    resize();
+    plots.forEach((p) => p && p.setSize({ width: plotWidth(), height: 180 }));
+  });
+
+  view.place(frame);
+  fitCamera();
+  seek(t);
+  renderer.render(scene, camera);
+  requestAnimationFrame(tick);
+
+  const project = (p) => {
+    const v = new Vector3(p.x, p.y, p.z).project(camera);
+    const r = ui.canvas.getBoundingClientRect();
+    return { x: r.left + ((v.x + 1) / 2) * r.width, y: r.top + ((1 - v.y) / 2) * r.height };
+  };
+  window.kanedynViewer = {
+    ready: true,
+    rows: traj.rows,
+    rowsInFile: d.rows_in_file,
+    softwareRendering: view.software,
+    stride: d.stride,
+    start: motion.start,
+    end: motion.end,
+    time: () => t,
+    seek: (time) => { seek(time); renderer.render(scene, camera); dirty = false; return t; },
+    play: () => playback.setPlaying(true),
+    pause: () => playback.setPlaying(false),
+    playing: () => playback.playing(),
+    setSpeed: (s) => playback.setSpeed(s),
+    /** The mass centres as drawn now (inertial, m). */
+    bodyPositions: () => view.drawnCentres(),
+    /** Where the drawn mass centres are on the page (CSS pixels). */
+    projectedCentres: () => view.drawnCentres().map((p) => ({ name: p.name, ...project(p) })),
+    /** Page x (CSS pixels) of time `time` on plot i, and the vertical middle of its plot area. */
+    plotPoint: (i, time) => {
+      const p = plots[i];
+      const r = p.over.getBoundingClientRect();
+      return { x: r.left + p.valToPos(time, 'x'), y: r.top + r.height / 2 };
+    },
+    plotCanvases: () => plots.filter(Boolean).map((p) => p.ctx.canvas),
+    pick,
+    /** Milliseconds of work of the last rendered frames (update and draw). */
+    frameTimes: () => work.slice(),
+    clearFrameTimes: () => { work.length = 0; },
+  };
+}
+
+start();

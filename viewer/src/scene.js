@@ -1,0 +1,130 @@
+// The three.js scene: an inertia-equivalent ellipsoid per body in its body frame, the links
+// O_J -> Q_K -> O_K, body axes, a ground grid and the gravity direction.
+import {
+  AmbientLight, ArrowHelper, AxesHelper, BufferAttribute, BufferGeometry, Color,
+  DirectionalLight, GridHelper, Group, LineBasicMaterial, LineSegments, Mesh,
+  MeshStandardMaterial, PerspectiveCamera, Quaternion, Scene, SphereGeometry, Vector3,
+  WebGLRenderer,
+} from 'three';
+import { fitView } from './fit.js';
+
+export const BACKGROUND = 0xf4f5f7;
+/** Body axes x, y, z: red, green, blue (darker than pure, to read on the light background). */
+export const AXIS_HEX = [0xd02020, 0x109010, 0x2040e0];
+const AXIS_COLOURS = AXIS_HEX.map((c) => new Color(c));
+
+/** A colour of its own for body k: hues a golden angle apart. */
+export function bodyColour(k) {
+  return new Color().setHSL(((k * 137.508) % 360) / 360, 0.65, 0.5);
+}
+
+/**
+ * True when WebGL draws on the CPU (SwiftShader, llvmpipe: a browser without a GPU, as in
+ * headless tests): there multisampling costs several times the rest of a frame (83 ms
+ * against 17 ms a frame for the 64-link chain), so it is left off.
+ */
+export function softwareRenderer() {
+  const gl = document.createElement('canvas').getContext('webgl2') || document.createElement('canvas').getContext('webgl');
+  if (!gl) return false;
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+  const lose = gl.getExtension('WEBGL_lose_context');
+  if (lose) lose.loseContext();
+  return /swiftshader|llvmpipe|software/i.test(name);
+}
+
+export function createScene(canvas, model, motion) {
+  const software = softwareRenderer();
+  const renderer = new WebGLRenderer({ canvas, antialias: !software });
+  renderer.setPixelRatio(window.devicePixelRatio || 1);
+  const scene = new Scene();
+  scene.background = new Color(BACKGROUND);
+  scene.add(new AmbientLight(0xffffff, 0.8));
+  const sun = new DirectionalLight(0xffffff, 2.0);
+  scene.add(sun);
+
+  const fit = fitView(model, motion);
+  const up = new Vector3(...fit.up);
+  // Light from above and from the camera's side, whatever the model's up.
+  sun.position.set(...fit.up.map((u, a) => 2 * u + fit.view[a]));
+  const camera = new PerspectiveCamera(40, 1, fit.radius / 1000, fit.radius * 100);
+  camera.up.copy(up);
+
+  const sphere = new SphereGeometry(1, 32, 16);
+  const bodies = model.bodies.map((b, k) => {
+    const frame = new Group(); // origin O_K, axes of body K
+    const mesh = new Mesh(sphere, new MeshStandardMaterial({ color: bodyColour(k), roughness: 0.6 }));
+    mesh.position.set(...b.com); // G_K at r'_K in body axes
+    mesh.quaternion.set(...b.principal);
+    mesh.scale.set(...b.semi_axes);
+    mesh.userData.body = k;
+    frame.add(mesh);
+    const axes = new AxesHelper(1.6 * Math.max(...b.semi_axes, 1e-3 * fit.radius));
+    axes.setColors(AXIS_COLOURS[0], AXIS_COLOURS[1], AXIS_COLOURS[2]);
+    axes.visible = false;
+    frame.add(axes);
+    scene.add(frame);
+    return { frame, mesh, axes };
+  });
+
+  // Two segments per body: O_J -> Q_K (fixed in J) and Q_K -> O_K (the translation s'_K).
+  const n = model.bodies.length;
+  const linkPositions = new Float32Array(n * 4 * 3);
+  const linkGeometry = new BufferGeometry();
+  linkGeometry.setAttribute('position', new BufferAttribute(linkPositions, 3));
+  const links = new LineSegments(linkGeometry, new LineBasicMaterial({ color: 0x222222 }));
+  links.frustumCulled = false;
+  scene.add(links);
+
+  // The ground: a plane normal to gravity through the lowest point of the motion.
+  const grid = new GridHelper(fit.gridSize, fit.gridDivisions, 0x9aa0a8, 0xc8ccd2);
+  grid.quaternion.setFromUnitVectors(new Vector3(0, 1, 0), up);
+  grid.position.set(...fit.ground);
+  scene.add(grid);
+  if (fit.hasGravity) {
+    const g = up.clone().negate();
+    const length = 0.3 * fit.radius;
+    const tail = new Vector3(...fit.ground).addScaledVector(up, length * 1.1)
+      .add(new Vector3(...fit.side).multiplyScalar(fit.radius * 1.1));
+    const arrow = new ArrowHelper(g, tail, length, 0x3060c0, 0.25 * length, 0.12 * length);
+    scene.add(arrow);
+  }
+
+  const q = new Quaternion();
+  const v = new Vector3();
+  /** Places every body at the configuration `frame` (motion.at(t)). */
+  function place(frame) {
+    for (let k = 0; k < n; ++k) {
+      const f = frame[k];
+      // [R]^T maps body to inertial components; as a unit quaternion it is (e1, e2, e3; e4).
+      q.set(f.e[0], f.e[1], f.e[2], f.e[3]);
+      bodies[k].frame.quaternion.copy(q);
+      bodies[k].frame.position.set(f.o[0], f.o[1], f.o[2]);
+      const b = model.bodies[k];
+      const j = b.L < 0 ? null : frame[b.L].o;
+      const base = k * 12;
+      for (let a = 0; a < 3; ++a) {
+        linkPositions[base + a] = j ? j[a] : 0;
+        linkPositions[base + 3 + a] = f.q[a];
+        linkPositions[base + 6 + a] = f.q[a];
+        linkPositions[base + 9 + a] = f.o[a];
+      }
+    }
+    linkGeometry.attributes.position.needsUpdate = true;
+    scene.updateMatrixWorld();
+  }
+
+  /** The mass centres as drawn: each ellipsoid's centre in inertial coordinates. */
+  function drawnCentres() {
+    return bodies.map((b, k) => {
+      b.mesh.getWorldPosition(v);
+      return { name: model.bodies[k].name, x: v.x, y: v.y, z: v.z };
+    });
+  }
+
+  function setAxesVisible(on) {
+    for (const b of bodies) b.axes.visible = on;
+  }
+
+  return { software, renderer, scene, camera, bodies, fit, place, drawnCentres, setAxesVisible, sun };
+}
