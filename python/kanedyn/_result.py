@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import difflib
 import os
+import pathlib
 import sys
 import time
 from typing import Any, Dict, List, Optional, Tuple, Union
@@ -117,6 +118,21 @@ class Result:
         """Writes the trajectory CSV, byte for byte what `kanedyn simulate` writes for the same
         run: to PATH.partial, renamed to PATH when complete."""
         self.model._write_csv(path, self.t, self.x, self.y, self.energy)
+
+    def view(self, path: Union[str, os.PathLike, None] = None) -> str:
+        """Writes the web page of `kanedyn view` for this trajectory (docs/viewer.md): one
+        self-contained HTML file that animates the model and plots the columns. The default
+        path is the CSV's name (when the run streamed one), else the model file's, with .html,
+        in the current folder. The same rows give the page `kanedyn view MODEL TRAJ.csv` writes.
+        Returns the path written."""
+        if path is None:
+            named = self.path or (self.model.path if not self.model.path.startswith("<") else None)
+            if named is None:
+                raise TypeError("view() needs a path: this model was not loaded from a file")
+            path = pathlib.Path(named).with_suffix(".html").name
+        source = pathlib.Path(self.path).name if self.path else "simulate() from Python"
+        self.model._write_view(path, self.table(), source, self.path or "")
+        return os.fspath(path)
 
     @classmethod
     def read_csv(cls, model: Any, path: Union[str, os.PathLike]) -> "Result":

@@ -103,6 +103,7 @@ void register_errors(py::module_& m);
 void register_state(py::module_& m);
 void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
+void register_view(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 
 /// Raises kanedyn.ModelError for a model-file error (with its parts as attributes).
 [[noreturn]] void raise_model_error(const io::ModelFileError& e);

@@ -129,4 +129,5 @@ PYBIND11_MODULE(_kanedyn, m) {
       "safe to use from several threads at once.");
   register_model(m, model);
   register_run(m, model);
+  register_view(model);
 }

@@ -1,0 +1,47 @@
+// Result.view(): the page of `kanedyn view` for a trajectory held in Python, by the same code
+// (the kanedyn_view library), so that it is the page the tool writes from the same rows.
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/trajectory.hpp"
+#ifdef KANEDYN_PYTHON_HAVE_VIEW
+#include "page.hpp"
+#endif
+
+namespace kanedyn::python {
+
+namespace {
+
+size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
+                  const std::string& source, const std::string& input) {
+#ifdef KANEDYN_PYTHON_HAVE_VIEW
+  view::require_available();
+  const Model& model = m.model();
+  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_obj));
+  const py::ssize_t columns = 2 + 16 * static_cast<py::ssize_t>(m.N());
+  const py::array table = float64_array(table_obj, "table", {-1, columns}, "(T, 2 + 16N)");
+  io::Trajectory traj{io::trajectory_columns(model), {}};
+  traj.values.reserve(static_cast<size_t>(table.shape(0) * columns));
+  for (py::ssize_t r = 0; r < table.shape(0); ++r)
+    for (py::ssize_t c = 0; c < columns; ++c)
+      traj.values.push_back(doubles(table)[r * stride(table, 0) + c * stride(table, 1)]);
+  const std::string text = view::page(model, m.file().path, traj, source);
+  view::write_page(path, input, text);
+  return text.size();
+#else
+  (void)m, (void)path_obj, (void)table_obj, (void)source, (void)input;
+  throw std::runtime_error(
+      "this kanedyn module was built without the viewer (the kanedyn tool was not built)");
+#endif
+}
+
+}  // namespace
+
+void register_view(py::class_<PyModel, std::shared_ptr<PyModel>>& cls) {
+  cls.def("_write_view", &write_view, py::arg("path"), py::arg("table"), py::arg("source"),
+          py::arg("input"));
+}
+
+}  // namespace kanedyn::python
