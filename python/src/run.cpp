@@ -119,7 +119,31 @@ PyMethodDef derivatives_method = {
     "finite, with unit Euler parameters. t is the time, for the signature f(t, x, y) of ODE "
     "solvers: the model's force laws do not depend on it."};
 
-py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int threads) {
+/// An output array of derivatives_batch(out=...): float64, C-contiguous, writeable, of the
+/// shape given, sharing no memory with the inputs.
+py::array output_array(py::handle obj, const char* name, py::ssize_t rows, py::ssize_t cols,
+                       const py::array& x, const py::array& y) {
+  if (!py::isinstance<py::array>(obj))
+    throw py::type_error(std::string("out: ") + name + " must be a numpy array");
+  auto a = py::reinterpret_borrow<py::array>(obj);
+  const py::dtype dtype = a.dtype();
+  constexpr int kFloat64 = 12;  // NPY_DOUBLE
+  if (dtype.num() != kFloat64 || dtype.byteorder() == '>')
+    throw py::type_error(std::string("out: ") + name + " must be a float64 array");
+  if (a.ndim() != 2 || a.shape(0) != rows || a.shape(1) != cols)
+    throw py::value_error(std::string("out: ") + name + " must have shape (" +
+                          std::to_string(rows) + ", " + std::to_string(cols) + ")");
+  if (!(a.flags() & py::array::c_style) || !a.writeable())
+    throw py::value_error(std::string("out: ") + name +
+                          " must be C-contiguous and writeable (numpy.empty((M, n)) is)");
+  const py::object may_share = py::module_::import("numpy").attr("may_share_memory");
+  if (may_share(a, x).cast<bool>() || may_share(a, y).cast<bool>())
+    throw py::value_error(std::string("out: ") + name + " must not share memory with X or Y");
+  return a;
+}
+
+py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int threads,
+                            py::object out) {
   const int n = m.N();
   const auto xa =
       float64_array(X, "X", {-1, 7 * n},
@@ -129,8 +153,20 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
       Y, "Y", {rows, 6 * n},
       "(M, 6N) = (" + std::to_string(rows) + ", " + std::to_string(6 * n) + ") (M from X)");
   if (threads < 0) throw py::value_error("threads must be >= 0 (0: every core)");
-  py::array_t<double> xd({rows, static_cast<py::ssize_t>(7 * n)});
-  py::array_t<double> yd({rows, static_cast<py::ssize_t>(6 * n)});
+  py::array xd, yd;
+  if (out.is_none()) {
+    xd = py::array_t<double>({rows, static_cast<py::ssize_t>(7 * n)});
+    yd = py::array_t<double>({rows, static_cast<py::ssize_t>(6 * n)});
+  } else {
+    if (!py::isinstance<py::tuple>(out) && !py::isinstance<py::list>(out))
+      throw py::type_error("out must be a pair (Xd, Yd) of arrays");
+    const auto pair = py::reinterpret_borrow<py::sequence>(out);
+    if (pair.size() != 2) throw py::type_error("out must be a pair (Xd, Yd) of arrays");
+    xd = output_array(pair[0], "Xd", rows, 7 * n, xa, ya);
+    yd = output_array(pair[1], "Yd", rows, 6 * n, xa, ya);
+    if (py::module_::import("numpy").attr("may_share_memory")(xd, yd).cast<bool>())
+      throw py::value_error("out: Xd and Yd must not share memory");
+  }
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const py::ssize_t workers =
       std::max<py::ssize_t>(1, std::min<py::ssize_t>(threads > 0 ? threads : cores, rows));
@@ -138,8 +174,8 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
   const double* y_in = doubles(ya);
   const py::ssize_t xs0 = stride(xa, 0), xs1 = stride(xa, 1);
   const py::ssize_t ys0 = stride(ya, 0), ys1 = stride(ya, 1);
-  double* x_out = xd.mutable_data();
-  double* y_out = yd.mutable_data();
+  auto* x_out = static_cast<double*>(xd.mutable_data());
+  auto* y_out = static_cast<double*>(yd.mutable_data());
   // Each worker records the first bad row of its share; the lowest row is reported.
   std::vector<py::ssize_t> bad_row(static_cast<size_t>(workers), -1);
   std::vector<std::string> bad(static_cast<size_t>(workers));
@@ -434,10 +470,12 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
   cls.attr("derivatives") = py::reinterpret_steal<py::object>(
       PyDescr_NewMethod(reinterpret_cast<PyTypeObject*>(cls.ptr()), &derivatives_method));
   cls.def("derivatives_batch", &derivatives_batch, py::arg("X"), py::arg("Y"),
-          py::arg("threads") = 0,
+          py::arg("threads") = 0, py::arg("out") = py::none(),
           "(Xd, Yd) for M states at once: X (M, 7N), Y (M, 6N) -> Xd (M, 7N), Yd (M, 6N), row "
           "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0: every core) with "
-          "the GIL released.")
+          "the GIL released. out=(Xd, Yd): write into these float64 C-contiguous arrays instead of "
+          "new ones (and return them); a loop that reuses them saves the first touch of new "
+          "memory, which costs as much as the evaluations on small models.")
       .def("_simulate", &simulate_model, py::arg("settings"), py::arg("initial"), py::arg("output"),
            py::arg("store"), py::arg("progress"))
       .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),

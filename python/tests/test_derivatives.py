@@ -52,6 +52,29 @@ def test_batch_equals_looped_derivatives_bit_for_bit() -> None:
     assert Xd1.tobytes() == Xd2.tobytes() and Yd1.tobytes() == Yd2.tobytes()
 
 
+def test_batch_into_given_outputs(eight) -> None:
+    X, Y = states(eight, 50)
+    want = eight.derivatives_batch(X, Y)
+    out = (np.full_like(X, np.nan), np.full_like(Y, np.nan))
+    got = eight.derivatives_batch(X, Y, out=out)
+    assert got[0] is out[0] and got[1] is out[1]
+    assert out[0].tobytes() == want[0].tobytes() and out[1].tobytes() == want[1].tobytes()
+    with pytest.raises(ValueError, match=r"out: Xd must have shape \(50, 56\)"):
+        eight.derivatives_batch(X, Y, out=(out[0][:10], out[1]))
+    with pytest.raises(ValueError, match="C-contiguous and writeable"):
+        eight.derivatives_batch(X, Y, out=(np.asfortranarray(out[0]), out[1]))
+    frozen = out[1].copy()
+    frozen.setflags(write=False)
+    with pytest.raises(ValueError, match="C-contiguous and writeable"):
+        eight.derivatives_batch(X, Y, out=(out[0], frozen))
+    with pytest.raises(TypeError, match="float64"):
+        eight.derivatives_batch(X, Y, out=(out[0].astype(np.float32), out[1]))
+    with pytest.raises(ValueError, match="share memory with X or Y"):
+        eight.derivatives_batch(X, Y, out=(X, out[1]))
+    with pytest.raises(TypeError, match="a pair"):
+        eight.derivatives_batch(X, Y, out=out[0])
+
+
 def test_empty_batch(eight) -> None:
     Xd, Yd = eight.derivatives_batch(np.empty((0, 56)), np.empty((0, 48)))
     assert Xd.shape == (0, 56) and Yd.shape == (0, 48)
