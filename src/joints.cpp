@@ -1,0 +1,410 @@
+#include "kanedyn/joints.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "kanedyn/kane.hpp"
+#include "kanedyn/rotation.hpp"
+
+namespace kanedyn {
+
+namespace {
+
+size_t at(int i) { return static_cast<size_t>(i); }
+
+constexpr double kPerpendicularTolerance = 1e-9;  // |a1 . a2| of universal axes
+constexpr double kUnitNormTolerance = 1e-6;       // the rule of `euler_parameters`
+
+bool is_free(JointType t) { return t == JointType::free; }
+bool has_axis(JointType t) {
+  return t == JointType::revolute || t == JointType::prismatic || t == JointType::cylindrical;
+}
+
+// The Euler-parameter slice of a body's q (spherical q, or a free body's eps_K), if any.
+int euler_slice(JointType t) { return t == JointType::free || t == JointType::spherical ? 4 : 0; }
+
+}  // namespace
+
+const char* to_string(JointType type) {
+  switch (type) {
+    case JointType::free:
+      return "free";
+    case JointType::weld:
+      return "weld";
+    case JointType::revolute:
+      return "revolute";
+    case JointType::prismatic:
+      return "prismatic";
+    case JointType::cylindrical:
+      return "cylindrical";
+    case JointType::universal:
+      return "universal";
+    case JointType::spherical:
+      return "spherical";
+  }
+  return "?";
+}
+
+int coordinate_count(JointType type) {
+  constexpr int counts[] = {7, 0, 1, 1, 2, 2, 4};
+  return counts[static_cast<int>(type)];
+}
+
+int speed_count(JointType type) {
+  constexpr int counts[] = {6, 0, 1, 1, 2, 2, 3};
+  return counts[static_cast<int>(type)];
+}
+
+std::string check_joint(const Joint& joint) {
+  if (std::abs(joint.frame.norm() - 1.0) > kUnitNormTolerance)
+    return "the joint frame's Euler parameters must have unit norm";
+  if (has_axis(joint.type) && !(joint.axis.norm() > 0.0))
+    return std::string("the axis of a ") + to_string(joint.type) + " joint must not be zero";
+  if (joint.type == JointType::universal) {
+    if (!(joint.axes[0].norm() > 0.0) || !(joint.axes[1].norm() > 0.0))
+      return "the axes of a universal joint must not be zero";
+    const double c = joint.axes[0].normalized().dot(joint.axes[1].normalized());
+    if (!(std::abs(c) <= kPerpendicularTolerance))
+      return "the axes of a universal joint must be perpendicular (|a1 . a2| <= 1e-9)";
+  }
+  return "";
+}
+
+std::string check_joint_coordinates(JointType type, const VectorX& q) {
+  const int n = coordinate_count(type);
+  if (q.size() != n) {
+    std::string s = std::string("a ") + to_string(type) + " joint has " + std::to_string(n);
+    s += n == 1 ? " coordinate, not " : " coordinates, not ";
+    s += std::to_string(q.size());
+    return s;
+  }
+  if (euler_slice(type) > 0 && !(std::abs(q.head<4>().norm() - 1.0) <= kUnitNormTolerance))
+    return std::string("the Euler parameters of a ") + to_string(type) +
+           " joint must have unit norm (within 1e-6)";
+  return "";
+}
+
+std::string check_joint_rates(JointType type, const VectorX& z) {
+  const int n = speed_count(type);
+  if (z.size() == n) return "";
+  std::string s = std::string("a ") + to_string(type) + " joint has " + std::to_string(n);
+  s += n == 1 ? " rate, not " : " rates, not ";
+  s += std::to_string(z.size());
+  return s;
+}
+
+Matrix3 axis_angle_rotation(const Vector3& axis, double angle) {
+  return rotation_matrix(euler_parameters_from_axis_angle(axis, angle));  // Eqs. (3)-(4)
+}
+
+Vector4 compose_euler_parameters(const Vector4& eps_j, const Vector4& rel) {
+  // relative_euler_parameters(a, b) = conj(a) b (Hamilton); with a = conj(eps_J) it is
+  // eps_J rel, the parameters of K: one implementation of the product.
+  const Vector4 conj_j(-eps_j[0], -eps_j[1], -eps_j[2], eps_j[3]);
+  return relative_euler_parameters(conj_j, rel);
+}
+
+JointTree::JointTree(const Model& model, std::vector<Joint> joints) : joints_(std::move(joints)) {
+  const int n = model.num_bodies();
+  if (static_cast<int>(joints_.size()) != n)
+    throw ModelError("joints: " + std::to_string(joints_.size()) + " joints for " +
+                     std::to_string(n) + " bodies");
+  q_offset_.assign(at(n + 1), 0);
+  z_offset_.assign(at(n + 1), 0);
+  axis_j_.assign(at(n), Vector3::Zero());
+  w_chain_.resize(at(n));
+  for (int k = 0; k < n; ++k) {
+    Joint& jt = joints_[at(k)];
+    const std::string problem = check_joint(jt);
+    if (!problem.empty()) throw ModelError("body " + model.body(k).name + ": " + problem);
+    jt.frame.normalize();
+    jt.axis.normalize();
+    for (Vector3& a : jt.axes) a.normalize();
+    lower_.push_back(model.lower_body(k));
+    q_offset_[at(k + 1)] = q_offset_[at(k)] + coordinate_count(jt.type);
+    z_offset_[at(k + 1)] = z_offset_[at(k)] + speed_count(jt.type);
+    // F's axis in J components: [R(frame)] maps J to F components.
+    axis_j_[at(k)] = rotation_matrix(jt.frame).transpose() * jt.axis;
+  }
+  for (int k = 0; k < n; ++k) {
+    // w'_K = w_rel + [R_K][R_J]^T w'_J down to the first free body, whose w' is its own z.
+    for (int c = k; c != kGround; c = lower_[at(c)]) {
+      if (speed_count(joints_[at(c)].type) > 0) w_chain_[at(k)].push_back(c);
+      if (is_free(joints_[at(c)].type)) break;
+    }
+  }
+}
+
+Vector4 joint_relative_rotation(const JointTree& tree, int k, const VectorX& q) {
+  const Joint& jt = tree.joint(k);
+  const int o = tree.coordinate_offset(k);
+  Vector4 joint_rel{0.0, 0.0, 0.0, 1.0};  // K relative to F
+  switch (jt.type) {
+    case JointType::revolute:
+    case JointType::cylindrical:
+      joint_rel = euler_parameters_from_axis_angle(jt.axis, q[o]);
+      break;
+    case JointType::universal:  // a1 first, then a2 as the first turn carried it
+      joint_rel = compose_euler_parameters(euler_parameters_from_axis_angle(jt.axes[0], q[o]),
+                                           euler_parameters_from_axis_angle(jt.axes[1], q[o + 1]));
+      break;
+    case JointType::spherical:
+      joint_rel = q.segment<4>(o);
+      break;
+    default:
+      break;
+  }
+  return compose_euler_parameters(jt.frame, joint_rel);
+}
+
+Vector3 joint_translation(const JointTree& tree, int k, const VectorX& q) {
+  const Joint& jt = tree.joint(k);
+  const int o = tree.coordinate_offset(k);
+  switch (jt.type) {
+    case JointType::weld:
+      return jt.translation;
+    case JointType::prismatic:
+      return q[o] * tree.axis_in_j(k);
+    case JointType::cylindrical:
+      return q[o + 1] * tree.axis_in_j(k);
+    default:
+      return Vector3::Zero();
+  }
+}
+
+namespace {
+
+// [G_K] of body k, 3 x speed_count (the first columns of a 3x6): w_rel = [G_K] z_K, body K.
+Matrix36 joint_rotation_block(const JointTree& tree, int k, const VectorX& q) {
+  const Joint& jt = tree.joint(k);
+  const int o = tree.coordinate_offset(k);
+  Matrix36 g = Matrix36::Zero();
+  switch (jt.type) {
+    case JointType::free:
+      g.leftCols<3>().setIdentity();
+      break;
+    case JointType::revolute:
+    case JointType::cylindrical:
+      g.col(0) = jt.axis;
+      break;  // n is fixed by the turn about n
+    case JointType::universal:
+      // a1 (fixed in F and in the intermediate frame) in K components, then a2 (fixed in K).
+      g.col(0) = axis_angle_rotation(jt.axes[1], q[o + 1]) * jt.axes[0];
+      g.col(1) = jt.axes[1];
+      break;
+    case JointType::spherical:
+      g.leftCols<3>().setIdentity();
+      break;
+    default:
+      break;
+  }
+  return g;
+}
+
+// The s'_K dot block, body-J components.
+Matrix36 joint_translation_block(const JointTree& tree, int k) {
+  Matrix36 t = Matrix36::Zero();
+  switch (tree.joint(k).type) {
+    case JointType::free:
+      t.rightCols<3>().setIdentity();
+      break;
+    case JointType::prismatic:
+      t.col(0) = tree.axis_in_j(k);
+      break;
+    case JointType::cylindrical:
+      t.col(1) = tree.axis_in_j(k);
+      break;
+    default:
+      break;
+  }
+  return t;
+}
+
+Eigen::Ref<const VectorX> speeds_of(const JointTree& tree, const VectorX& z, int c) {
+  return z.segment(tree.speed_offset(c), speed_count(tree.joint(c).type));
+}
+
+}  // namespace
+
+Vector3 joint_relative_angular_velocity(const JointTree& tree, int k, const VectorX& q,
+                                        const VectorX& z) {
+  const int m = speed_count(tree.joint(k).type);
+  return joint_rotation_block(tree, k, q).leftCols(m) * speeds_of(tree, z, k);
+}
+
+void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state) {
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    const int j = tree.lower_body(k);
+    const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
+    if (is_free(tree.joint(k).type)) {
+      state.euler_parameters(k) = q.segment<4>(o);
+      state.translation(k) = q.segment<3>(o + 4);
+      state.angular_velocity(k) = z.segment<3>(p);
+      state.translation_rate(k) = z.segment<3>(p + 3);
+      continue;
+    }
+    const Vector4 rel = joint_relative_rotation(tree, k, q);
+    const Vector3 w_rel = joint_relative_angular_velocity(tree, k, q, z);
+    if (j == kGround) {  // J is R: eps_J the identity, w'_J = 0
+      state.euler_parameters(k) = rel;
+      state.angular_velocity(k) = w_rel;
+    } else {  // w'_K = w_rel + [R(rel)] w'_J, [R(rel)] = [R_K][R_J]^T
+      state.euler_parameters(k) = compose_euler_parameters(state.euler_parameters(j), rel);
+      state.angular_velocity(k) = w_rel + rotation_matrix(rel) * state.angular_velocity(j);
+    }
+    state.translation(k) = joint_translation(tree, k, q);
+    const int m = speed_count(tree.joint(k).type);
+    state.translation_rate(k) =
+        joint_translation_block(tree, k).leftCols(m) * speeds_of(tree, z, k);
+  }
+}
+
+double normalize_joint_coordinates(const JointTree& tree, Eigen::Ref<VectorX> q) {
+  double worst = 0.0;
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    if (euler_slice(tree.joint(k).type) == 0) continue;
+    auto e = q.segment<4>(tree.coordinate_offset(k));
+    const double norm = e.norm();
+    worst = std::max(worst, std::abs(norm - 1.0));
+    e /= norm;
+  }
+  return worst;
+}
+
+void joint_coordinate_rates(const JointTree& tree, const VectorX& q, const VectorX& z,
+                            Eigen::Ref<VectorX> qdot) {
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
+    switch (tree.joint(k).type) {
+      case JointType::free:  // Eqs. (39)-(41), (40)
+        qdot.segment<4>(o) = euler_parameter_rates(q.segment<4>(o), z.segment<3>(p));
+        qdot.segment<3>(o + 4) = z.segment<3>(p + 3);
+        break;
+      case JointType::spherical:  // Eq. (39) for K relative to F, w_rel in body-K components
+        qdot.segment<4>(o) = euler_parameter_rates(q.segment<4>(o), z.segment<3>(p));
+        break;
+      default:
+        qdot.segment(o, coordinate_count(tree.joint(k).type)) =
+            z.segment(p, speed_count(tree.joint(k).type));
+        break;
+    }
+  }
+}
+
+ConstraintMatrix::ConstraintMatrix(const JointTree& tree) {
+  const int n = tree.num_bodies();
+  w_begin.push_back(0);
+  for (int k = 0; k < n; ++k) {
+    for (int c : tree.angular_chain(k)) w_body.push_back(c);
+    w_begin.push_back(static_cast<int>(w_body.size()));
+  }
+  w_block.assign(w_body.size(), Matrix36::Zero());
+  s_block.assign(at(n), Matrix36::Zero());
+  R.assign(at(n), Matrix3::Identity());
+}
+
+void compute_constraint_matrix(const JointTree& tree, const VectorX& q, const State& state,
+                               ConstraintMatrix& C) {
+  const int n = tree.num_bodies();
+  for (int k = 0; k < n; ++k) C.R[at(k)] = rotation_matrix(state.euler_parameters(k));
+  for (int k = 0; k < n; ++k) {
+    C.s_block[at(k)] = joint_translation_block(tree, k);
+    for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
+      const int c = C.w_body[at(b)];
+      const Matrix36 g = joint_rotation_block(tree, c, q);
+      // w_rel of c in c components, carried to K components by [R_K][R_c]^T.
+      C.w_block[at(b)] = c == k ? g : Matrix36(C.R[at(k)] * C.R[at(c)].transpose() * g);
+    }
+  }
+}
+
+void constraint_times(const JointTree& tree, const ConstraintMatrix& C, const VectorX& z,
+                      Eigen::Ref<VectorX> y) {
+  const int n = tree.num_bodies();
+  for (int k = 0; k < n; ++k) {
+    Vector3 w = Vector3::Zero();
+    for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
+      const int c = C.w_body[at(b)];
+      w += C.w_block[at(b)].leftCols(speed_count(tree.joint(c).type)) * speeds_of(tree, z, c);
+    }
+    y.segment<3>(3 * k) = w;
+    y.segment<3>(3 * n + 3 * k) =
+        C.s_block[at(k)].leftCols(speed_count(tree.joint(k).type)) * speeds_of(tree, z, k);
+  }
+}
+
+void constraint_transpose_times(const JointTree& tree, const ConstraintMatrix& C, const VectorX& v,
+                                Eigen::Ref<VectorX> out) {
+  const int n = tree.num_bodies();
+  out.setZero();
+  for (int k = 0; k < n; ++k) {
+    for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
+      const int c = C.w_body[at(b)], m = speed_count(tree.joint(c).type);
+      out.segment(tree.speed_offset(c), m) +=
+          C.w_block[at(b)].leftCols(m).transpose() * v.segment<3>(3 * k);
+    }
+    const int m = speed_count(tree.joint(k).type);
+    out.segment(tree.speed_offset(k), m) +=
+        C.s_block[at(k)].leftCols(m).transpose() * v.segment<3>(3 * n + 3 * k);
+  }
+}
+
+MatrixX dense_constraint_matrix(const JointTree& tree, const ConstraintMatrix& C) {
+  const int n = tree.num_bodies();
+  MatrixX d = MatrixX::Zero(6 * n, tree.num_speeds());
+  for (int k = 0; k < n; ++k) {
+    for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
+      const int c = C.w_body[at(b)], m = speed_count(tree.joint(c).type);
+      d.block(3 * k, tree.speed_offset(c), 3, m) = C.w_block[at(b)].leftCols(m);
+    }
+    const int m = speed_count(tree.joint(k).type);
+    d.block(3 * n + 3 * k, tree.speed_offset(k), 3, m) = C.s_block[at(k)].leftCols(m);
+  }
+  return d;
+}
+
+void constraint_rate_times_speeds(const JointTree& tree, const ConstraintMatrix& C,
+                                  const VectorX& q, const VectorX& z, const State& state,
+                                  Eigen::Ref<VectorX> out) {
+  const int n = tree.num_bodies();
+  out.setZero();  // the s' dot part: [T_K] is constant in J (prismatic, cylindrical axes)
+  for (int k = 0; k < n; ++k) {
+    const Joint& jt = tree.joint(k);
+    if (is_free(jt.type)) continue;  // w'_K = z_K: [C] rows constant
+    const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
+    const Vector3 w_rel = joint_relative_angular_velocity(tree, k, q, z);
+    Vector3 b = Vector3::Zero();
+    if (jt.type == JointType::universal)  // d/dt [R(a2, q2)] a1 = -(q2 dot a2) x [R(a2, q2)] a1
+      b = -z[p] * z[p + 1] *
+          jt.axes[1].cross(axis_angle_rotation(jt.axes[1], q[o + 1]) * jt.axes[0]);
+    const int j = tree.lower_body(k);
+    if (j != kGround) {
+      // d/dt [R_K][R_J]^T = -[w_rel~][R_K][R_J]^T (from d[R]/dt = -[w'~][R], README).
+      const Matrix3 r_kj = C.R[at(k)] * C.R[at(j)].transpose();
+      b += -w_rel.cross(r_kj * state.angular_velocity(j)) + r_kj * out.segment<3>(3 * j);
+    }
+    out.segment<3>(3 * k) = b;
+  }
+}
+
+ProjectedEquations projected_equations(const Model& model, const JointTree& tree, const VectorX& q,
+                                       const VectorX& z, Data& data) {
+  ProjectedEquations e;
+  e.state = State(model);
+  joint_state(tree, q, z, e.state);
+  ConstraintMatrix C(tree);
+  compute_constraint_matrix(tree, q, e.state, C);
+  e.C = dense_constraint_matrix(tree, C);
+  e.Cdot_z = VectorX::Zero(model.num_speeds());
+  constraint_rate_times_speeds(tree, C, q, z, e.state, e.Cdot_z);
+  kane_equations(model, e.state, data);  // [A] (Eq. 37) and {f} (Eq. 38) of the free tree
+  const MatrixX& A = data.kane.A;
+  e.A_z = e.C.transpose() * A * e.C;
+  e.f_z = e.C.transpose() * (data.kane.f - A * e.Cdot_z);
+  e.zdot = e.A_z.ldlt().solve(e.f_z);
+  return e;
+}
+
+}  // namespace kanedyn
