@@ -1,0 +1,488 @@
+// Joints by the orthogonal-complement method: the state each joint type gives against the
+// spec's table (written here with Rodrigues' formula, not the library's rotations), y = [C] z,
+// finite differences of x and of [C] z along a motion of (q, z), validation messages, and the
+// projected equations on a pendulum, a slider in free fall and an unconstrained tree.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/kinematic_equations.hpp"
+#include "kanedyn/rotation.hpp"
+#include "test_support.hpp"
+
+namespace kanedyn {
+namespace {
+
+using test::reference_rotation;
+
+constexpr JointType kAllTypes[] = {
+    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
+    JointType::cylindrical, JointType::universal, JointType::spherical};
+
+// "F turned by angle about the unit n": the matrix from F components to the turned frame's
+// (Rodrigues, passive): cos [I] + (1 - cos) n n^T - sin [n~]. Written here, independently.
+Matrix3 turn(const Vector3& n, double angle) {
+  return std::cos(angle) * Matrix3::Identity() + (1.0 - std::cos(angle)) * n * n.transpose() -
+         std::sin(angle) * skew(n);
+}
+
+Vector3 random_unit(std::mt19937& rng) { return test::random_vector(rng, -1, 1).normalized(); }
+
+// A random joint of the given type: random frame, unnormalized axes (JointTree normalizes).
+Joint random_joint(std::mt19937& rng, JointType type) {
+  Joint j;
+  j.type = type;
+  j.frame = test::random_euler_parameters(rng);
+  j.axis = test::uniform(rng, 0.5, 2.0) * random_unit(rng);
+  const Vector3 a1 = random_unit(rng);
+  j.axes = {2.0 * a1, a1.cross(random_unit(rng)).normalized()};
+  j.translation = test::random_vector(rng, -0.3, 0.3);
+  return j;
+}
+
+struct Jointed {
+  Model model;
+  JointTree tree;
+  VectorX q, z;
+};
+
+// Random coordinates: angles in [-3, 3], slides in [-0.5, 0.5], Euler parameters uniform;
+// speeds in [-1, 1].
+void randomize(const JointTree& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
+  q = VectorX::Zero(tree.num_coordinates());
+  z = VectorX::Zero(tree.num_speeds());
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    const int o = tree.coordinate_offset(k);
+    switch (tree.joint(k).type) {
+      case JointType::free:
+        q.segment<4>(o) = test::random_euler_parameters(rng);
+        q.segment<3>(o + 4) = test::random_vector(rng, -0.3, 0.3);
+        break;
+      case JointType::spherical:
+        q.segment<4>(o) = test::random_euler_parameters(rng);
+        break;
+      case JointType::revolute:
+        q[o] = test::uniform(rng, -3, 3);
+        break;
+      case JointType::prismatic:
+        q[o] = test::uniform(rng, -0.5, 0.5);
+        break;
+      case JointType::cylindrical:
+      case JointType::universal:
+        q[o] = test::uniform(rng, -3, 3);
+        q[o + 1] = tree.joint(k).type == JointType::universal ? test::uniform(rng, -3, 3)
+                                                              : test::uniform(rng, -0.5, 0.5);
+        break;
+      case JointType::weld:
+        break;
+    }
+  }
+  for (int i = 0; i < z.size(); ++i) z[i] = test::uniform(rng, -1, 1);
+}
+
+Jointed make_jointed(Model model, const std::vector<JointType>& types, std::mt19937& rng) {
+  std::vector<Joint> joints;
+  for (JointType t : types) joints.push_back(random_joint(rng, t));
+  JointTree tree(model, joints);
+  Jointed j{std::move(model), std::move(tree), {}, {}};
+  randomize(j.tree, rng, j.q, j.z);
+  return j;
+}
+
+// The notes' eight-body system with every joint type: a free torso (1), spherical (2),
+// revolute (3), universal (4), cylindrical (5), prismatic (6), weld (7), revolute (8).
+Jointed eight_body_jointed(std::mt19937& rng) {
+  return make_jointed(
+      test::eight_body_model(),
+      {JointType::free, JointType::spherical, JointType::revolute, JointType::universal,
+       JointType::cylindrical, JointType::prismatic, JointType::weld, JointType::revolute},
+      rng);
+}
+
+// Random forests of up to 12 bodies, each joint type equally likely; and chains of three with
+// `type` at every body (small trees of one type, every body attached to the one before).
+std::vector<Jointed> test_trees(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::vector<Jointed> out;
+  out.push_back(eight_body_jointed(rng));
+  for (JointType type : kAllTypes) {
+    test::RandomTreeOptions opt;
+    opt.min_bodies = opt.max_bodies = 3;
+    opt.chain = true;
+    out.push_back(make_jointed(test::random_tree(rng, opt), {type, type, type}, rng));
+  }
+  for (int i = 0; i < 40; ++i) {
+    test::RandomTreeOptions opt;
+    opt.max_bodies = 12;
+    Model model = test::random_tree(rng, opt);
+    std::vector<JointType> types;
+    for (int k = 0; k < model.num_bodies(); ++k)
+      types.push_back(kAllTypes[test::uniform_int(rng, 0, 6)]);
+    out.push_back(make_jointed(std::move(model), types, rng));
+  }
+  return out;
+}
+
+State state_of(const Jointed& j, const VectorX& q, const VectorX& z) {
+  State s(j.model);
+  joint_state(j.tree, q, z, s);
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// (c) each body sits and moves as the spec's table says
+
+// Round-off: a state is a product of at most ~12 rotations with O(1) entries and sums of
+// O(1) terms, so errors are ~1e-14 (all below 1e-14 here); 1e-12 leaves a margin of 100, while
+// a wrong axis, frame or sign is O(0.1).
+constexpr double kRoundOff = 1e-12;
+
+// K's orientation and relative motion against the table, from the state alone: [R_rel] =
+// [R_K][R_J]^T, w_rel = w'_K - [R_rel] w'_J (body K), s'_K, s'_K dot (body J).
+void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
+  const Joint& jt = j.tree.joint(k);
+  if (jt.type == JointType::free) return;
+  const int l = j.model.lower_body(k);
+  const Matrix3 r_j =
+      l == kGround ? Matrix3::Identity() : reference_rotation(s.euler_parameters(l));
+  const Vector3 w_j = l == kGround ? Vector3::Zero() : Vector3(s.angular_velocity(l));
+  const Matrix3 r_rel = reference_rotation(s.euler_parameters(k)) * r_j.transpose();
+  const Vector3 w_rel = s.angular_velocity(k) - r_rel * w_j;
+  const Matrix3 r_f = reference_rotation(jt.frame);
+  const Matrix3 r_fk = r_rel * r_f.transpose();  // F to K components
+  const Vector3 n = jt.axis, n_j = r_f.transpose() * jt.axis;
+  const Vector3 s_k = s.translation(k), sd_k = s.translation_rate(k);
+  const int o = j.tree.coordinate_offset(k), p = j.tree.speed_offset(k);
+  const VectorX& q = j.q;
+  const VectorX& z = j.z;
+  Matrix3 r_expected = Matrix3::Identity();
+  Vector3 w_expected = Vector3::Zero(), s_expected = Vector3::Zero(), sd_expected = Vector3::Zero();
+  switch (jt.type) {
+    case JointType::weld:
+      s_expected = jt.translation;
+      break;
+    case JointType::revolute:
+      r_expected = turn(n, q[o]);
+      w_expected = z[p] * n;
+      EXPECT_LT((w_rel.cross(n)).norm(), kRoundOff) << "revolute: w_rel along the axis";
+      EXPECT_LT((r_fk * n - n).norm(), kRoundOff) << "revolute: the axis is fixed in F and K";
+      break;
+    case JointType::prismatic:
+      s_expected = q[o] * n_j;
+      sd_expected = z[p] * n_j;
+      EXPECT_LT(s_k.cross(n_j).norm(), kRoundOff) << "prismatic: s' along the axis";
+      break;
+    case JointType::cylindrical:
+      r_expected = turn(n, q[o]);
+      w_expected = z[p] * n;
+      s_expected = q[o + 1] * n_j;
+      sd_expected = z[p + 1] * n_j;
+      EXPECT_LT((w_rel.cross(n)).norm(), kRoundOff) << "cylindrical: w_rel along the axis";
+      EXPECT_LT(s_k.cross(n_j).norm(), kRoundOff) << "cylindrical: s' along the axis";
+      break;
+    case JointType::universal: {
+      const Vector3 a1 = jt.axes[0], a2 = jt.axes[1];
+      r_expected = turn(a2, q[o + 1]) * turn(a1, q[o]);
+      w_expected = z[p] * turn(a2, q[o + 1]) * a1 + z[p + 1] * a2;
+      // The cross stays square: a1 (fixed in F) and a2 (fixed in K) stay perpendicular, and
+      // K never turns about a1 x a2.
+      const Vector3 a1_k = r_fk * a1;
+      EXPECT_LT(std::abs(a1_k.dot(a2)), kRoundOff) << "universal: a1 and a2 perpendicular";
+      EXPECT_LT(std::abs(w_rel.dot(a1_k.cross(a2))), kRoundOff) << "universal: no third turn";
+      break;
+    }
+    case JointType::spherical:
+      r_expected = reference_rotation(q.segment<4>(o));
+      w_expected = z.segment<3>(p);
+      break;
+    case JointType::free:
+      break;
+  }
+  EXPECT_LT(test::max_abs(r_fk - r_expected), kRoundOff) << to_string(jt.type) << " body " << k;
+  EXPECT_LT((w_rel - w_expected).norm(), kRoundOff) << to_string(jt.type) << " body " << k;
+  EXPECT_LT((s_k - s_expected).norm(), kRoundOff) << to_string(jt.type) << " body " << k;
+  EXPECT_LT((sd_k - sd_expected).norm(), kRoundOff) << to_string(jt.type) << " body " << k;
+}
+
+TEST(Joints, CountsOfTheSpecTable) {
+  const int q[] = {7, 0, 1, 1, 2, 2, 4}, z[] = {6, 0, 1, 1, 2, 2, 3};
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_EQ(coordinate_count(kAllTypes[i]), q[i]) << to_string(kAllTypes[i]);
+    EXPECT_EQ(speed_count(kAllTypes[i]), z[i]) << to_string(kAllTypes[i]);
+  }
+}
+
+TEST(Joints, EachJointConfinesTheRelativeMotionAsTheTableSays) {
+  for (const Jointed& j : test_trees(31)) {
+    const State s = state_of(j, j.q, j.z);
+    for (int k = 0; k < j.model.num_bodies(); ++k) {
+      expect_body_follows_joint(j, s, k);
+      if (j.tree.joint(k).type == JointType::free) {  // a free body keeps its own x, y
+        const int o = j.tree.coordinate_offset(k), p = j.tree.speed_offset(k);
+        EXPECT_EQ(VectorX(s.euler_parameters(k)), VectorX(j.q.segment<4>(o)));
+        EXPECT_EQ(VectorX(s.translation(k)), VectorX(j.q.segment<3>(o + 4)));
+        EXPECT_EQ(VectorX(s.angular_velocity(k)), VectorX(j.z.segment<3>(p)));
+        EXPECT_EQ(VectorX(s.translation_rate(k)), VectorX(j.z.segment<3>(p + 3)));
+      }
+      // Unit Euler parameters for every body (composition keeps the norm).
+      EXPECT_NEAR(s.euler_parameters(k).norm(), 1.0, kRoundOff);
+    }
+  }
+}
+
+TEST(Joints, VelocitiesAreConstraintMatrixTimesSpeeds) {
+  std::mt19937 rng(32);
+  for (const Jointed& j : test_trees(33)) {
+    const State s = state_of(j, j.q, j.z);
+    ConstraintMatrix C(j.tree);
+    compute_constraint_matrix(j.tree, j.q, s, C);
+    const MatrixX dense = dense_constraint_matrix(j.tree, C);
+    ASSERT_EQ(dense.rows(), 6 * j.model.num_bodies());
+    ASSERT_EQ(dense.cols(), j.tree.num_speeds());
+    VectorX y(6 * j.model.num_bodies());
+    constraint_times(j.tree, C, j.z, y);
+    EXPECT_LT(test::max_abs(dense * j.z - s.y), kRoundOff);
+    EXPECT_LT(test::max_abs(y - s.y), kRoundOff);
+    const VectorX v = test::random_vector(rng, -1, 1).replicate(2 * j.model.num_bodies(), 1);
+    VectorX ct_v(j.tree.num_speeds());
+    constraint_transpose_times(j.tree, C, v, ct_v);
+    EXPECT_LT(test::max_abs(dense.transpose() * v - ct_v), kRoundOff);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (a), (b): finite differences along a motion of (q, z)
+
+// q(t) from q(0) by one classical Runge-Kutta step of the joints' kinematic equations, with
+// z(t) = z + t zd. Its error is O(t^5) (~1e-25 at t = 1e-5), far below what is measured.
+VectorX coordinates_at(const JointTree& tree, const VectorX& q, const VectorX& z, const VectorX& zd,
+                       double t) {
+  auto f = [&](const VectorX& qq, double tt) {
+    VectorX r(tree.num_coordinates());
+    joint_coordinate_rates(tree, qq, VectorX(z + tt * zd), r);
+    return r;
+  };
+  const VectorX k1 = f(q, 0), k2 = f(q + 0.5 * t * k1, 0.5 * t), k3 = f(q + 0.5 * t * k2, 0.5 * t),
+                k4 = f(q + t * k3, t);
+  return q + t / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+}
+
+// Central differences with h = 1e-5: truncation h^2/6 |third derivative| ~ 2e-11 |x'''|, and
+// |x'''| is O(1)-O(10) for speeds <= 1 on trees of depth <= 12; round-off ~1e-16 |y| / h ~
+// 1e-11 |y| with |y| up to ~10. The largest differences seen are 1.5e-10; tolerance 1e-8
+// absolute, while a wrong or missing term of [C] or [C dot] is O(0.1).
+constexpr double kStep = 1e-5;
+constexpr double kFiniteDifference = 1e-8;
+
+TEST(Joints, CoordinatesMoveAtTheRateOfTheNotesKinematicEquations) {
+  for (const Jointed& j : test_trees(35)) {
+    const VectorX zd = VectorX::Zero(j.z.size());
+    const State s0 = state_of(j, j.q, j.z);
+    const State sp = state_of(j, coordinates_at(j.tree, j.q, j.z, zd, kStep), j.z);
+    const State sm = state_of(j, coordinates_at(j.tree, j.q, j.z, zd, -kStep), j.z);
+    VectorX xdot(j.model.num_coordinates());
+    compute_xdot(j.model, s0, xdot);  // Eqs. (39)-(40) with y = [C] z
+    EXPECT_LT(test::max_abs((sp.x - sm.x) / (2 * kStep) - xdot), kFiniteDifference)
+        << "N " << j.model.num_bodies();
+  }
+}
+
+TEST(Joints, ConstraintRateTimesSpeedsIsTheDerivativeOfConstraintTimesSpeeds) {
+  std::mt19937 rng(36);
+  for (const Jointed& j : test_trees(37)) {
+    const JointTree& tree = j.tree;
+    const int n6 = 6 * j.model.num_bodies();
+    VectorX zd(j.z.size());
+    for (int i = 0; i < zd.size(); ++i) zd[i] = test::uniform(rng, -1, 1);
+    auto c_times = [&](const VectorX& q, const VectorX& v) {
+      const State s = state_of(j, q, j.z);
+      ConstraintMatrix C(tree);
+      compute_constraint_matrix(tree, q, s, C);
+      VectorX y(n6);
+      constraint_times(tree, C, v, y);
+      return y;
+    };
+    const State s0 = state_of(j, j.q, j.z);
+    ConstraintMatrix C(tree);
+    compute_constraint_matrix(tree, j.q, s0, C);
+    VectorX cdot_z(n6);
+    constraint_rate_times_speeds(tree, C, j.q, j.z, s0, cdot_z);
+    const VectorX zero = VectorX::Zero(zd.size());
+    // (b) [C dot]{z} = d/dt ([C(q(t))] {z}) with z held fixed.
+    const VectorX fd = (c_times(coordinates_at(tree, j.q, j.z, zero, kStep), j.z) -
+                        c_times(coordinates_at(tree, j.q, j.z, zero, -kStep), j.z)) /
+                       (2 * kStep);
+    EXPECT_LT(test::max_abs(fd - cdot_z), kFiniteDifference) << "N " << j.model.num_bodies();
+    // {y dot} = [C]{z dot} + [C dot]{z} along a motion with z(t) = z + t zd.
+    auto y_at = [&](double t) {
+      return state_of(j, coordinates_at(tree, j.q, j.z, zd, t), VectorX(j.z + t * zd)).y;
+    };
+    VectorX c_zd(n6);
+    constraint_times(tree, C, zd, c_zd);
+    EXPECT_LT(test::max_abs((y_at(kStep) - y_at(-kStep)) / (2 * kStep) - (c_zd + cdot_z)),
+              kFiniteDifference)
+        << "N " << j.model.num_bodies();
+  }
+}
+
+TEST(Joints, SphericalRatesAreTheRelativeAngularVelocity) {
+  // Eq. (5) inverts Eq. (39): {w} = 2 [Ebar'] {q dot}, to round-off for unit q.
+  std::mt19937 rng(38);
+  Jointed j = make_jointed(test::random_tree(rng, {.min_bodies = 1, .max_bodies = 1}),
+                           {JointType::spherical}, rng);
+  VectorX qdot(4);
+  joint_coordinate_rates(j.tree, j.q, j.z, qdot);
+  EXPECT_LT((angular_velocity_from_rates(j.q.head<4>(), qdot.head<4>()) - j.z.head<3>()).norm(),
+            1e-14);
+  EXPECT_LT(std::abs(j.q.head<4>().dot(qdot)), 1e-15);  // keeps |q| = 1
+}
+
+TEST(Joints, NormalizeRescalesEulerParametersOnly) {
+  std::mt19937 rng(39);
+  Jointed j = make_jointed(test::random_tree(rng, {.min_bodies = 3, .max_bodies = 3}),
+                           {JointType::free, JointType::spherical, JointType::revolute}, rng);
+  VectorX q = j.q;
+  q.head<4>() *= 1.5;      // free eps
+  q.segment<4>(7) *= 0.5;  // spherical q
+  q[11] = 2.5;             // the revolute angle, unchanged
+  EXPECT_NEAR(normalize_joint_coordinates(j.tree, q), 0.5, 1e-15);
+  EXPECT_LT((q.head<4>() - j.q.head<4>()).norm(), 1e-15);
+  EXPECT_LT((q.segment<4>(7) - j.q.segment<4>(7)).norm(), 1e-15);
+  EXPECT_EQ(q[11], 2.5);
+}
+
+// ---------------------------------------------------------------------------------------------
+// (d) refusals
+
+TEST(Joints, ValidationNamesEachProblem) {
+  Joint j;
+  j.type = JointType::revolute;
+  j.axis = Vector3::Zero();
+  EXPECT_EQ(check_joint(j), "the axis of a revolute joint must not be zero");
+  j.type = JointType::prismatic;
+  EXPECT_EQ(check_joint(j), "the axis of a prismatic joint must not be zero");
+  j.type = JointType::cylindrical;
+  EXPECT_EQ(check_joint(j), "the axis of a cylindrical joint must not be zero");
+  j.type = JointType::spherical;  // no axis to check
+  EXPECT_EQ(check_joint(j), "");
+
+  Joint u;
+  u.type = JointType::universal;
+  u.axes = {Vector3(1, 0, 0), Vector3(2e-9, 1, 0)};  // cos = 2e-9 / |a2|, just over 1e-9
+  EXPECT_EQ(check_joint(u),
+            "the axes of a universal joint must be perpendicular (|a1 . a2| <= 1e-9)");
+  u.axes = {Vector3(3, 0, 0), Vector3(0.5e-9, 2, 0)};  // cos 2.5e-10: accepted, normalized
+  EXPECT_EQ(check_joint(u), "");
+  u.axes[1] = Vector3::Zero();
+  EXPECT_EQ(check_joint(u), "the axes of a universal joint must not be zero");
+
+  Joint f;
+  f.frame = Vector4(0, 0, 0, 1.00001);
+  EXPECT_EQ(check_joint(f), "the joint frame's Euler parameters must have unit norm");
+
+  EXPECT_EQ(check_joint_coordinates(JointType::revolute, VectorX::Zero(2)),
+            "a revolute joint has 1 coordinate, not 2");
+  EXPECT_EQ(check_joint_coordinates(JointType::universal, VectorX::Zero(1)),
+            "a universal joint has 2 coordinates, not 1");
+  EXPECT_EQ(check_joint_coordinates(JointType::weld, VectorX::Zero(1)),
+            "a weld joint has 0 coordinates, not 1");
+  EXPECT_EQ(check_joint_coordinates(JointType::spherical, VectorX::Zero(3)),
+            "a spherical joint has 4 coordinates, not 3");
+  Vector4 e(0, 0, 0, 1 + 2e-6);  // off by 2e-6: refused; by 5e-7: accepted
+  EXPECT_EQ(check_joint_coordinates(JointType::spherical, e),
+            "the Euler parameters of a spherical joint must have unit norm (within 1e-6)");
+  e[3] = 1 + 5e-7;
+  EXPECT_EQ(check_joint_coordinates(JointType::spherical, e), "");
+  EXPECT_EQ(check_joint_rates(JointType::spherical, VectorX::Zero(4)),
+            "a spherical joint has 3 rates, not 4");
+  EXPECT_EQ(check_joint_rates(JointType::prismatic, VectorX::Zero(1)), "");
+}
+
+TEST(Joints, TreeRefusesBadJointsNamingTheBody) {
+  std::mt19937 rng(40);
+  const Model model = test::random_tree(rng, {.min_bodies = 2, .max_bodies = 2});
+  Joint bad;
+  bad.type = JointType::revolute;
+  bad.axis = Vector3::Zero();
+  try {
+    JointTree(model, {Joint{}, bad});
+    ADD_FAILURE() << "accepted";
+  } catch (const ModelError& e) {
+    EXPECT_EQ(std::string(e.what()), "body b2: the axis of a revolute joint must not be zero");
+  }
+  EXPECT_THROW(JointTree(model, {Joint{}}), ModelError);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The projected equations (Eq. 36 premultiplied by [C]^T)
+
+// One body on a revolute joint about the inertial z axis at its origin, mass centre at
+// (0, -l, 0) in body axes, gravity -g y: theta'' = -(m g l / I_O) sin(theta), I_O = I_zz + m l^2.
+TEST(JointsProjected, RevolutePendulum) {
+  const double m = 2.0, l = 0.7, g = 9.81, izz = 0.05;
+  BodySpec b;
+  b.name = "bob";
+  b.mass = m;
+  b.inertia = Vector3(0.08, 0.03, izz).asDiagonal();
+  b.com = Vector3(0, -l, 0);
+  const Model model({b}, Vector3(0, -g, 0));
+  Joint joint;
+  joint.type = JointType::revolute;
+  joint.axis = Vector3::UnitZ();
+  const JointTree tree(model, {joint});
+  Data data(model);
+  for (double theta : {0.0, 0.3, -1.2, 2.5}) {
+    for (double rate : {0.0, 1.7}) {
+      const ProjectedEquations e = projected_equations(model, tree, VectorX::Constant(1, theta),
+                                                       VectorX::Constant(1, rate), data);
+      const double expected = -(m * g * l / (izz + m * l * l)) * std::sin(theta);
+      // Round-off of a 6x6 system with O(10) entries: 1e-12.
+      EXPECT_NEAR(e.zdot[0], expected, 1e-12) << "theta " << theta << " rate " << rate;
+    }
+  }
+}
+
+// A prismatic joint along a unit axis n (frame and axis random): the slide accelerates at
+// g . n whatever the slide, its rate and the body's mass properties.
+TEST(JointsProjected, PrismaticFreeFallIsGravityAlongTheAxis) {
+  std::mt19937 rng(41);
+  for (int i = 0; i < 20; ++i) {
+    test::RandomTreeOptions opt;
+    opt.min_bodies = opt.max_bodies = 1;
+    opt.gravity = test::random_vector(rng, -10, 10);
+    Jointed j = make_jointed(test::random_tree(rng, opt), {JointType::prismatic}, rng);
+    Data data(j.model);
+    const ProjectedEquations e = projected_equations(j.model, j.tree, j.q, j.z, data);
+    const Vector3 n = reference_rotation(j.tree.joint(0).frame).transpose() * j.tree.joint(0).axis;
+    EXPECT_NEAR(e.zdot[0], j.model.gravity().dot(n), 1e-12);
+  }
+}
+
+// With every joint free, [C] = [I], [C dot] = 0 and the projected equations are Eq. (36).
+TEST(JointsProjected, AllFreeIsTheUnconstrainedTree) {
+  std::mt19937 rng(42);
+  for (const Model& model : test::models_of_every_size(rng)) {
+    if (model.num_bodies() > 30) continue;
+    const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(model.num_bodies())));
+    VectorX q, z;
+    randomize(tree, rng, q, z);
+    Data data(model);
+    const ProjectedEquations e = projected_equations(model, tree, q, z, data);
+    // [C] only reorders: z is body by body, y is (w', s' dot); [C]^T [C] = [I] exactly.
+    const int n = tree.num_speeds();
+    EXPECT_EQ(test::max_abs(e.C.transpose() * e.C - MatrixX::Identity(n, n)), 0.0);
+    EXPECT_EQ(test::max_abs(e.Cdot_z), 0.0);
+    Data free(model);
+    forward_dynamics(model, e.state, free, Route::assembled);
+    // Both solve the same 6N system, by LDL^T of different orderings: 1e-10 relative.
+    EXPECT_LT(test::max_abs(e.C * e.zdot - free.ydot), 1e-10 * (1.0 + test::max_abs(free.ydot)));
+  }
+}
+
+}  // namespace
+}  // namespace kanedyn
