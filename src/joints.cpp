@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <utility>
 
 #include "kanedyn/kane.hpp"
@@ -391,6 +392,9 @@ void constraint_rate_times_speeds(const JointTree& tree, const ConstraintMatrix&
 
 ProjectedEquations projected_equations(const Model& model, const JointTree& tree, const VectorX& q,
                                        const VectorX& z, Data& data) {
+  if (!data.options().kane_terms || !data.options().dense_mass_matrix)
+    throw std::invalid_argument(
+        "projected_equations needs a Data with DataOptions::kane_terms and dense_mass_matrix");
   ProjectedEquations e;
   e.state = State(model);
   joint_state(tree, q, z, e.state);

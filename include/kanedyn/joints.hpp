@@ -162,7 +162,8 @@ struct ProjectedEquations {
   State state;     ///< the notes' (x, y) at (q, z)
 };
 /// Forms and solves the projected equations with kane_equations() (its dense [A], {f}):
-/// data needs DataOptions::kane_terms and dense_mass_matrix; allocates (a reference route).
+/// data needs DataOptions::kane_terms and dense_mass_matrix (throws std::invalid_argument
+/// otherwise); allocates (a reference route).
 ProjectedEquations projected_equations(const Model& model, const JointTree& tree, const VectorX& q,
                                        const VectorX& z, Data& data);
 
