@@ -256,6 +256,31 @@ TEST(Joints, VelocitiesAreConstraintMatrixTimesSpeeds) {
   }
 }
 
+// The blocks of [C] follow the chain down to the first free body: in the jointed eight-body
+// system (L = 0, 1, 2, 2, 1, 1, 1, 7; 1 free, 7 welded) w'_3 depends on z_3, z_2, z_1, w'_8
+// on z_8 and z_1 (7 has no speeds), and w'_1 on z_1 only; every s' dot on its own z.
+TEST(Joints, ConstraintBlocksFollowTheChainToTheFirstFreeBody) {
+  std::mt19937 rng(45);
+  const Jointed j = eight_body_jointed(rng);
+  using Chain = std::vector<int>;
+  EXPECT_EQ(j.tree.angular_chain(0), (Chain{0}));
+  EXPECT_EQ(j.tree.angular_chain(2), (Chain{2, 1, 0}));
+  EXPECT_EQ(j.tree.angular_chain(6), (Chain{0}));
+  EXPECT_EQ(j.tree.angular_chain(7), (Chain{7, 0}));
+  EXPECT_EQ(j.tree.num_speeds(), 6 + 3 + 1 + 2 + 2 + 1 + 0 + 1);
+  const State s = state_of(j, j.q, j.z);
+  ConstraintMatrix C(j.tree);
+  compute_constraint_matrix(j.tree, j.q, s, C);
+  const MatrixX dense = dense_constraint_matrix(j.tree, C);
+  // Column by column: [C] e_i is y for the unit speed i, which joint_state gives as well.
+  for (int i = 0; i < j.tree.num_speeds(); ++i) {
+    const VectorX e = VectorX::Unit(j.tree.num_speeds(), i);
+    EXPECT_LT(test::max_abs(dense.col(i) - state_of(j, j.q, e).y), kRoundOff) << "column " << i;
+  }
+  // Body 8's w' rows: nothing from bodies 2..6 (columns 6..14).
+  EXPECT_EQ(test::max_abs(dense.block(21, 6, 3, 9)), 0.0);
+}
+
 // ---------------------------------------------------------------------------------------------
 // (a), (b): finite differences along a motion of (q, z)
 
