@@ -314,9 +314,11 @@ void compute_constraint_matrix(const JointTree& tree, const VectorX& q, const St
     C.s_block[at(k)] = joint_translation_block(tree, k);
     for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
       const int c = C.w_body[at(b)];
-      const Matrix36 g = joint_rotation_block(tree, c, q);
-      // w_rel of c in c components, carried to K components by [R_K][R_c]^T.
-      C.w_block[at(b)] = c == k ? g : Matrix36(C.R[at(k)] * C.R[at(c)].transpose() * g);
+      // w_rel of c ([G_c] z_c, c components), carried to K components by [R_K][R_c]^T; c < K
+      // has its [G_c] already, as the first block of its own chain.
+      C.w_block[at(b)] =
+          c == k ? joint_rotation_block(tree, k, q)
+                 : Matrix36(C.R[at(k)] * C.R[at(c)].transpose() * C.w_block[at(C.w_begin[at(c)])]);
     }
   }
 }
