@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import difflib
 import os
 import pathlib
@@ -136,39 +135,16 @@ class Result:
 
     @classmethod
     def read_csv(cls, model: Any, path: Union[str, os.PathLike]) -> "Result":
-        """A trajectory CSV of this model, read back to the same doubles."""
+        """A trajectory CSV of this model, read back to the same doubles by the tool's own
+        reader (the header must be this model's, every row whole, times in order); ValueError
+        names the file, the line and the problem."""
         path = os.fspath(path)
-        with open(path, newline="") as f:
-            reader = csv.reader(f)
-            header = next(reader, None)
-            expected = list(model.columns)
-            if header != expected:
-                if header is None:
-                    raise ValueError(f"{path}: empty file; expected the header of this model's trajectory")
-                where = next(
-                    (i for i, (a, b) in enumerate(zip(header, expected)) if a != b),
-                    min(len(header), len(expected)),
-                )
-                got = header[where] if where < len(header) else "(end of line)"
-                want = expected[where] if where < len(expected) else "(end of line)"
-                raise ValueError(
-                    f"{path}:1: not a trajectory of this model: column {where + 1} is {got!r}, expected {want!r}"
-                )
-            rows: List[List[float]] = []
-            for line, fields in enumerate(reader, start=2):
-                if len(fields) != len(expected):
-                    raise ValueError(f"{path}:{line}: {len(fields)} fields, expected {len(expected)}")
-                try:
-                    rows.append([float(v) for v in fields])
-                except ValueError as e:
-                    raise ValueError(f"{path}:{line}: {e}") from None
+        table = model._read_csv(path)
         n = model.N
-        table = np.array(rows, dtype=np.float64).reshape(len(rows), 2 + 16 * n)
-        per_body = table[:, 1 : 1 + 16 * n].reshape(len(rows), n, 16)
-        x = np.concatenate([per_body[:, :, 3:7].reshape(len(rows), 4 * n), per_body[:, :, 7:10].reshape(len(rows), 3 * n)], axis=1)
-        y = np.concatenate(
-            [per_body[:, :, 10:13].reshape(len(rows), 3 * n), per_body[:, :, 13:16].reshape(len(rows), 3 * n)], axis=1
-        )
+        rows = table.shape[0]
+        per_body = table[:, 1 : 1 + 16 * n].reshape(rows, n, 16)
+        x = np.concatenate([per_body[:, :, 3:7].reshape(rows, 4 * n), per_body[:, :, 7:10].reshape(rows, 3 * n)], axis=1)
+        y = np.concatenate([per_body[:, :, 10:13].reshape(rows, 3 * n), per_body[:, :, 13:16].reshape(rows, 3 * n)], axis=1)
         return cls(
             model,
             np.ascontiguousarray(table[:, 0]),

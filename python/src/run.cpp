@@ -16,6 +16,7 @@
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/trajectory.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
 
@@ -449,6 +450,21 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
   writer.finish();
 }
 
+/// A trajectory CSV of this model as its (T, 2 + 16N) table, by io::read_trajectory (the
+/// reader of the tool's view and inspect --trajectory); its errors as ValueError.
+py::array_t<double> read_csv(const PyModel& m, const std::string& path) {
+  io::Trajectory traj;
+  try {
+    py::gil_scoped_release release;
+    traj = io::read_trajectory(m.model(), path);
+  } catch (const std::runtime_error& e) {
+    throw py::value_error(e.what());
+  }
+  const auto rows = static_cast<py::ssize_t>(traj.rows());
+  const auto columns = static_cast<py::ssize_t>(traj.columns.size());
+  return adopt(std::move(traj.values), {rows, columns});
+}
+
 /// Seconds per forward_dynamics call, looped in C++: the baseline of the call-overhead
 /// benchmark (bench/python/bench_python.py).
 double time_derivatives(const PyModel& m, py::object state_obj, long calls) {
@@ -478,6 +494,7 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
           "memory, which costs as much as the evaluations on small models.")
       .def("_simulate", &simulate_model, py::arg("settings"), py::arg("initial"), py::arg("output"),
            py::arg("store"), py::arg("progress"))
+      .def("_read_csv", &read_csv, py::arg("path"))
       .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),
            py::arg("energy"))
       .def("_time_derivatives", &time_derivatives, py::arg("state"), py::arg("calls"));

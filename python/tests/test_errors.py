@@ -189,6 +189,22 @@ def test_simulate_settings_errors(eight, tmp_path) -> None:
         eight.simulate(t_end=0.01)["torso.w4"]
 
 
+def test_read_csv_refuses_what_the_tool_refuses(eight, tmp_path) -> None:
+    chain = kanedyn.load(EXAMPLES / "chain64.yaml")
+    path = tmp_path / "run.csv"
+    eight.simulate(t_end=0.02, output=path)
+    with pytest.raises(ValueError, match=r"run.csv:1: column 2 is 'torso.x'"):
+        kanedyn.read_csv(chain, path)
+    lines = path.read_text().splitlines()
+    (tmp_path / "bad.csv").write_text("\n".join(lines[:2] + [lines[2].replace(",", ",x", 1)]) + "\n")
+    with pytest.raises(ValueError, match=r"bad.csv:3: "):
+        kanedyn.read_csv(eight, tmp_path / "bad.csv")
+    (tmp_path / "back.csv").write_text("\n".join([lines[0], lines[2], lines[1]]) + "\n")
+    with pytest.raises(ValueError, match=r"back.csv:3: t = 0 is before the previous row's"):
+        kanedyn.read_csv(eight, tmp_path / "back.csv")
+    assert len(kanedyn.read_csv(eight, path)) == 3
+
+
 def test_hostile_inputs_do_not_crash_the_interpreter() -> None:
     """Each call in a fresh interpreter: an exception is fine, a crash (signal) is not."""
     calls = [
