@@ -31,18 +31,29 @@ std::string number(double v) {
   return buf;
 }
 
+constexpr int kNpyFloat64 = 12;  // NPY_DOUBLE
+
 }  // namespace
+
+bool is_float64(const py::array& a) {
+  // The descriptor's fields directly: a.dtype() would make a new reference on every call of
+  // derivatives()'s fast path.
+  const auto* descr = py::detail::array_descriptor_proxy(py::detail::array_proxy(a.ptr())->descr);
+  return descr->type_num == kNpyFloat64 && descr->byteorder != '>';
+}
+
+void copy_vector(const py::array& a, VectorX& v) {
+  for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = doubles(a)[i * stride(a, 0)];
+}
 
 py::array float64_array(py::handle obj, const char* name, const std::vector<py::ssize_t>& shape,
                         const std::string& what) {
   py::array array;
   if (py::isinstance<py::array>(obj)) {
     array = py::reinterpret_borrow<py::array>(obj);
-    const py::dtype dtype = array.dtype();
-    constexpr int kFloat64 = 12;  // NPY_DOUBLE
-    if (dtype.num() != kFloat64 || dtype.byteorder() == '>')
+    if (!is_float64(array))
       throw py::type_error(std::string(name) + " must be a float64 array, got dtype " +
-                           std::string(py::str(static_cast<py::handle>(dtype))) +
+                           std::string(py::str(static_cast<py::handle>(array.dtype()))) +
                            "; convert it with " + name + ".astype(numpy.float64)");
   } else {
     if (obj.is_none() || py::isinstance<py::str>(obj) || py::isinstance<py::bytes>(obj))
@@ -73,10 +84,8 @@ py::array float64_array(py::handle obj, const char* name, const std::vector<py::
 bool plain_vector(py::handle obj, py::ssize_t size, const double*& data, py::ssize_t& stride) {
   if (!py::isinstance<py::array>(obj)) return false;
   const auto& a = py::reinterpret_borrow<py::array>(obj);
-  constexpr int kFloat64 = 12;  // NPY_DOUBLE
-  const auto* descr = py::detail::array_descriptor_proxy(py::detail::array_proxy(a.ptr())->descr);
-  if (descr->type_num != kFloat64 || descr->byteorder == '>' || a.ndim() != 1 ||
-      a.shape(0) != size || a.strides(0) % static_cast<py::ssize_t>(sizeof(double)) != 0 ||
+  if (!is_float64(a) || a.ndim() != 1 || a.shape(0) != size ||
+      a.strides(0) % static_cast<py::ssize_t>(sizeof(double)) != 0 ||
       reinterpret_cast<std::uintptr_t>(a.data()) % alignof(double) != 0)
     return false;
   data = static_cast<const double*>(a.data());
@@ -149,9 +158,9 @@ py::array_t<double> to_numpy(const VectorX& v) {
   // allocations, a fifth of derivatives()'s call overhead.
   auto& api = py::detail::npy_api::get();
   Py_intptr_t size = v.size();
-  constexpr int kFloat64 = 12;  // NPY_DOUBLE
-  PyObject* out = api.PyArray_NewFromDescr_(api.PyArray_Type_, api.PyArray_DescrFromType_(kFloat64),
-                                            1, &size, nullptr, nullptr, 0, nullptr);
+  PyObject* out =
+      api.PyArray_NewFromDescr_(api.PyArray_Type_, api.PyArray_DescrFromType_(kNpyFloat64), 1,
+                                &size, nullptr, nullptr, 0, nullptr);
   if (!out) throw py::error_already_set();
   auto array = py::reinterpret_steal<py::array_t<double>>(out);
   if (size > 0)

@@ -70,6 +70,12 @@ py::array float64_array(py::handle obj, const char* name, const std::vector<py::
 /// The per-call fast path of derivatives(): no conversion, no message built.
 bool plain_vector(py::handle obj, py::ssize_t size, const double*& data, py::ssize_t& stride);
 
+/// True for a numpy array of native-order float64 (NPY_DOUBLE), the only dtype read in place.
+bool is_float64(const py::array& a);
+
+/// Copies a 1-d float64_array into v (of the array's length), through its stride.
+void copy_vector(const py::array& a, VectorX& v);
+
 /// The first double of a float64_array and its strides in doubles.
 inline const double* doubles(const py::array& a) { return static_cast<const double*>(a.data()); }
 inline py::ssize_t stride(const py::array& a, int dim) {

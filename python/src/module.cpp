@@ -70,8 +70,7 @@ auto view(VectorX State::*field) {
 auto assign(VectorX State::*field, const char* name) {
   return [field, name](State& s, py::object value) {
     VectorX& v = s.*field;
-    const auto a = float64_array(value, name, {v.size()}, "(" + std::to_string(v.size()) + ",)");
-    for (py::ssize_t i = 0; i < v.size(); ++i) v[i] = doubles(a)[i * stride(a, 0)];
+    copy_vector(float64_array(value, name, {v.size()}, "(" + std::to_string(v.size()) + ",)"), v);
   };
 }
 
@@ -93,8 +92,8 @@ void register_state(py::module_& m) {
                                            "(6N,) = (" + std::to_string(6 * n) +
                                                ",) for N = " + std::to_string(n) + " (from x)");
              State s(static_cast<int>(n));
-             for (py::ssize_t i = 0; i < 7 * n; ++i) s.x[i] = doubles(xa)[i * stride(xa, 0)];
-             for (py::ssize_t i = 0; i < 6 * n; ++i) s.y[i] = doubles(ya)[i * stride(ya, 0)];
+             copy_vector(xa, s.x);
+             copy_vector(ya, s.y);
              return s;
            }),
            py::arg("x"), py::arg("y"), "A state from copies of x (7N,) and y (6N,).")

@@ -127,9 +127,7 @@ py::array output_array(py::handle obj, const char* name, py::ssize_t rows, py::s
   if (!py::isinstance<py::array>(obj))
     throw py::type_error(std::string("out: ") + name + " must be a numpy array");
   auto a = py::reinterpret_borrow<py::array>(obj);
-  const py::dtype dtype = a.dtype();
-  constexpr int kFloat64 = 12;  // NPY_DOUBLE
-  if (dtype.num() != kFloat64 || dtype.byteorder() == '>')
+  if (!is_float64(a))
     throw py::type_error(std::string("out: ") + name + " must be a float64 array");
   if (a.ndim() != 2 || a.shape(0) != rows || a.shape(1) != cols)
     throw py::value_error(std::string("out: ") + name + " must have shape (" +
@@ -401,13 +399,14 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
       writer->close();
   }
   const auto T = static_cast<py::ssize_t>(rows.t.size());
+  const py::dict stats_out = stats_dict(model, stats);
   py::object result = py::none();
   if (store)
     result = py::module_::import("kanedyn._result")
                  .attr("Result")(
                      self, adopt(std::move(rows.t), {T}), adopt(std::move(rows.x), {T, 7 * n}),
                      adopt(std::move(rows.y), {T, 6 * n}), adopt(std::move(rows.p_G), {T, n, 3}),
-                     adopt(std::move(rows.energy), {T}), stats_dict(model, stats),
+                     adopt(std::move(rows.energy), {T}), stats_out,
                      out.empty() ? py::object(py::none()) : py::object(py::str(out)));
   if (!stats.ok()) {
     const std::string message =
@@ -415,11 +414,11 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
     py::object type = py::module_::import("kanedyn._kanedyn").attr("SimulationError");
     py::object error = type(message);
     error.attr("result") = result;
-    error.attr("stats") = stats_dict(model, stats);
+    error.attr("stats") = stats_out;
     PyErr_SetObject(type.ptr(), error.ptr());
     throw py::error_already_set();
   }
-  return store ? result : py::object(stats_dict(model, stats));
+  return store ? result : py::object(stats_out);
 }
 
 /// Writes stored rows as the trajectory CSV: the kinematics of each row are computed again
@@ -434,18 +433,15 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
   const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
   const auto y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
   const auto energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
-  const auto tv = py::array_t<double>(t).unchecked<1>();
-  const auto xv = py::array_t<double>(x).unchecked<2>();
-  const auto yv = py::array_t<double>(y).unchecked<2>();
-  const auto ev = py::array_t<double>(energy).unchecked<1>();
   io::TrajectoryWriter writer(model, path);
   Data data(model, DataOptions::recursive_only());
   State state(model);
   for (py::ssize_t r = 0; r < rows; ++r) {
-    for (int i = 0; i < 7 * n; ++i) state.x[i] = xv(r, i);
-    for (int i = 0; i < 6 * n; ++i) state.y[i] = yv(r, i);
+    for (int i = 0; i < 7 * n; ++i) state.x[i] = doubles(x)[r * stride(x, 0) + i * stride(x, 1)];
+    for (int i = 0; i < 6 * n; ++i) state.y[i] = doubles(y)[r * stride(y, 0) + i * stride(y, 1)];
     compute_kinematics(model, state, data);
-    writer.write_row(tv(r), state, data, ev(r));
+    writer.write_row(doubles(t)[r * stride(t, 0)], state, data,
+                     doubles(energy)[r * stride(energy, 0)]);
   }
   writer.finish();
 }
