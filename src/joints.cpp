@@ -107,7 +107,8 @@ Vector4 compose_euler_parameters(const Vector4& eps_j, const Vector4& rel) {
   return relative_euler_parameters(conj_j, rel);
 }
 
-JointTree::JointTree(const Model& model, std::vector<Joint> joints) : joints_(std::move(joints)) {
+JointTree::JointTree(const Model& model, std::vector<Joint> joints, std::vector<JointLoad> loads)
+    : joints_(std::move(joints)), loads_(std::move(loads)) {
   const int n = model.num_bodies();
   if (static_cast<int>(joints_.size()) != n)
     throw ModelError("joints: " + std::to_string(joints_.size()) + " joints for " +
@@ -129,7 +130,25 @@ JointTree::JointTree(const Model& model, std::vector<Joint> joints) : joints_(st
     // F's axis in J components: [R(frame)] maps J to F components.
     axis_j_[at(k)] = rotation_matrix(jt.frame).transpose() * jt.axis;
   }
+  for (const JointLoad& load : loads_) {
+    if (load.body < 0 || load.body >= n)
+      throw ModelError("joint load: body index " + std::to_string(load.body) + " out of range");
+    const JointType t = joints_[at(load.body)].type;
+    const std::string who = "body " + model.body(load.body).name + ": ";
+    if (t == JointType::free || t == JointType::weld || t == JointType::spherical)
+      throw ModelError(who +
+                       "joint loads act on revolute, prismatic, cylindrical and universal "
+                       "joints, not on a " +
+                       to_string(t) + " joint");
+    const int m = coordinate_count(t);
+    for (const VectorX* v : {&load.stiffness, &load.damping, &load.rest, &load.value})
+      if (v->size() != m)
+        throw ModelError(who + "a joint load on a " + std::string(to_string(t)) + " joint needs " +
+                         std::to_string(m) + " entries per parameter, not " +
+                         std::to_string(v->size()));
+  }
   for (int k = 0; k < n; ++k) {
+    if (!is_free(joints_[at(k)].type)) constrained_ = true;
     // w'_K = w_rel + [R_K][R_J]^T w'_J down to the first free body, whose w' is its own z.
     for (int c = k; c != kGround; c = lower_[at(c)]) {
       if (speed_count(joints_[at(c)].type) > 0) w_chain_[at(k)].push_back(c);
@@ -392,6 +411,34 @@ void constraint_rate_times_speeds(const JointTree& tree, const ConstraintMatrix&
   }
 }
 
+void add_joint_load_forces(const JointTree& tree, const VectorX& q, const VectorX& z,
+                           Eigen::Ref<VectorX> Q) {
+  for (const JointLoad& l : tree.loads()) {
+    const int m = static_cast<int>(l.value.size());
+    const int o = tree.coordinate_offset(l.body), p = tree.speed_offset(l.body);
+    Q.segment(p, m) += l.value - l.stiffness.cwiseProduct(q.segment(o, m) - l.rest) -
+                       l.damping.cwiseProduct(z.segment(p, m));
+  }
+}
+
+double joint_load_potential_energy(const JointTree& tree, const VectorX& q) {
+  double e = 0.0;
+  for (const JointLoad& l : tree.loads()) {
+    const VectorX d = q.segment(tree.coordinate_offset(l.body), l.rest.size()) - l.rest;
+    e += 0.5 * l.stiffness.dot(d.cwiseProduct(d));
+  }
+  return e;
+}
+
+double joint_load_damping_power(const JointTree& tree, const VectorX& z) {
+  double p = 0.0;
+  for (const JointLoad& l : tree.loads()) {
+    const auto r = z.segment(tree.speed_offset(l.body), l.damping.size());
+    p += l.damping.dot(r.cwiseProduct(r));
+  }
+  return p;
+}
+
 ProjectedEquations projected_equations(const Model& model, const JointTree& tree, const VectorX& q,
                                        const VectorX& z, Data& data) {
   if (!data.options().kane_terms || !data.options().dense_mass_matrix)
@@ -409,6 +456,7 @@ ProjectedEquations projected_equations(const Model& model, const JointTree& tree
   const MatrixX& A = data.kane.A;
   e.A_z = e.C.transpose() * A * e.C;
   e.f_z = e.C.transpose() * (data.kane.f - A * e.Cdot_z);
+  add_joint_load_forces(tree, q, z, e.f_z);
   e.zdot = e.A_z.ldlt().solve(e.f_z);
   return e;
 }

@@ -70,12 +70,23 @@ Matrix3 axis_angle_rotation(const Vector3& axis, double angle);
 /// relative_euler_parameters): [R(result)] = [R(rel)] [R(eps_j)].
 Vector4 compose_euler_parameters(const Vector4& eps_j, const Vector4& rel);
 
+/// A load on one body's joint coordinates (the model format's joint_spring and joint_force):
+/// for coordinate i, Q_i = value_i - stiffness_i (q_i - rest_i) - damping_i dq_i/dt, potential
+/// energy 1/2 stiffness_i (q_i - rest_i)^2. Revolute, prismatic, cylindrical and universal
+/// joints only (there z = dq/dt). Each vector has coordinate_count() entries (a loader expands
+/// scalars); a joint_force has zero stiffness and damping, a joint_spring zero value.
+struct JointLoad {
+  int body = 0;
+  VectorX stiffness, damping, rest, value;
+};
+
 /// One joint per body of a Model, validated once, with the offsets of each body's slices of q
 /// and z and the structure of [C]. Immutable; copies the topology it needs from the Model.
 class JointTree {
  public:
-  /// Throws ModelError naming the body when joints.size() != N or check_joint() refuses one.
-  JointTree(const Model& model, std::vector<Joint> joints);
+  /// Throws ModelError naming the body when joints.size() != N, check_joint() refuses one, or
+  /// a load is on a free, weld or spherical joint or has the wrong number of entries.
+  JointTree(const Model& model, std::vector<Joint> joints, std::vector<JointLoad> loads = {});
 
   int num_bodies() const { return static_cast<int>(joints_.size()); }
   int num_coordinates() const { return q_offset_.back(); }                     ///< size of q
@@ -86,12 +97,17 @@ class JointTree {
   int speed_offset(int k) const { return z_offset_[static_cast<size_t>(k)]; }
   /// The axis of a revolute, prismatic or cylindrical joint in body-J components.
   const Vector3& axis_in_j(int k) const { return axis_j_[static_cast<size_t>(k)]; }
+  const std::vector<JointLoad>& loads() const { return loads_; }
+  /// True when some joint is not free (the model is not the notes' free tree).
+  bool has_constraints() const { return constrained_; }
   /// The bodies whose z enter w'_K: K (if it has speeds), then down its chain through welds
   /// and joints up to and including the first free body (a free body's w' is its own z).
   const std::vector<int>& angular_chain(int k) const { return w_chain_[static_cast<size_t>(k)]; }
 
  private:
   std::vector<Joint> joints_;
+  std::vector<JointLoad> loads_;
+  bool constrained_ = false;
   std::vector<int> lower_, q_offset_, z_offset_;
   std::vector<Vector3> axis_j_;
   std::vector<std::vector<int>> w_chain_;
@@ -152,12 +168,20 @@ void constraint_rate_times_speeds(const JointTree& tree, const ConstraintMatrix&
                                   const VectorX& q, const VectorX& z, const State& state,
                                   Eigen::Ref<VectorX> out);
 
+/// Adds the joint loads' generalized forces Q (n, in the order of z) at (q, z) to Q.
+void add_joint_load_forces(const JointTree& tree, const VectorX& q, const VectorX& z,
+                           Eigen::Ref<VectorX> Q);
+/// Sum of the joint springs' potentials 1/2 stiffness_i (q_i - rest_i)^2.
+double joint_load_potential_energy(const JointTree& tree, const VectorX& q);
+/// Power removed by the joint springs' damping, sum of damping_i (dq_i/dt)^2 (>= 0).
+double joint_load_damping_power(const JointTree& tree, const VectorX& z);
+
 /// The projected equations at (q, z), dense, for output and as the reference route.
 struct ProjectedEquations {
   MatrixX C;       ///< 6N x n
   VectorX Cdot_z;  ///< 6N
   MatrixX A_z;     ///< [C]^T [A] [C], n x n
-  VectorX f_z;     ///< [C]^T ({f} - [A][C dot]{z}), n
+  VectorX f_z;     ///< [C]^T ({f} - [A][C dot]{z}) + the joint loads' Q, n
   VectorX zdot;    ///< the solution of A_z {z dot} = f_z
   State state;     ///< the notes' (x, y) at (q, z)
 };

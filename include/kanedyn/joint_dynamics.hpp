@@ -1,0 +1,45 @@
+// Forward dynamics of a jointed tree (docs/theory.md, "Joints"): {z dot} at the joint
+// coordinates q and independent speeds z, by the route of the user's choice, and the
+// derivative of the integrated state (q; z).
+#pragma once
+
+#include <memory>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/model.hpp"
+#include "kanedyn/state.hpp"
+
+namespace kanedyn {
+
+/// The workspace of one (Model, JointTree) pair; both must outlive it. Copies are independent.
+class JointDynamics {
+ public:
+  JointDynamics(const Model& model, const JointTree& tree);
+  JointDynamics(const JointDynamics& other);
+  JointDynamics& operator=(const JointDynamics&) = delete;
+  ~JointDynamics();
+
+  /// {z dot} at (q, z) into zdot (size n): Route::recursive is the O(N) articulated-body
+  /// route, Route::assembled the projected Kane equations [C]^T [A] [C] {z dot} =
+  /// [C]^T ({f} - [A][C dot]{z}) + Q. Both include the joint loads of the tree. Afterwards
+  /// state() holds the notes' (x, y) at (q, z) and data() its kinematics (compute_kinematics)
+  /// and loads (compute_resultants). Spherical q and free eps_K are used as given (unit norm
+  /// assumed).
+  void evaluate(const VectorX& q, const VectorX& z, Route route, Eigen::Ref<VectorX> zdot);
+
+  /// d/dt (q; z) at (q; z) (size num_coordinates() + num_speeds()): joint_coordinate_rates
+  /// at q with its spherical and free Euler parameters normalized, and evaluate() there.
+  void derivative(const VectorX& qz, Route route, Eigen::Ref<VectorX> dqz);
+
+  const State& state() const;
+  Data& data();
+  const JointTree& tree() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kanedyn
