@@ -42,6 +42,14 @@ double relative_difference(const std::vector<double>& x, const VectorX& ref) {
   return scale > 0 ? diff / scale : diff;
 }
 
+// As format_ratio, with three significant digits below 1 (kanedyn slower than a peer).
+std::string ratio_text(double r) {
+  if (r >= 1) return format_ratio(r);
+  std::ostringstream s;
+  s << std::setprecision(3) << r;
+  return s.str();
+}
+
 bool wanted(const JointedOptions& opt, const std::string& name) {
   return opt.models.empty() ||
          std::find(opt.models.begin(), opt.models.end(), name) != opt.models.end();
@@ -104,12 +112,14 @@ bool compare_section(const JointedOptions& opt) {
     VectorX zdot(c.tree.num_speeds());
     std::mt19937 rng(opt.seed);
     std::vector<VectorX> q0z0;  // the timed state
+    double spread = 0;          // largest difference between two peers' z dot, relative
     // Accelerations at every state; each engine rebuilt at each state, as it would be given it.
     for (int s = 0; s < opt.states; ++s) {
       random_joint_state(c, rng);
       if (s == 0) q0z0 = {c.q, c.z};
       ws.evaluate(c.q, c.z, kanedyn::Route::recursive, zdot);
       const JointedSystem sys = describe_jointed(c);
+      std::vector<std::vector<double>> results;
       for (size_t ei = 1; ei < columns.size(); ++ei) {
         Cell& cell = table[ci][ei];
         if (!cell.note.empty()) continue;
@@ -120,12 +130,24 @@ bool compare_section(const JointedOptions& opt) {
         try {
           const std::unique_ptr<JointedEngine> engine = columns[ei].info->make(sys);
           engine->evaluate();
-          cell.difference = std::max(cell.difference, relative_difference(engine->zdot(), zdot));
+          results.push_back(engine->zdot());
+          cell.difference = std::max(cell.difference, relative_difference(results.back(), zdot));
         } catch (const std::exception& e) {
           cell.note = e.what();
         }
       }
+      // Peers among themselves, at the scale of kanedyn's largest |z dot|.
+      for (size_t a = 0; a < results.size(); ++a)
+        for (size_t b = a + 1; b < results.size(); ++b) {
+          const VectorX other = Eigen::Map<const VectorX>(
+              results[b].data(), static_cast<Eigen::Index>(results[b].size()));
+          spread = std::max(spread, relative_difference(results[a], other) *
+                                        other.cwiseAbs().maxCoeff() / zdot.cwiseAbs().maxCoeff());
+        }
     }
+    std::cout << "# " << c.name << ": " << c.model.num_bodies() << " bodies, "
+              << c.tree.num_speeds() << " speeds; largest difference between two peers' z dot "
+              << format_sci(spread) << "\n";
     c.q = q0z0[0];
     c.z = q0z0[1];
     table[ci][0].difference = 0;
@@ -178,7 +200,7 @@ bool compare_section(const JointedOptions& opt) {
     const Cell& cell = table[ci][ei];
     const Cell& base = table[ci][0];
     if (!cell.timing || !base.timing) return "-";
-    return format_ratio((*cell.timing).*stat / (*base.timing).*stat);
+    return ratio_text((*cell.timing).*stat / (*base.timing).*stat);
   };
   print_table(cases, columns, table,
               "Jointed models, median ns per evaluation:", [&](size_t ci, size_t ei) {
@@ -225,7 +247,7 @@ bool compare_section(const JointedOptions& opt) {
       }
       const double med = cell.timing->median_ns / base.timing->median_ns;
       const double min = cell.timing->min_ns / base.timing->min_ns;
-      std::cout << format_ratio(med) << "x | " << format_ratio(min) << "x | "
+      std::cout << ratio_text(med) << "x | " << ratio_text(min) << "x | "
                 << (med >= factor ? "met" : "NOT MET") << " |\n";
     }
   }
