@@ -325,104 +325,128 @@ class DartEngine final : public Engine {
 // forces are the joints' commanded forces, set in every evaluation from DART's positions and
 // velocities: DART's own joint springs and dampers are implicit in its time step, which would
 // not be the law.
+
+// A skeleton of a jointed tree: per body, in kanedyn's order, its BodyNode and the joint to its
+// lower body (a cylindrical joint's revolute part; its prismatic part in `slides`).
+struct JointedSkeleton {
+  dart::dynamics::SkeletonPtr skeleton;
+  std::vector<BodyNode*> bodies;
+  std::vector<dart::dynamics::Joint*> joints;
+  std::map<size_t, dart::dynamics::Joint*> slides;
+};
+
+// The skeleton of the comment above, built from the system's description. This is the one
+// place a skeleton comes from: one read from a URDF file (dart::utils::DartLoader) would be
+// turned into a JointedSkeleton instead, bodies matched to the system's by name.
+JointedSkeleton build_skeleton(const JointedSystem& system) {
+  JointedSkeleton out;
+  out.skeleton = dart::dynamics::Skeleton::create(system.name);
+  out.skeleton->setGravity(e3(system.gravity));
+  for (size_t k = 0; k < system.bodies.size(); ++k) {
+    const Body& b = system.bodies[k];
+    const JointSpec& j = system.joints[k];
+    BodyNode::Properties body;
+    body.mName = b.name;
+    body.mInertia = dart::dynamics::Inertia(
+        b.mass, e3(b.com),
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(b.inertia.data()));
+    BodyNode* parent = b.parent < 0 ? nullptr : out.bodies[static_cast<size_t>(b.parent)];
+    Eigen::Isometry3d X_JF = Eigen::Isometry3d::Identity();
+    if (j.type != JointKind::free)
+      X_JF.linear() = Eigen::Quaterniond(j.frame[0], j.frame[1], j.frame[2], j.frame[3])
+                          .normalized()
+                          .toRotationMatrix();
+    X_JF.translation() =
+        e3(b.joint) + (j.type == JointKind::weld ? e3(j.translation) : Vector3d::Zero());
+    const Vector3d n = e3(j.axis);
+    dart::dynamics::Joint* joint = nullptr;
+    BodyNode* node = nullptr;
+    auto pair = [&](auto* tag, BodyNode* from, const BodyNode::Properties& props) {
+      using J = std::remove_pointer_t<decltype(tag)>;
+      auto created = out.skeleton->createJointAndBodyNodePair<J>(from);
+      created.second->setProperties(props);
+      return created;
+    };
+    switch (j.type) {
+      case JointKind::free: {
+        auto c = pair(static_cast<FreeJoint*>(nullptr), parent, body);
+        joint = c.first;
+        node = c.second;
+        break;
+      }
+      case JointKind::weld: {
+        auto c = pair(static_cast<dart::dynamics::WeldJoint*>(nullptr), parent, body);
+        joint = c.first;
+        node = c.second;
+        break;
+      }
+      case JointKind::revolute: {
+        auto c = pair(static_cast<dart::dynamics::RevoluteJoint*>(nullptr), parent, body);
+        c.first->setAxis(n);
+        joint = c.first;
+        node = c.second;
+        break;
+      }
+      case JointKind::prismatic: {
+        auto c = pair(static_cast<dart::dynamics::PrismaticJoint*>(nullptr), parent, body);
+        c.first->setAxis(n);
+        joint = c.first;
+        node = c.second;
+        break;
+      }
+      case JointKind::universal: {
+        auto c = pair(static_cast<dart::dynamics::UniversalJoint*>(nullptr), parent, body);
+        c.first->setAxis1(n);
+        c.first->setAxis2(e3(j.axis2));
+        joint = c.first;
+        node = c.second;
+        break;
+      }
+      case JointKind::spherical: {
+        auto c = pair(static_cast<dart::dynamics::BallJoint*>(nullptr), parent, body);
+        joint = c.first;
+        node = c.second;
+        break;
+      }
+      case JointKind::cylindrical: {
+        BodyNode::Properties massless;
+        massless.mName = b.name + "_slide";
+        massless.mInertia = dart::dynamics::Inertia(0.0, Vector3d::Zero(), Eigen::Matrix3d::Zero());
+        auto slide = pair(static_cast<dart::dynamics::PrismaticJoint*>(nullptr), parent, massless);
+        slide.first->setAxis(n);
+        slide.first->setName(b.name + "_slide_joint");
+        slide.first->setTransformFromParentBodyNode(X_JF);
+        slide.first->setTransformFromChildBodyNode(Eigen::Isometry3d::Identity());
+        auto turn = pair(static_cast<dart::dynamics::RevoluteJoint*>(nullptr), slide.second, body);
+        turn.first->setAxis(n);
+        joint = turn.first;
+        node = turn.second;
+        X_JF = Eigen::Isometry3d::Identity();  // the revolute joint sits in the slide's frame
+        out.slides[k] = slide.first;
+        break;
+      }
+    }
+    joint->setName(b.name + "_joint");
+    joint->setTransformFromParentBodyNode(X_JF);
+    joint->setTransformFromChildBodyNode(Eigen::Isometry3d::Identity());
+    out.bodies.push_back(node);
+    out.joints.push_back(joint);
+  }
+  return out;
+}
+
 class DartJointedEngine final : public JointedEngine {
  public:
   explicit DartJointedEngine(const JointedSystem& system)
-      : system_(system), skeleton_(dart::dynamics::Skeleton::create(system.name)) {
-    skeleton_->setGravity(e3(system.gravity));
-    for (size_t k = 0; k < system.bodies.size(); ++k) {
-      const Body& b = system.bodies[k];
-      const JointSpec& j = system.joints[k];
-      BodyNode::Properties body;
-      body.mName = b.name;
-      body.mInertia = dart::dynamics::Inertia(
-          b.mass, e3(b.com),
-          Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(b.inertia.data()));
-      BodyNode* parent = b.parent < 0 ? nullptr : bodies_[static_cast<size_t>(b.parent)];
-      Eigen::Isometry3d X_JF = Eigen::Isometry3d::Identity();
-      if (j.type != JointKind::free)
-        X_JF.linear() = Eigen::Quaterniond(j.frame[0], j.frame[1], j.frame[2], j.frame[3])
-                            .normalized()
-                            .toRotationMatrix();
-      X_JF.translation() =
-          e3(b.joint) + (j.type == JointKind::weld ? e3(j.translation) : Vector3d::Zero());
-      const Vector3d n = e3(j.axis);
-      dart::dynamics::Joint* joint = nullptr;
-      BodyNode* node = nullptr;
-      auto pair = [&](auto* tag, BodyNode* from, const BodyNode::Properties& props) {
-        using J = std::remove_pointer_t<decltype(tag)>;
-        auto created = skeleton_->createJointAndBodyNodePair<J>(from);
-        created.second->setProperties(props);
-        return created;
-      };
-      switch (j.type) {
-        case JointKind::free: {
-          auto c = pair(static_cast<FreeJoint*>(nullptr), parent, body);
-          joint = c.first;
-          node = c.second;
-          break;
-        }
-        case JointKind::weld: {
-          auto c = pair(static_cast<dart::dynamics::WeldJoint*>(nullptr), parent, body);
-          joint = c.first;
-          node = c.second;
-          break;
-        }
-        case JointKind::revolute: {
-          auto c = pair(static_cast<dart::dynamics::RevoluteJoint*>(nullptr), parent, body);
-          c.first->setAxis(n);
-          joint = c.first;
-          node = c.second;
-          break;
-        }
-        case JointKind::prismatic: {
-          auto c = pair(static_cast<dart::dynamics::PrismaticJoint*>(nullptr), parent, body);
-          c.first->setAxis(n);
-          joint = c.first;
-          node = c.second;
-          break;
-        }
-        case JointKind::universal: {
-          auto c = pair(static_cast<dart::dynamics::UniversalJoint*>(nullptr), parent, body);
-          c.first->setAxis1(n);
-          c.first->setAxis2(e3(j.axis2));
-          joint = c.first;
-          node = c.second;
-          break;
-        }
-        case JointKind::spherical: {
-          auto c = pair(static_cast<dart::dynamics::BallJoint*>(nullptr), parent, body);
-          joint = c.first;
-          node = c.second;
-          break;
-        }
-        case JointKind::cylindrical: {
-          BodyNode::Properties massless;
-          massless.mName = b.name + "_slide";
-          massless.mInertia =
-              dart::dynamics::Inertia(0.0, Vector3d::Zero(), Eigen::Matrix3d::Zero());
-          auto slide =
-              pair(static_cast<dart::dynamics::PrismaticJoint*>(nullptr), parent, massless);
-          slide.first->setAxis(n);
-          slide.first->setName(b.name + "_slide_joint");
-          slide.first->setTransformFromParentBodyNode(X_JF);
-          slide.first->setTransformFromChildBodyNode(Eigen::Isometry3d::Identity());
-          auto turn =
-              pair(static_cast<dart::dynamics::RevoluteJoint*>(nullptr), slide.second, body);
-          turn.first->setAxis(n);
-          joint = turn.first;
-          node = turn.second;
-          X_JF = Eigen::Isometry3d::Identity();  // the revolute joint sits in the slide's frame
-          joints_extra_[k] = slide.first;
-          break;
-        }
-      }
-      joint->setName(b.name + "_joint");
-      joint->setTransformFromParentBodyNode(X_JF);
-      joint->setTransformFromChildBodyNode(Eigen::Isometry3d::Identity());
-      bodies_.push_back(node);
-      joints_.push_back(joint);
-    }
+      : DartJointedEngine(system, build_skeleton(system)) {}
+
+  // The system's state and loads on a skeleton of the same bodies and joints.
+  DartJointedEngine(const JointedSystem& system, JointedSkeleton built)
+      : system_(system),
+        skeleton_(std::move(built.skeleton)),
+        bodies_(std::move(built.bodies)),
+        joints_(std::move(built.joints)),
+        joints_extra_(std::move(built.slides)) {
     // Joint coordinates in DART's terms.
     for (size_t k = 0; k < bodies_.size(); ++k) {
       const JointSpec& j = system.joints[k];
