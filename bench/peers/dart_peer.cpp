@@ -30,6 +30,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iostream>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -409,10 +410,16 @@ JointedSkeleton build_skeleton(const JointedSystem& system) {
         break;
       }
       case JointKind::cylindrical: {
+        // DART warns (on std::cerr) that a zero mass and inertia may be invalid; the
+        // articulated-body recursion only inverts the inertia seen through each joint, which
+        // the outer body's makes positive, so the warnings are silenced for this one body.
+        std::streambuf* const saved = std::cerr.rdbuf(nullptr);
         BodyNode::Properties massless;
         massless.mName = b.name + "_slide";
         massless.mInertia = dart::dynamics::Inertia(0.0, Vector3d::Zero(), Eigen::Matrix3d::Zero());
         auto slide = pair(static_cast<dart::dynamics::PrismaticJoint*>(nullptr), parent, massless);
+        std::cerr.rdbuf(saved);
+        std::cerr.clear();  // the writes to no buffer set badbit
         slide.first->setAxis(n);
         slide.first->setName(b.name + "_slide_joint");
         slide.first->setTransformFromParentBodyNode(X_JF);

@@ -89,8 +89,8 @@ std::vector<std::unique_ptr<JointedCase>> make_cases(const JointedOptions& opt) 
 }
 
 void print_table(const std::vector<std::unique_ptr<JointedCase>>& cases,
-                 const std::vector<Column>& columns, const std::vector<std::vector<Cell>>& table,
-                 const char* title, const std::function<std::string(size_t, size_t)>& entry) {
+                 const std::vector<Column>& columns, const char* title,
+                 const std::function<std::string(size_t, size_t)>& entry) {
   std::cout << "\n" << title << "\n\n| model | N | n |";
   for (const Column& c : columns) std::cout << ' ' << c.title << " |";
   std::cout << "\n|---|---:|---:|";
@@ -102,7 +102,6 @@ void print_table(const std::vector<std::unique_ptr<JointedCase>>& cases,
     for (size_t ei = 0; ei < columns.size(); ++ei) std::cout << ' ' << entry(ci, ei) << " |";
     std::cout << "\n";
   }
-  (void)table;
 }
 
 bool compare_section(const JointedOptions& opt) {
@@ -236,18 +235,18 @@ bool compare_section(const JointedOptions& opt) {
     if (!cell.timing || !base.timing) return "-";
     return ratio_text((*cell.timing).*stat / (*base.timing).*stat);
   };
-  print_table(cases, columns, table,
+  print_table(cases, columns,
               "Jointed models, median ns per evaluation:", [&](size_t ci, size_t ei) {
                 const Cell& cell = table[ci][ei];
                 return cell.timing ? format_ns(cell.timing->median_ns) : "(" + cell.note + ")";
               });
-  print_table(cases, columns, table,
+  print_table(cases, columns,
               "Jointed models, median time relative to kanedyn recursive (x slower):",
               [&](size_t ci, size_t ei) { return ratio(ci, ei, &Timing::median_ns); });
-  print_table(cases, columns, table,
+  print_table(cases, columns,
               "Jointed models, minimum time relative to kanedyn recursive (x slower):",
               [&](size_t ci, size_t ei) { return ratio(ci, ei, &Timing::min_ns); });
-  print_table(cases, columns, table,
+  print_table(cases, columns,
               "Jointed models, largest relative difference of the joint accelerations z dot "
               "from kanedyn's (over the random states):",
               [&](size_t ci, size_t ei) -> std::string {

@@ -471,6 +471,11 @@ int main(int argc, char** argv) {
                  "cond(M) eps where the joint-space mass matrix is ill-conditioned)")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  for (const std::string& section : opt.sections)
+    if (section != "free" && section != "jointed" && section != "scaling") {
+      std::cerr << "kanedyn_peers: unknown section '" << section << "' (free, jointed, scaling)\n";
+      return 1;
+    }
   if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
 
   std::vector<EngineColumn> columns;
