@@ -1,6 +1,8 @@
 // kanedyn_peers: one forward-dynamics evaluation of the same model at the same state in
 // kanedyn (recursive and Kane routes), Simbody, MuJoCo and DART; median time per evaluation,
-// ratios to kanedyn, and agreement of the body accelerations. See docs/performance.md.
+// ratios to kanedyn, and agreement of the body accelerations. The jointed sections
+// (jointed_section.hpp) do the same for jointed trees with kanedyn's JointDynamics, and time
+// it per body on revolute chains. See docs/performance.md.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -421,7 +423,9 @@ int main(int argc, char** argv) {
   app.add_option("--sizes", opt.sizes, "N of the chains and random trees")
       ->delimiter(',')
       ->capture_default_str();
-  app.add_option("--engines", opt.engines, "recursive, kane, simbody, mujoco, dart")
+  app.add_option("--engines", opt.engines,
+                 "recursive, kane, simbody, mujoco, dart (the jointed sections: kanedyn's "
+                 "recursive route and the peers among these)")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--eight-body", opt.eight_body, "Model file of the eight-body example")
