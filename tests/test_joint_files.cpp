@@ -683,3 +683,24 @@ TEST(JointFiles, EomPrintsTheProjectedEquations) {
 
 }  // namespace
 }  // namespace kanedyn
+
+namespace kanedyn {
+namespace {
+
+TEST(JointFiles, InfoPrintsEachBodysJointAndCoordinates) {
+  const std::filesystem::path dir = test::temp_dir("joint_info");
+  std::ofstream(dir / "jointed.yaml") << kJointed;
+  const test::ToolRun run = test::run_in(dir, "info jointed.yaml");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("17 joint coordinates q, 15 independent speeds z"), std::string::npos)
+      << run.out;
+  for (const char* line :
+       {"hinge              revolute     [0.4]", "cyl                cylindrical  [-0.2, 0.03]",
+        "ball               spherical    [0, 0, 0.6, 0.8]", "welded             weld         none"})
+    EXPECT_NE(run.out.find(line), std::string::npos) << line << "\n" << run.out;
+  const test::ToolRun plain = test::run_in(dir, "info '" + test::kExamples + "/eight_body.yaml'");
+  EXPECT_EQ(plain.out.find("joints:"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kanedyn
