@@ -704,3 +704,31 @@ TEST(JointFiles, InfoPrintsEachBodysJointAndCoordinates) {
 
 }  // namespace
 }  // namespace kanedyn
+
+namespace kanedyn {
+namespace {
+
+TEST(JointFiles, TheJointedExamplesRunWithTheirJointsHeld) {
+  for (const char* name : {"human_jointed.yaml", "cart_pendulum.yaml"}) {
+    SCOPED_TRACE(name);
+    const io::ModelFile f = io::load_model_file(test::kExamples + "/" + name);
+    ASSERT_TRUE(f.jointed());
+    SimulationSettings s;
+    s.t_end = 1.0;
+    s.dt_out = 0.05;
+    double worst = 0.0;
+    long rows = 0;
+    const JointObserver obs = [&](double, const State& state, const VectorX&, const VectorX&,
+                                  Data&) {
+      worst = std::max(worst, joint_violation(f.model, *f.joints, state));
+      ++rows;
+    };
+    const SimulationStats stats = simulate(f.model, *f.joints, f.joint_q, f.joint_z, s, obs);
+    ASSERT_TRUE(stats.ok()) << stats.message;
+    EXPECT_EQ(rows, 21);
+    EXPECT_LT(worst, 1e-13);  // round-off, as in the long run above
+  }
+}
+
+}  // namespace
+}  // namespace kanedyn
