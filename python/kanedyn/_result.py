@@ -22,7 +22,9 @@ class Result:
     steps_accepted, steps_rejected, evaluations, wall_seconds, energy_initial, energy_final,
     relative_energy_change, max_euler_drift, message, ...). r["torso.w2"] is a column of the
     trajectory CSV by name (r.columns lists them); r.to_csv(path) writes the CSV that
-    `kanedyn simulate` writes.
+    `kanedyn simulate` writes. A jointed model's result also has q (T, nq) and z (T, nz), the
+    joint coordinates and independent speeds of each row (model.joint_layout gives each
+    body's slices), and its columns NAME.j1.. and NAME.jd1.. (r["thigh.j1"]).
     """
 
     def __init__(
@@ -35,6 +37,8 @@ class Result:
         energy: np.ndarray,
         stats: Dict[str, Any],
         path: Optional[str] = None,
+        q: Optional[np.ndarray] = None,
+        z: Optional[np.ndarray] = None,
     ) -> None:
         self.model = model
         self.t = t
@@ -44,6 +48,8 @@ class Result:
         self.energy = energy
         self.stats = stats
         self.path = path  #: the CSV streamed during the run, if any
+        self.q = q  #: jointed models: the joint coordinates of each row, else None
+        self.z = z  #: jointed models: the independent speeds of each row, else None
 
     @property
     def columns(self) -> List[str]:
@@ -64,6 +70,13 @@ class Result:
             return self.energy, (slice(None),)
         body, _, suffix = name.rpartition(".")
         n = self.model.N
+        layout = self.model.joint_layout
+        if body in layout and self.model.joint_types[self.model.body_number(body) - 1] not in ("free", "weld"):
+            q_at, nq, z_at, nz = layout[body]
+            for prefix, array, at, count in (("jd", self.z, z_at, nz), ("j", self.q, q_at, nq)):
+                number = suffix[len(prefix) :]
+                if suffix.startswith(prefix) and number.isdigit() and 1 <= int(number) <= count:
+                    return array, (slice(None), at + int(number) - 1)
         if body and suffix in _SUFFIXES:
             try:
                 k = self.model.body_number(body) - 1
@@ -99,7 +112,10 @@ class Result:
         return State(self.x[row], self.y[row])
 
     def table(self) -> np.ndarray:
-        """Every column of the CSV, (T, 2 + 16N), in the order of r.columns."""
+        """Every column of the CSV, (T, 2 + 16N) (more with joint columns), in the order of
+        r.columns."""
+        if self.model.jointed:
+            return np.column_stack([self[c] for c in self.columns])
         n = self.model.N
         T = len(self)
         out = np.empty((T, 2 + 16 * n))
@@ -116,7 +132,7 @@ class Result:
     def to_csv(self, path: Union[str, os.PathLike]) -> None:
         """Writes the trajectory CSV, byte for byte what `kanedyn simulate` writes for the same
         run: to PATH.partial, renamed to PATH when complete."""
-        self.model._write_csv(path, self.t, self.x, self.y, self.energy)
+        self.model._write_csv(path, self.t, self.x, self.y, self.energy, self.q, self.z)
 
     def view(self, path: Union[str, os.PathLike, None] = None) -> str:
         """Writes the web page of `kanedyn view` for this trajectory (docs/viewer.md): one
@@ -142,6 +158,23 @@ class Result:
         table = model._read_csv(path)
         n = model.N
         rows = table.shape[0]
+        q = z = None
+        if model.jointed:
+            # Each body's 16 columns, then its joint columns: gather them by name.
+            index = {c: i for i, c in enumerate(model.columns)}
+            body_cols = [index[f"{b}.{s}"] for b in model.body_names for s in _SUFFIXES]
+            q = np.zeros((rows, len(model.initial_joint_coordinates)))
+            z = np.zeros((rows, len(model.initial_joint_speeds)))
+            for k, (b, kind) in enumerate(zip(model.body_names, model.joint_types)):
+                q_at, nq, z_at, nz = model.joint_layout[b]
+                first = index[f"{b}.x"]
+                if kind == "free":
+                    q[:, q_at : q_at + 7] = table[:, first + 3 : first + 10]
+                    z[:, z_at : z_at + 6] = table[:, first + 10 : first + 16]
+                elif kind != "weld":
+                    q[:, q_at : q_at + nq] = table[:, first + 16 : first + 16 + nq]
+                    z[:, z_at : z_at + nz] = table[:, first + 16 + nq : first + 16 + nq + nz]
+            table = np.column_stack([table[:, 0], table[:, body_cols], table[:, -1]])
         per_body = table[:, 1 : 1 + 16 * n].reshape(rows, n, 16)
         x = np.concatenate([per_body[:, :, 3:7].reshape(rows, 4 * n), per_body[:, :, 7:10].reshape(rows, 3 * n)], axis=1)
         y = np.concatenate([per_body[:, :, 10:13].reshape(rows, 3 * n), per_body[:, :, 13:16].reshape(rows, 3 * n)], axis=1)
@@ -154,6 +187,8 @@ class Result:
             np.ascontiguousarray(table[:, -1]),
             {},
             path,
+            q,
+            z,
         )
 
 

@@ -36,12 +36,18 @@ namespace {
 struct Equations {
   int N = 0;
   py::array_t<double> A, f, ydot, xdot, F_y;
+  /// Jointed models: the projected equations (else None).
+  py::object n = py::none(), C = py::none(), A_z = py::none(), f_z = py::none(), zdot = py::none();
 };
 
 /// The largest N whose dense [A] eom computes: 36 N^2 doubles, 288 MB at 1000 bodies.
 constexpr int kMaxDenseBodies = 1000;
 
 Equations equations_of_motion(const PyModel& m, py::object state_obj) {
+  if (m.joints() && !state_obj.is_none())
+    throw py::value_error(
+        "eom(state) of a jointed model: its state is the joint coordinates; eom() evaluates at "
+        "the initial ones (joint_derivatives(q, z) at others)");
   const State state = state_argument(m, state_obj);
   if (m.N() > kMaxDenseBodies)
     throw py::value_error("eom() forms the dense 6N x 6N [A], and N = " + std::to_string(m.N()) +
@@ -59,6 +65,17 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
     e.ydot = to_numpy(data.ydot);
     e.xdot = to_numpy(data.xdot);
     e.F_y = to_numpy(data.kane.F_y);
+    if (const JointTree* tree = m.joints()) {
+      py::gil_scoped_release again;
+      const ProjectedEquations p =
+          projected_equations(m.model(), *tree, m.file().joint_q, m.file().joint_z, data);
+      py::gil_scoped_acquire with;
+      e.n = py::int_(p.zdot.size());
+      e.C = to_numpy(p.C);
+      e.A_z = to_numpy(p.A_z);
+      e.f_z = to_numpy(p.f_z);
+      e.zdot = to_numpy(p.zdot);
+    }
   }
   return e;
 }
@@ -219,6 +236,12 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def_readonly("ydot", &Equations::ydot, "{y dot}, the solution of Eq. (36), 6N")
       .def_readonly("xdot", &Equations::xdot, "{x dot} (Eqs. 39-40), 7N")
       .def_readonly("F_y", &Equations::F_y, "{F_y}, the generalized active forces (Eq. 31), 6N")
+      .def_readonly("n", &Equations::n, "jointed models: the number of independent speeds z")
+      .def_readonly("C", &Equations::C, "jointed models: [C], y = [C] z, 6N x n")
+      .def_readonly("A_z", &Equations::A_z, "jointed models: [C]^T [A] [C], n x n")
+      .def_readonly("f_z", &Equations::f_z,
+                    "jointed models: [C]^T ({f} - [A][C dot]{z}) + the joint loads, n")
+      .def_readonly("zdot", &Equations::zdot, "jointed models: {z dot}, n")
       .def("__repr__", [](const Equations& e) {
         return "<kanedyn.EquationsOfMotion N=" + std::to_string(e.N) + ">";
       });
@@ -309,8 +332,45 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "joint", [](const PyModel& p) { return per_body(p, &BodySpec::joint); },
           "{q'_K}: O_J to Q_K, body-J components (inertial for a root), (N, 3)")
       .def_property_readonly(
-          "columns", [](const PyModel& p) { return io::trajectory_columns(p.model()); },
-          "the trajectory CSV's columns: t, NAME.x .. NAME.sd3 per body, energy")
+          "columns", [](const PyModel& p) { return io::trajectory_columns(p.model(), p.joints()); },
+          "the trajectory CSV's columns: t, NAME.x .. NAME.sd3 per body (and NAME.j*, "
+          "NAME.jd* of a jointed body), energy")
+      .def_property_readonly(
+          "jointed", [](const PyModel& p) { return p.joints() != nullptr; },
+          "True when some body's joint is not free (docs/model-format.md, Joints)")
+      .def_property_readonly(
+          "joint_types",
+          [](const PyModel& p) {
+            std::vector<std::string> out;
+            for (int k = 0; k < p.N(); ++k)
+              out.emplace_back(p.joints() ? to_string(p.joints()->joint(k).type) : "free");
+            return out;
+          },
+          "each body's joint type, in numbering order ('free' for every body of a free tree)")
+      .def_property_readonly(
+          "joint_layout",
+          [](const PyModel& p) {
+            py::dict d;
+            if (const JointTree* t = p.joints())
+              for (int k = 0; k < p.N(); ++k)
+                d[py::str(p.model().body(k).name)] =
+                    py::make_tuple(t->coordinate_offset(k), coordinate_count(t->joint(k).type),
+                                   t->speed_offset(k), speed_count(t->joint(k).type));
+            return d;
+          },
+          "jointed models: name -> (offset in q, count, offset in z, count); empty otherwise")
+      .def_property_readonly(
+          "initial_joint_coordinates",
+          [](const PyModel& p) {
+            return p.joints() ? to_numpy(p.file().joint_q) : to_numpy(VectorX());
+          },
+          "jointed models: the initial q (a free body's slice is eps_K, s'_K); empty otherwise")
+      .def_property_readonly(
+          "initial_joint_speeds",
+          [](const PyModel& p) {
+            return p.joints() ? to_numpy(p.file().joint_z) : to_numpy(VectorX());
+          },
+          "jointed models: the initial z (a free body's slice is w'_K, s'_K dot); empty otherwise")
       .def_property_readonly(
           "simulation", [](const PyModel& p) { return simulation_section(p.file().simulation); },
           "the file's simulation: section (only the keys it sets)")

@@ -17,6 +17,7 @@
 #include "kanedyn/energy.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/trajectory.hpp"
+#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
 
@@ -33,7 +34,18 @@ std::string sizes(const char* what, int n, int per_body) {
 /// (it costs about 0.1 us).
 constexpr int kReleaseGilBodies = 32;
 
+/// derivatives() evaluates the notes' free tree: for a jointed model that would ignore its
+/// joints, so it is refused with the call that applies.
+void refuse_jointed(const PyModel& m, const char* what) {
+  if (m.joints())
+    throw py::value_error(std::string(what) +
+                          " evaluates the notes' free tree, and this model has joints: use "
+                          "joint_derivatives(q, z) (its state is the joint coordinates q and "
+                          "speeds z)");
+}
+
 py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
+  refuse_jointed(m, "derivatives()");
   const int n = m.N();
   if (!std::isfinite(t)) throw py::value_error("t must be finite");
   const double *x_data = nullptr, *y_data = nullptr;
@@ -143,6 +155,7 @@ py::array output_array(py::handle obj, const char* name, py::ssize_t rows, py::s
 
 py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int threads,
                             py::object out) {
+  refuse_jointed(m, "derivatives_batch()");
   const int n = m.N();
   const auto xa =
       float64_array(X, "X", {-1, 7 * n},
@@ -268,9 +281,56 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
   return d;
 }
 
-/// The rows simulate() keeps: t, x, y, the mass centres and the energy of each output state.
+/// (q dot, z dot) of a jointed model at (q, z) (default: the initial ones), by the route.
+py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
+                            const std::string& route_name) {
+  const JointTree* tree = m.joints();
+  if (!tree)
+    throw py::value_error(
+        "joint_derivatives(): this model has no joints (every body is free); use "
+        "derivatives(x, y)");
+  const int nq = tree->num_coordinates(), nz = tree->num_speeds();
+  Route route = Route::recursive;
+  try {
+    route = parse_route(route_name);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(e.what());
+  }
+  VectorX qz(nq + nz);
+  qz << m.file().joint_q, m.file().joint_z;
+  if (!q_obj.is_none()) {
+    const auto q = float64_array(q_obj, "q", {nq}, "(" + std::to_string(nq) + ",)");
+    for (int i = 0; i < nq; ++i) qz[i] = doubles(q)[i * stride(q, 0)];
+  }
+  if (!z_obj.is_none()) {
+    const auto z = float64_array(z_obj, "z", {nz}, "(" + std::to_string(nz) + ",)");
+    for (int i = 0; i < nz; ++i) qz[nq + i] = doubles(z)[i * stride(z, 0)];
+  }
+  if (!qz.allFinite()) throw py::value_error("q and z must be finite");
+  for (int k = 0; k < m.N(); ++k) {
+    const JointType type = tree->joint(k).type;
+    const VectorX slice = qz.segment(tree->coordinate_offset(k), coordinate_count(type));
+    if (type == JointType::free) {
+      if (std::abs(slice.head<4>().norm() - 1.0) > 1e-6)
+        throw py::value_error("q: the Euler parameters of body '" + m.model().body(k).name +
+                              "' must have unit norm (within 1e-6)");
+    } else if (const std::string problem = check_joint_coordinates(type, slice); !problem.empty()) {
+      throw py::value_error("q: body '" + m.model().body(k).name + "': " + problem);
+    }
+  }
+  VectorX d(nq + nz);
+  {
+    py::gil_scoped_release release;
+    JointDynamics dynamics(m.model(), *tree);
+    dynamics.derivative(qz, route, d);
+  }
+  return py::make_tuple(to_numpy(VectorX(d.head(nq))), to_numpy(VectorX(d.tail(nz))));
+}
+
+/// The rows simulate() keeps: t, x, y, the mass centres and the energy of each output state
+/// (and q, z of a jointed model).
 struct Rows {
-  std::vector<double> t, x, y, p_G, energy;
+  std::vector<double> t, x, y, p_G, energy, q, z;
 };
 
 /// What on_step does while the GIL is released: about every 50 ms it takes the GIL to let
@@ -359,20 +419,40 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   settings.observer_kinematics = store;
   settings.on_step = [&hook](double t) { return hook(t); };
   SimulationStats stats;
-  if (!out.empty()) writer = std::make_unique<io::BackgroundTrajectoryWriter>(model, out);
-  const Observer observer = [&](double t, const State& state, Data& data) {
-    if (writer) writer->write_row(t, state);
-    if (!store) return;
+  const JointTree* tree = m.joints();
+  if (tree && !initial_obj.is_none())
+    throw py::value_error(
+        "simulate(initial=...) of a jointed model: it starts from the file's joint coordinates "
+        "(initial.joint, initial.joint_rate)");
+  if (!out.empty()) writer = std::make_unique<io::BackgroundTrajectoryWriter>(model, out, tree);
+  const auto keep = [&](double t, const State& state, Data& data) {
     rows.t.push_back(t);
     rows.x.insert(rows.x.end(), state.x.begin(), state.x.end());
     rows.y.insert(rows.y.end(), state.y.begin(), state.y.end());
     for (const Vector3& p : data.kinematics.p_G)
       rows.p_G.insert(rows.p_G.end(), p.begin(), p.end());
+  };
+  const Observer observer = [&](double t, const State& state, Data& data) {
+    if (writer) writer->write_row(t, state);
+    if (!store) return;
+    keep(t, state, data);
     rows.energy.push_back(total_energy_of_kinematics(model, state, data));
+  };
+  const JointObserver joint_observer = [&](double t, const State& state, const VectorX& q,
+                                           const VectorX& z, Data& data) {
+    if (writer) writer->write_row(t, state, q, z);
+    if (!store) return;
+    keep(t, state, data);
+    rows.energy.push_back(total_energy_of_kinematics(model, state, data) +
+                          joint_load_potential_energy(*tree, q));
+    rows.q.insert(rows.q.end(), q.begin(), q.end());
+    rows.z.insert(rows.z.end(), z.begin(), z.end());
   };
   try {
     py::gil_scoped_release release;
-    stats = simulate(model, initial, settings, observer);
+    stats =
+        tree ? simulate(model, *tree, m.file().joint_q, m.file().joint_z, settings, joint_observer)
+             : simulate(model, initial, settings, observer);
     if (!hook.failed()) hook(stats.t_reached, true);  // the progress callback sees the end
   } catch (const std::exception& e) {
     const std::string kept = writer ? "; " + kept_note(*writer) : "";
@@ -401,13 +481,19 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   const auto T = static_cast<py::ssize_t>(rows.t.size());
   const py::dict stats_out = stats_dict(model, stats);
   py::object result = py::none();
-  if (store)
+  if (store) {
+    py::object q = py::none(), z = py::none();
+    if (tree) {
+      q = adopt(std::move(rows.q), {T, tree->num_coordinates()});
+      z = adopt(std::move(rows.z), {T, tree->num_speeds()});
+    }
     result = py::module_::import("kanedyn._result")
                  .attr("Result")(
                      self, adopt(std::move(rows.t), {T}), adopt(std::move(rows.x), {T, 7 * n}),
                      adopt(std::move(rows.y), {T, 6 * n}), adopt(std::move(rows.p_G), {T, n, 3}),
                      adopt(std::move(rows.energy), {T}), stats_out,
-                     out.empty() ? py::object(py::none()) : py::object(py::str(out)));
+                     out.empty() ? py::object(py::none()) : py::object(py::str(out)), q, z);
+  }
   if (!stats.ok()) {
     const std::string message =
         stats.message + (writer ? "; " + kept_note(*writer) : std::string());
@@ -424,7 +510,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
 /// Writes stored rows as the trajectory CSV: the kinematics of each row are computed again
 /// (compute_kinematics gives the same bits as at run time), the energy is the stored one.
 void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::handle x_obj,
-               py::handle y_obj, py::handle energy_obj) {
+               py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj) {
   const Model& model = m.model();
   const int n = m.N();
   const std::string path = py::str(py::module_::import("os").attr("fspath")(path_obj));
@@ -433,15 +519,26 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
   const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
   const auto y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
   const auto energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
-  io::TrajectoryWriter writer(model, path);
+  const JointTree* tree = m.joints();
+  const int nq = tree ? tree->num_coordinates() : 0, nz = tree ? tree->num_speeds() : 0;
+  py::array qa, za;
+  if (tree) {
+    qa = float64_array(q_obj, "q", {rows, nq}, "(T, " + std::to_string(nq) + ")");
+    za = float64_array(z_obj, "z", {rows, nz}, "(T, " + std::to_string(nz) + ")");
+  }
+  io::TrajectoryWriter writer(model, path, tree);
   Data data(model, DataOptions::recursive_only());
   State state(model);
+  VectorX q(nq), z(nz);
   for (py::ssize_t r = 0; r < rows; ++r) {
     for (int i = 0; i < 7 * n; ++i) state.x[i] = doubles(x)[r * stride(x, 0) + i * stride(x, 1)];
     for (int i = 0; i < 6 * n; ++i) state.y[i] = doubles(y)[r * stride(y, 0) + i * stride(y, 1)];
     compute_kinematics(model, state, data);
+    for (int i = 0; i < nq; ++i) q[i] = doubles(qa)[r * stride(qa, 0) + i * stride(qa, 1)];
+    for (int i = 0; i < nz; ++i) z[i] = doubles(za)[r * stride(za, 0) + i * stride(za, 1)];
     writer.write_row(doubles(t)[r * stride(t, 0)], state, data,
-                     doubles(energy)[r * stride(energy, 0)]);
+                     doubles(energy)[r * stride(energy, 0)], tree ? &q : nullptr,
+                     tree ? &z : nullptr);
   }
   writer.finish();
 }
@@ -452,7 +549,7 @@ py::array_t<double> read_csv(const PyModel& m, const std::string& path) {
   io::Trajectory traj;
   try {
     py::gil_scoped_release release;
-    traj = io::read_trajectory(m.model(), path);
+    traj = io::read_trajectory(m.model(), path, m.joints());
   } catch (const std::runtime_error& e) {
     throw py::value_error(e.what());
   }
@@ -492,7 +589,13 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
            py::arg("store"), py::arg("progress"))
       .def("_read_csv", &read_csv, py::arg("path"))
       .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),
-           py::arg("energy"))
+           py::arg("energy"), py::arg("q") = py::none(), py::arg("z") = py::none())
+      .def("joint_derivatives", &joint_derivatives, py::arg("q") = py::none(),
+           py::arg("z") = py::none(), py::arg("route") = "recursive",
+           "(q dot, z dot) of a jointed model at its joint coordinates q and independent speeds "
+           "z (default: the initial ones; model.joint_layout gives each body's slices): the "
+           "kinematic equations and the projected equations, by route 'recursive' (O(N)) or "
+           "'assembled'. ValueError for a model without joints.")
       .def("_time_derivatives", &time_derivatives, py::arg("state"), py::arg("calls"));
   (void)m;
 }

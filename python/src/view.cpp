@@ -20,9 +20,10 @@ size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
   view::require_available();
   const Model& model = m.model();
   const std::string path = py::str(py::module_::import("os").attr("fspath")(path_obj));
-  const py::ssize_t columns = 2 + 16 * static_cast<py::ssize_t>(m.N());
-  const py::array table = float64_array(table_obj, "table", {-1, columns}, "(T, 2 + 16N)");
-  io::Trajectory traj{io::trajectory_columns(model), {}};
+  io::Trajectory traj{io::trajectory_columns(model, m.joints()), {}};
+  const auto columns = static_cast<py::ssize_t>(traj.columns.size());
+  const py::array table =
+      float64_array(table_obj, "table", {-1, columns}, "(T, " + std::to_string(columns) + ")");
   traj.values.reserve(static_cast<size_t>(table.shape(0) * columns));
   for (py::ssize_t r = 0; r < table.shape(0); ++r)
     for (py::ssize_t c = 0; c < columns; ++c)

@@ -1,0 +1,110 @@
+"""Jointed models from Python: the joint coordinates as columns (r["pendulum.j1"]), the CSV bit
+for bit as the tool writes it and read back, eom's projected equations as the tool prints them,
+joint_derivatives against finite differences of a run, and the refusals of the free-tree calls."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import kanedyn
+from conftest import EXAMPLES, run_tool, tool_json
+
+JOINTED = ["cart_pendulum.yaml", "human_jointed.yaml"]
+
+
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    return a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def test_the_model_describes_its_joints() -> None:
+    m = kanedyn.load(EXAMPLES / "human_jointed.yaml")
+    assert m.jointed
+    assert m.joint_types == ["free", "revolute", "universal", "universal", "spherical", "spherical", "spherical", "revolute"]
+    layout = m.joint_layout
+    assert layout["torso"] == (0, 7, 0, 6)
+    assert layout["pelvis"] == (7, 1, 6, 1)
+    assert layout["head"][1] == 4 and layout["head"][3] == 3
+    assert len(m.initial_joint_coordinates) == 7 + 1 + 2 + 2 + 4 + 4 + 4 + 1
+    assert len(m.initial_joint_speeds) == 6 + 1 + 2 + 2 + 3 + 3 + 3 + 1
+    assert m.initial_joint_coordinates[layout["pelvis"][0]] == -0.087
+    assert "pelvis.j1" in m.columns and "head.jd3" in m.columns and "torso.j1" not in m.columns
+    free = kanedyn.load(EXAMPLES / "eight_body.yaml")
+    assert not free.jointed and free.joint_layout == {} and free.joint_types == ["free"] * 8
+
+
+@pytest.mark.parametrize("name", JOINTED)
+def test_simulate_writes_the_tools_csv_and_reads_it_back(name: str, tmp_path) -> None:
+    m = kanedyn.load(EXAMPLES / name)
+    done = run_tool(["simulate", EXAMPLES / name, "--t-end", "0.5", "--dt-out", "0.05", "-o", tmp_path / "tool.csv"])
+    assert done.returncode == 0, done.stderr
+    r = m.simulate(t_end=0.5, dt_out=0.05, output=tmp_path / "streamed.csv")
+    r.to_csv(tmp_path / "stored.csv")
+    tool_bytes = (tmp_path / "tool.csv").read_bytes()
+    assert (tmp_path / "streamed.csv").read_bytes() == tool_bytes
+    assert (tmp_path / "stored.csv").read_bytes() == tool_bytes
+    back = kanedyn.read_csv(m, tmp_path / "tool.csv")
+    for key in ("t", "x", "y", "p_G", "energy", "q", "z"):
+        assert same_bits(getattr(back, key), getattr(r, key)), key
+    assert same_bits(back.table(), r.table())
+    assert r.table().shape == (11, len(m.columns))
+
+
+def test_joint_columns_are_the_joint_coordinates() -> None:
+    m = kanedyn.load(EXAMPLES / "cart_pendulum.yaml")
+    r = m.simulate(t_end=1.0, dt_out=0.1)
+    assert r["pendulum.j1"][0] == 0.5
+    assert same_bits(r["pendulum.j1"], r.q[:, 1])
+    assert same_bits(r["cart.jd1"], r.z[:, 0])
+    # The cart slides along the inertial x axis: its s'_1 is its joint coordinate.
+    assert same_bits(r["cart.s1"], r["cart.j1"])
+    with pytest.raises(KeyError, match="did you mean"):
+        r["pendulum.j2"]
+
+
+@pytest.mark.parametrize("name", JOINTED)
+def test_eom_has_the_tools_projected_equations(name: str) -> None:
+    m = kanedyn.load(EXAMPLES / name)
+    printed = tool_json(["eom", EXAMPLES / name, "--json"])
+    e = m.eom()
+    assert printed["n"] == e.n == len(m.initial_joint_speeds)
+    for key in ("A", "f", "ydot", "xdot", "C", "A_z", "f_z", "zdot"):
+        assert same_bits(np.array(printed[key]), getattr(e, key)), key
+    # z dot solves A_z z dot = f_z, and is joint_derivatives' z dot at the initial state.
+    assert np.allclose(e.A_z @ e.zdot, e.f_z, rtol=1e-12, atol=1e-12 * np.abs(e.f_z).max())
+    qdot, zdot = m.joint_derivatives(route="assembled")
+    assert np.allclose(zdot, e.zdot, rtol=1e-10, atol=1e-10 * np.abs(e.zdot).max())
+    assert kanedyn.load(EXAMPLES / "eight_body.yaml").eom().n is None
+
+
+def test_joint_derivatives_match_finite_differences_of_a_run() -> None:
+    m = kanedyn.load(EXAMPLES / "cart_pendulum.yaml")
+    h = 1e-4
+    r = m.simulate(t_end=2 * h, dt_out=h, integrator="rk4", step=h / 10)
+    qdot, zdot = m.joint_derivatives(r.q[1], r.z[1])
+    # Central differences: truncation h^2/6 times the third derivative (O(100) here) = 2e-7.
+    assert np.allclose((r.q[2] - r.q[0]) / (2 * h), qdot, atol=1e-6)
+    assert np.allclose((r.z[2] - r.z[0]) / (2 * h), zdot, atol=1e-6)
+    # The two routes agree to round-off.
+    _, assembled = m.joint_derivatives(r.q[1], r.z[1], route="assembled")
+    assert np.allclose(assembled, zdot, rtol=1e-10, atol=1e-12)
+
+
+def test_free_tree_calls_refuse_a_jointed_model() -> None:
+    m = kanedyn.load(EXAMPLES / "cart_pendulum.yaml")
+    s = m.initial_state()
+    with pytest.raises(ValueError, match="joint_derivatives"):
+        m.derivatives(s.x, s.y)
+    with pytest.raises(ValueError, match="joint_derivatives"):
+        m.derivatives_batch(s.x[None, :], s.y[None, :])
+    with pytest.raises(ValueError, match="joint coordinates"):
+        m.simulate(initial=s, t_end=0.1)
+    with pytest.raises(ValueError, match="has no joints"):
+        kanedyn.load(EXAMPLES / "eight_body.yaml").joint_derivatives()
+    with pytest.raises(ValueError, match="unit norm"):
+        h = kanedyn.load(EXAMPLES / "human_jointed.yaml")
+        q = h.initial_joint_coordinates.copy()
+        q[h.joint_layout["head"][0]] = 0.5
+        h.joint_derivatives(q)
