@@ -55,6 +55,56 @@ Eigen::Matrix<double, M, M> inverse_spd(const Eigen::Matrix<double, M, M>& d) {
   }
 }
 
+// [P_K] = diag([X], [X]) | a [I]     0   |  (a = 1; a = 0 for a free body), applied by blocks
+//                       | -[Q~]   [I] |
+// with Q = q'_K + s'_K (body J): fewer flops than the dense 6x6 products.
+struct BodyMap {
+  const Matrix3& X;
+  const Vector3& Q;
+  bool angular;  // a = 1: w'_K carries [X] w'_J
+};
+
+// [P] V_J: ([X] a w, [X] (v - Q x w)).
+Vector6 map_velocity(const BodyMap& m, const Vector6& v) {
+  Vector6 out;
+  out.head<3>() = m.angular ? Vector3(m.X * v.head<3>()) : Vector3::Zero();
+  out.tail<3>() = m.X * (v.tail<3>() - m.Q.cross(v.head<3>()));
+  return out;
+}
+
+// [P]^T f for f = (moment about O_K, force), body K: the same about O_J in body J,
+// (a [X]^T n + Q x [X]^T F, [X]^T F).
+template <typename Column>
+Vector6 carry_force(const BodyMap& m, const Column& f) {
+  const Vector3 force = m.X.transpose() * f.template tail<3>();
+  Vector6 out;
+  out.template head<3>() = m.Q.cross(force);
+  if (m.angular) out.template head<3>() += m.X.transpose() * f.template head<3>();
+  out.template tail<3>() = force;
+  return out;
+}
+
+// target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with A', B', C' = [X]^T (A, B, C) [X]
+// and W = C' [Q~], the result is [a A' - a (B'[Q~] + (B'[Q~])^T) - [Q~] W,  a B' - W^T;
+// (a B' - W^T)^T, C'] ([Q~]^T = -[Q~], C' symmetric).
+void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
+  const Matrix3 xt = m.X.transpose();
+  const Matrix3 b = xt * M.topRightCorner<3, 3>() * m.X;
+  const Matrix3 cc = xt * M.bottomRightCorner<3, 3>() * m.X;
+  const Matrix3 q = skew(m.Q);
+  const Matrix3 w = cc * q;
+  Matrix3 tl = -q * w, tr = -w.transpose();
+  if (m.angular) {
+    const Matrix3 bq = b * q;
+    tl += xt * M.topLeftCorner<3, 3>() * m.X - bq - bq.transpose();
+    tr += b;
+  }
+  target.topLeftCorner<3, 3>() += tl;
+  target.topRightCorner<3, 3>() += tr;
+  target.bottomLeftCorner<3, 3>() += tr.transpose();
+  target.bottomRightCorner<3, 3>() += cc;
+}
+
 }  // namespace
 
 struct JointDynamics::Impl {
@@ -71,19 +121,25 @@ struct JointDynamics::Impl {
     const int n = m.num_bodies();
     if (t.num_bodies() != n)
       throw std::invalid_argument("JointDynamics: the JointTree is not of this Model");
-    inertia.resize(at(n));
-    for (int k = 0; k < n; ++k) inertia[at(k)] = spatial_inertia(m.body(k));
-    P.assign(at(n), Matrix6::Zero());
+    X.assign(at(n), Matrix3::Identity());
+    speeds.assign(at(n), 0);
+    offset.assign(at(n), 0);
+    free.assign(at(n), 0);
+    for (int k = 0; k < n; ++k) {
+      speeds[at(k)] = speed_count(t.joint(k).type);
+      offset[at(k)] = t.speed_offset(k);
+      free[at(k)] = t.joint(k).type == JointType::free ? 1 : 0;
+    }
     IA.assign(at(n), Matrix6::Zero());
-    bias.assign(at(n), Vector6::Zero());
-    p = c = A = bias;
+    p.assign(at(n), Vector6::Zero());
+    c = A = p;
     S.assign(6 * at(t.num_speeds()), 0.0);
     U = S;
     int doubles = 0;
     d_offset.assign(at(n), 0);
     for (int k = 0; k < n; ++k) {
       d_offset[at(k)] = doubles;
-      const int w = speed_count(t.joint(k).type);
+      const int w = speeds[at(k)];
       doubles += w * w;
     }
     D_inv.assign(at(doubles), 0.0);
@@ -96,11 +152,17 @@ struct JointDynamics::Impl {
   VectorX q, z, qdot;
   VectorX joint_force;  // Q of the joint loads, in the order of z
   VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
-  // Per body: [I_O] (constant); [P_K]; the articulated (recursive) or composite (assembled)
-  // inertia; the velocity-product force b_K - (external force) about O_K; the force p_K
-  // passed inwards; the acceleration c_K of V_K at z dot = 0 and A_J = 0; the acceleration A_K.
-  std::vector<Matrix6> inertia, P, IA;
-  std::vector<Vector6> bias, p, c, A;
+  // Per body: the joint's speed count, speed offset and whether it is free (constant).
+  std::vector<int> speeds, offset;
+  std::vector<unsigned char> free;
+  // Per body: [X_K] of [P_K] (BodyMap); IA_K, [I_O,K] after prepare(), then the articulated
+  // (recursive) or composite (assembled) inertia; p_K, the velocity-product force b_K minus the
+  // external force about O_K after prepare(), then the force passed inwards; the acceleration c_K
+  // of V_K at z dot = 0 and A_J = 0; the acceleration A_K. prepare() writes them in its one pass
+  // (the routes' passes read each body's tables once more each way).
+  std::vector<Matrix6> IA;
+  std::vector<Matrix3> X;
+  std::vector<Vector6> p, c, A;
   // Pools by speed: [S_K] and [U_K] = IA_K [S_K], 6 doubles a column, at 6 speed_offset(K);
   // D_K^-1 (speed_count^2 doubles at d_offset[K]).
   std::vector<double> S, U, D_inv;
@@ -111,6 +173,9 @@ struct JointDynamics::Impl {
   void prepare(const VectorX& qq, const VectorX& zz);
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
+  BodyMap body_map(int k) const {
+    return {X[at(k)], data.kinematics.qs_b[at(k)], free[at(k)] == 0};
+  }
   template <int M>
   void recursive_inward(int k);
   template <int M>
@@ -131,27 +196,21 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const auto i = at(k);
     const int j = model.lower_body(k);
     const bool root = j == kGround;
-    const JointType type = tree.joint(k).type;
-    const bool free = type == JointType::free;
+    const bool is_free = free[i] != 0;
     const BodySpec& body = model.body(k);
     // [X_K] = [R_K][R_J]^T maps body-J to body-K components ([R_K] for a root: J is R).
-    const Matrix3 X = root ? kin.R[i] : Matrix3(kin.R[i] * kin.R[at(j)].transpose());
+    Matrix3& x = X[i];
+    x = root ? kin.R[i] : Matrix3(kin.R[i] * kin.R[at(j)].transpose());
     const Vector3 w = state.angular_velocity(k);
     const Vector3 v = kin.R[i] * kin.v_O[i];
     // Eqs. (14)-(15) in body-K components: v'_K = [X](v'_J + w'_J x (q'_K + s'_K) + s'_K dot),
     // and w'_K = w_rel + [X] w'_J (a free body: w'_K = z_K itself, no [X] w'_J term).
-    if (!root) {
-      Matrix6& pk = P[i];
-      pk.topLeftCorner<3, 3>() = free ? Matrix3::Zero() : X;
-      pk.topRightCorner<3, 3>().setZero();
-      pk.bottomLeftCorner<3, 3>() = -X * skew(kin.qs_b[i]);
-      pk.bottomRightCorner<3, 3>() = X;
-    }
+    // [P_K] (BodyMap) is made of [X_K] and q'_K + s'_K (kin.qs_b).
     // [S_K] = ([G_K]; [X_K][T_K]): the coefficient of z_K in V_K.
-    const int w_count = speed_count(type), off = tree.speed_offset(k);
+    const int w_count = speeds[i], off = offset[i];
     if (w_count > 0) {
       const Matrix36 g = joint_rotation_block(tree, k, qq);
-      const Matrix36 t = X * joint_translation_block(tree, k);
+      const Matrix36 t = x * joint_translation_block(tree, k);
       Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
       s.topRows<3>() = g.leftCols(w_count);
       s.bottomRows<3>() = t.leftCols(w_count);
@@ -160,14 +219,14 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     // d[R]/dt = -[w'~][R] for K and J), w_rel = w'_K - [X] w'_J, d(q' + s')/dt = s'_K dot:
     //   angular  [G_K dot] z_K - w_rel x [X] w'_J             (0 for a free body)
     //   linear   [X](w'_J x s'_K dot) - w_rel x v'_K
-    const Vector3 xw_j = root ? Vector3::Zero() : Vector3(X * state.angular_velocity(j));
+    const Vector3 xw_j = root ? Vector3::Zero() : Vector3(x * state.angular_velocity(j));
     const Vector3 w_rel = w - xw_j;
     Vector6& ck = c[i];
     ck.head<3>() =
-        free ? Vector3::Zero()
-             : Vector3(joint_rotation_rate_times_speeds(tree, k, qq, zz) - w_rel.cross(xw_j));
+        is_free ? Vector3::Zero()
+                : Vector3(joint_rotation_rate_times_speeds(tree, k, qq, zz) - w_rel.cross(xw_j));
     ck.tail<3>() = -w_rel.cross(v);
-    if (!root) ck.tail<3>() += X * state.angular_velocity(j).cross(state.translation_rate(k));
+    if (!root) ck.tail<3>() += x * state.angular_velocity(j).cross(state.translation_rate(k));
     // Newton-Euler about O_K in body-K components: with A = d/dt V (component rates),
     // [I_O] A + b equals the force needed, b = (w x [I'_G] w + m r x (w x v_G), m w x v_G),
     // v_G = v + w x r (a'_O = dv/dt + w x v). The external force about O_K is
@@ -175,7 +234,8 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const Vector3 r = body.com;
     const Vector3 v_g = v + w.cross(r);
     const Vector3 f_b = kin.R[i] * data.loads.force[i];
-    Vector6& bk = bias[i];
+    IA[i] = spatial_inertia(body);
+    Vector6& bk = p[i];
     bk.head<3>() = w.cross(body.inertia * w) + body.mass * r.cross(w.cross(v_g)) -
                    (data.loads.moment_b[i] + r.cross(f_b));
     bk.tail<3>() = body.mass * w.cross(v_g) - f_b;
@@ -193,7 +253,7 @@ void JointDynamics::Impl::recursive_inward(int k) {
   Matrix6 articulated = ia;
   Vector6 passed = p[i];
   if constexpr (M > 0) {
-    const int off = tree.speed_offset(k);
+    const int off = offset[i];
     const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
     Eigen::Map<Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
     Eigen::Map<Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
@@ -209,9 +269,9 @@ void JointDynamics::Impl::recursive_inward(int k) {
   }
   if (j == kGround) return;
   passed.noalias() += articulated * c[i];
-  const Matrix6& pk = P[i];
-  IA[at(j)].noalias() += pk.transpose() * (articulated * pk);
-  p[at(j)].noalias() += pk.transpose() * passed;
+  const BodyMap map = body_map(k);
+  add_carried_inertia(map, articulated, IA[at(j)]);
+  p[at(j)] += carry_force(map, passed);
 }
 
 // Outward step: A' = [P] A_J + c, z dot_K = D^-1 (u - [U]^T A'), A_K = A' + [S] z dot_K.
@@ -220,9 +280,9 @@ void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
   const auto i = at(k);
   const int j = model.lower_body(k);
   Vector6 a = c[i];
-  if (j != kGround) a.noalias() += P[i] * A[at(j)];
+  if (j != kGround) a += map_velocity(body_map(k), A[at(j)]);
   if constexpr (M > 0) {
-    const int off = tree.speed_offset(k);
+    const int off = offset[i];
     const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
     const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
     const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
@@ -235,12 +295,8 @@ void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
 
 void JointDynamics::Impl::recursive(Eigen::Ref<VectorX> zdot) {
   const int n = model.num_bodies();
-  for (int k = 0; k < n; ++k) {
-    IA[at(k)] = inertia[at(k)];
-    p[at(k)] = bias[at(k)];
-  }
   for (int k = n - 1; k >= 0; --k) {
-    switch (speed_count(tree.joint(k).type)) {
+    switch (speeds[at(k)]) {
       case 0:
         recursive_inward<0>(k);
         break;
@@ -259,7 +315,7 @@ void JointDynamics::Impl::recursive(Eigen::Ref<VectorX> zdot) {
     }
   }
   for (int k = 0; k < n; ++k) {
-    switch (speed_count(tree.joint(k).type)) {
+    switch (speeds[at(k)]) {
       case 0:
         recursive_outward<0>(k, zdot);
         break;
@@ -284,7 +340,7 @@ void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
   if (!ldlt) {
     std::vector<int> sizes, lower;
     for (int k = 0; k < n; ++k) {
-      sizes.push_back(speed_count(tree.joint(k).type));
+      sizes.push_back(speeds[at(k)]);
       lower.push_back(model.lower_body(k));
     }
     const long long blocks = detail::JointTreeLdlt::count_blocks(sizes, lower);
@@ -305,17 +361,15 @@ void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
     const auto i = at(k);
     const int j = model.lower_body(k);
     A[i] = c[i];
-    if (j != kGround) A[i].noalias() += P[i] * A[at(j)];
-    IA[i] = inertia[i];
-    p[i].noalias() = inertia[i] * A[i];
-    p[i] += bias[i];
+    if (j != kGround) A[i] += map_velocity(body_map(k), A[at(j)]);
+    p[i].noalias() += IA[i] * A[i];  // IA_K is [I_O,K] until the inward pass
   }
   for (int k = n - 1; k >= 0; --k) {
     const auto i = at(k);
     const int j = model.lower_body(k);
     const int m = f.size(k);
     if (m > 0) {
-      const int off = tree.speed_offset(k);
+      const int off = offset[i];
       const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, m);
       // f_z = Q - [S_K]^T (composite force); block (K, K) = [S_K]^T IC_K [S_K]; then up K's
       // chain, F = [P]^T F carries IC_K [S_K] to each ancestor I, block (K, I) = F^T [S_I].
@@ -323,26 +377,26 @@ void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
       // blocked product of dynamic sizes could ask for a workspace.
       zdot.segment(off, m) = joint_force.segment(off, m);
       zdot.segment(off, m).noalias() -= s.transpose().lazyProduct(p[i]);
-      Block force(6, m), carried(6, m);
+      Block force(6, m);
       force.noalias() = IA[i].lazyProduct(s);
       Eigen::Map<Eigen::MatrixXd>(f.block(k, 0), m, m).noalias() = s.transpose().lazyProduct(force);
       int r = 1;
       for (int e = k, a = j; a != kGround; e = a, a = model.lower_body(a)) {
-        carried.noalias() = P[at(e)].transpose().lazyProduct(force);
-        force = carried;
+        const BodyMap map = body_map(e);
+        for (int col = 0; col < m; ++col) force.col(col) = carry_force(map, force.col(col));
         const int w = f.size(a);
         if (w == 0) continue;
         const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> sa(
-            S.data() + 6 * tree.speed_offset(a), 6, w);
+            S.data() + 6 * offset[at(a)], 6, w);
         Eigen::Map<Eigen::MatrixXd>(f.block(k, r), m, w).noalias() =
             force.transpose().lazyProduct(sa);
         ++r;
       }
     }
     if (j == kGround) continue;
-    const Matrix6& pk = P[i];
-    IA[at(j)].noalias() += pk.transpose() * (IA[i] * pk);
-    p[at(j)].noalias() += pk.transpose() * p[i];
+    const BodyMap map = body_map(k);
+    add_carried_inertia(map, IA[i], IA[at(j)]);
+    p[at(j)] += carry_force(map, p[i]);
   }
   if (!f.compute())
     throw std::runtime_error("JointDynamics: [C]^T [A] [C] is not positive definite");
