@@ -1,8 +1,8 @@
-// Forward dynamics of a jointed tree by two routes (docs/theory.md, "Joints: the two routes"):
-// an articulated-body recursion (Route::recursive, O(N)) and the projected Kane equations
-// [C]^T [A] [C] {z dot} = [C]^T ({f} - [A][C dot]{z}) + Q assembled by joint blocks and solved by
-// a tree-ordered LDL^T of variable block size (Route::assembled). Both work with each body's
-// velocity V_K = (w'_K, v'_O_K) in body-K components and the map of Eqs. (14)-(15) and
+// Forward dynamics of a jointed tree by two routes (docs/theory.md, "Forward dynamics of a jointed
+// tree: the two routes"): an articulated-body recursion (Route::recursive, O(N)) and the projected
+// Kane equations [C]^T [A] [C] {z dot} = [C]^T ({f} - [A][C dot]{z}) + Q assembled by joint blocks
+// and solved by a tree-ordered LDL^T of variable block size (Route::assembled). Both work with each
+// body's velocity V_K = (w'_K, v'_O_K) in body-K components and the map of Eqs. (14)-(15) and
 // joint_state,
 //   V_K = [P_K] V_J + [S_K] z_K,
 // from which every partial velocity with respect to z is a product of [P]s and one [S]:
@@ -124,11 +124,11 @@ struct JointDynamics::Impl {
     X.assign(at(n), Matrix3::Identity());
     speeds.assign(at(n), 0);
     offset.assign(at(n), 0);
-    free.assign(at(n), 0);
+    free_joint.assign(at(n), 0);
     for (int k = 0; k < n; ++k) {
       speeds[at(k)] = speed_count(t.joint(k).type);
       offset[at(k)] = t.speed_offset(k);
-      free[at(k)] = t.joint(k).type == JointType::free ? 1 : 0;
+      free_joint[at(k)] = t.joint(k).type == JointType::free ? 1 : 0;
     }
     IA.assign(at(n), Matrix6::Zero());
     p.assign(at(n), Vector6::Zero());
@@ -154,7 +154,7 @@ struct JointDynamics::Impl {
   VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
   // Per body: the joint's speed count, speed offset and whether it is free (constant).
   std::vector<int> speeds, offset;
-  std::vector<unsigned char> free;
+  std::vector<unsigned char> free_joint;
   // Per body: [X_K] of [P_K] (BodyMap); IA_K, [I_O,K] after prepare(), then the articulated
   // (recursive) or composite (assembled) inertia; p_K, the velocity-product force b_K minus the
   // external force about O_K after prepare(), then the force passed inwards; the acceleration c_K
@@ -174,7 +174,7 @@ struct JointDynamics::Impl {
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
   BodyMap body_map(int k) const {
-    return {X[at(k)], data.kinematics.qs_b[at(k)], free[at(k)] == 0};
+    return {X[at(k)], data.kinematics.qs_b[at(k)], free_joint[at(k)] == 0};
   }
   template <int M>
   void recursive_inward(int k);
@@ -196,7 +196,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const auto i = at(k);
     const int j = model.lower_body(k);
     const bool root = j == kGround;
-    const bool is_free = free[i] != 0;
+    const bool is_free = free_joint[i] != 0;
     const BodySpec& body = model.body(k);
     // [X_K] = [R_K][R_J]^T maps body-J to body-K components ([R_K] for a root: J is R).
     Matrix3& x = X[i];
