@@ -75,6 +75,15 @@ JointTreeLdlt::JointTreeLdlt(const std::vector<int>& sizes, const std::vector<in
   }
   data_.assign(at(doubles), 0.0);
   row_.assign(longest * 36, 0.0);
+  // A row of size-1 nodes only; its ancestors' rows, the rest of it, are then so too.
+  scalar_row_.assign(n, 0);
+  for (size_t k = 0; k < n; ++k) {
+    if (sizes[k] != 1) continue;
+    bool scalar = true;
+    for (int r = 0; r < row_length(static_cast<int>(k)); ++r)
+      scalar = scalar && sizes[at(row_node(static_cast<int>(k), r))] == 1;
+    scalar_row_[k] = scalar ? 1 : 0;
+  }
 }
 
 bool JointTreeLdlt::compute() {
@@ -91,6 +100,23 @@ bool JointTreeLdlt::compute() {
     double* d = block(k, 0);
     ok = invert_spd(d, m) && ok;
     const Eigen::Map<const Eigen::MatrixXd> d_inv(d, m, m);
+    if (scalar_row_[at(k)]) {
+      // Every node on k's row has one unknown (a chain of revolute or prismatic joints): the
+      // blocks of each row are consecutive doubles, so A_I,J for J from I on is one
+      // contiguous run, updated as one axpy.
+      const double* a_k = block(k, 1);
+      double* l = block(k, 1);
+      std::copy(a_k, a_k + (len - 1), row_.begin());
+      for (int r = 1; r < len; ++r) l[r - 1] = d[0] * row_[at(r - 1)];
+      for (int r1 = 1; r1 < len; ++r1) {
+        const double l1 = l[r1 - 1];
+        double* target = block(row_node(k, r1), 0);
+        const double* a = row_.data() + (r1 - 1);
+        const int count = len - r1;
+        for (int t = 0; t < count; ++t) target[t] -= l1 * a[t];
+      }
+      continue;
+    }
     // row_ holds the blocks A_kI (r >= 1), each m x 6 at most, at 36 doubles apart.
     for (int r = 1; r < len; ++r) {
       const int w = size(row_node(k, r));

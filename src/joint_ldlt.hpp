@@ -55,7 +55,8 @@ class JointTreeLdlt {
   std::vector<int> size_, offset_, begin_, node_;
   std::vector<long long> data_offset_;
   std::vector<double> data_;
-  std::vector<double> row_;  // the current block row of A while a node is eliminated
+  std::vector<double> row_;                // the current block row of A while a node is eliminated
+  std::vector<unsigned char> scalar_row_;  // every node of k's row has size 1
 };
 
 }  // namespace kanedyn::detail
