@@ -209,11 +209,13 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     // [S_K] = ([G_K]; [X_K][T_K]): the coefficient of z_K in V_K.
     const int w_count = speeds[i], off = offset[i];
     if (w_count > 0) {
-      const Matrix36 g = joint_rotation_block(tree, k, qq);
-      const Matrix36 t = x * joint_translation_block(tree, k);
       Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
-      s.topRows<3>() = g.leftCols(w_count);
-      s.bottomRows<3>() = t.leftCols(w_count);
+      s.topRows<3>() = joint_rotation_block(tree, k, qq).leftCols(w_count);
+      const JointType type = tree.joint(k).type;
+      if (type == JointType::free || type == JointType::prismatic || type == JointType::cylindrical)
+        s.bottomRows<3>() = (x * joint_translation_block(tree, k)).leftCols(w_count);
+      else
+        s.bottomRows<3>().setZero();  // [T_K] = 0: the joint does not translate
     }
     // c_K = d/dt V_K at z dot = 0 with J's acceleration zero: d[X]/dt = -[w_rel~][X] (README,
     // d[R]/dt = -[w'~][R] for K and J), w_rel = w'_K - [X] w'_J, d(q' + s')/dt = s'_K dot:
