@@ -1,25 +1,409 @@
+// Forward dynamics of a jointed tree by two routes (docs/theory.md, "Forward dynamics of a jointed
+// tree: the two routes"): an articulated-body recursion (Route::recursive, O(N)) and the projected
+// Kane equations [C]^T [A] [C] {z dot} = [C]^T ({f} - [A][C dot]{z}) + Q assembled by joint blocks
+// and solved by a tree-ordered LDL^T of variable block size (Route::assembled). Both work with each
+// body's velocity V_K = (w'_K, v'_O_K) in body-K components and the map of Eqs. (14)-(15) and
+// joint_state,
+//   V_K = [P_K] V_J + [S_K] z_K,
+// from which every partial velocity with respect to z is a product of [P]s and one [S]:
+// [S_K] = ([G_K]; [X_K][T_K]) is the joint's motion subspace, made of the same [G_c] and s_block
+// as ConstraintMatrix. Per-body loads come from compute_resultants, at the state joint_state
+// gives, with the kinematics of compute_kinematics.
 #include "kanedyn/joint_dynamics.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <optional>
+#include <stdexcept>
+#include <string>
 
 #include "kanedyn/forces.hpp"
 #include "kanedyn/kinematics.hpp"
 
+#include "joint_ldlt.hpp"
+
 namespace kanedyn {
+
+namespace {
+
+size_t at(int i) { return static_cast<size_t>(i); }
+
+// 6 x (speeds of one joint): fixed storage, no heap.
+using Block = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
+
+// The spatial inertia of body K about O_K, body-K components, for V = (w', v'_O): the kinetic
+// energy is 1/2 V^T [I_O] V, and [I_O] V = (angular momentum about O_K, linear momentum).
+//   [I_O] = | [I'_G] - m [r~][r~]   m [r~] |
+//           | -m [r~]               m [I]  |       r = r'_K (O_K to G_K)
+Matrix6 spatial_inertia(const BodySpec& b) {
+  const Matrix3 rx = skew(b.com);
+  Matrix6 i;
+  i.topLeftCorner<3, 3>() = b.inertia - b.mass * rx * rx;
+  i.topRightCorner<3, 3>() = b.mass * rx;
+  i.bottomLeftCorner<3, 3>() = -b.mass * rx;
+  i.bottomRightCorner<3, 3>() = b.mass * Matrix3::Identity();
+  return i;
+}
+
+// The inverse of the joint-space inertia block D (M x M, symmetric positive definite).
+template <int M>
+Eigen::Matrix<double, M, M> inverse_spd(const Eigen::Matrix<double, M, M>& d) {
+  if constexpr (M <= 3) {
+    return d.inverse();  // closed form (cofactors) for fixed sizes up to 4
+  } else {
+    return d.llt().solve(Eigen::Matrix<double, M, M>::Identity());
+  }
+}
+
+// [P_K] = diag([X], [X]) | a [I]     0   |  (a = 1; a = 0 for a free body), applied by blocks
+//                       | -[Q~]   [I] |
+// with Q = q'_K + s'_K (body J): fewer flops than the dense 6x6 products.
+struct BodyMap {
+  const Matrix3& X;
+  const Vector3& Q;
+  bool angular;  // a = 1: w'_K carries [X] w'_J
+};
+
+// [P] V_J: ([X] a w, [X] (v - Q x w)).
+Vector6 map_velocity(const BodyMap& m, const Vector6& v) {
+  Vector6 out;
+  out.head<3>() = m.angular ? Vector3(m.X * v.head<3>()) : Vector3::Zero();
+  out.tail<3>() = m.X * (v.tail<3>() - m.Q.cross(v.head<3>()));
+  return out;
+}
+
+// [P]^T f for f = (moment about O_K, force), body K: the same about O_J in body J,
+// (a [X]^T n + Q x [X]^T F, [X]^T F).
+template <typename Column>
+Vector6 carry_force(const BodyMap& m, const Column& f) {
+  const Vector3 force = m.X.transpose() * f.template tail<3>();
+  Vector6 out;
+  out.template head<3>() = m.Q.cross(force);
+  if (m.angular) out.template head<3>() += m.X.transpose() * f.template head<3>();
+  out.template tail<3>() = force;
+  return out;
+}
+
+// target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with A', B', C' = [X]^T (A, B, C) [X]
+// and W = C' [Q~], the result is [a A' - a (B'[Q~] + (B'[Q~])^T) - [Q~] W,  a B' - W^T;
+// (a B' - W^T)^T, C'] ([Q~]^T = -[Q~], C' symmetric).
+void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
+  const Matrix3 xt = m.X.transpose();
+  const Matrix3 b = xt * M.topRightCorner<3, 3>() * m.X;
+  const Matrix3 cc = xt * M.bottomRightCorner<3, 3>() * m.X;
+  const Matrix3 q = skew(m.Q);
+  const Matrix3 w = cc * q;
+  Matrix3 tl = -q * w, tr = -w.transpose();
+  if (m.angular) {
+    const Matrix3 bq = b * q;
+    tl += xt * M.topLeftCorner<3, 3>() * m.X - bq - bq.transpose();
+    tr += b;
+  }
+  target.topLeftCorner<3, 3>() += tl;
+  target.topRightCorner<3, 3>() += tr;
+  target.bottomLeftCorner<3, 3>() += tr.transpose();
+  target.bottomRightCorner<3, 3>() += cc;
+}
+
+}  // namespace
 
 struct JointDynamics::Impl {
   Impl(const Model& m, const JointTree& t)
       : model(m),
         tree(t),
-        data(m, DataOptions{}),
+        data(m, DataOptions::recursive_only()),
         state(m),
         q(VectorX::Zero(t.num_coordinates())),
         z(VectorX::Zero(t.num_speeds())),
-        qdot(VectorX::Zero(t.num_coordinates())) {}
+        qdot(VectorX::Zero(t.num_coordinates())),
+        joint_force(VectorX::Zero(t.num_speeds())),
+        u(VectorX::Zero(t.num_speeds())) {
+    const int n = m.num_bodies();
+    if (t.num_bodies() != n)
+      throw std::invalid_argument("JointDynamics: the JointTree is not of this Model");
+    X.assign(at(n), Matrix3::Identity());
+    speeds.assign(at(n), 0);
+    offset.assign(at(n), 0);
+    free_joint.assign(at(n), 0);
+    for (int k = 0; k < n; ++k) {
+      speeds[at(k)] = speed_count(t.joint(k).type);
+      offset[at(k)] = t.speed_offset(k);
+      free_joint[at(k)] = t.joint(k).type == JointType::free ? 1 : 0;
+    }
+    IA.assign(at(n), Matrix6::Zero());
+    p.assign(at(n), Vector6::Zero());
+    c = A = p;
+    S.assign(6 * at(t.num_speeds()), 0.0);
+    U = S;
+    int doubles = 0;
+    d_offset.assign(at(n), 0);
+    for (int k = 0; k < n; ++k) {
+      d_offset[at(k)] = doubles;
+      const int w = speeds[at(k)];
+      doubles += w * w;
+    }
+    D_inv.assign(at(doubles), 0.0);
+  }
+
   const Model& model;
   const JointTree& tree;
   Data data;
   State state;
   VectorX q, z, qdot;
+  VectorX joint_force;  // Q of the joint loads, in the order of z
+  VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
+  // Per body: the joint's speed count, speed offset and whether it is free (constant).
+  std::vector<int> speeds, offset;
+  std::vector<unsigned char> free_joint;
+  // Per body: [X_K] of [P_K] (BodyMap); IA_K, [I_O,K] after prepare(), then the articulated
+  // (recursive) or composite (assembled) inertia; p_K, the velocity-product force b_K minus the
+  // external force about O_K after prepare(), then the force passed inwards; the acceleration c_K
+  // of V_K at z dot = 0 and A_J = 0; the acceleration A_K. prepare() writes them in its one pass
+  // (the routes' passes read each body's tables once more each way).
+  std::vector<Matrix6> IA;
+  std::vector<Matrix3> X;
+  std::vector<Vector6> p, c, A;
+  // Pools by speed: [S_K] and [U_K] = IA_K [S_K], 6 doubles a column, at 6 speed_offset(K);
+  // D_K^-1 (speed_count^2 doubles at d_offset[K]).
+  std::vector<double> S, U, D_inv;
+  std::vector<int> d_offset;
+  // The assembled route's blocks of [C]^T [A] [C] and their factor, made on its first use.
+  std::optional<detail::JointTreeLdlt> ldlt;
+
+  void prepare(const VectorX& qq, const VectorX& zz);
+  void recursive(Eigen::Ref<VectorX> zdot);
+  void assembled(Eigen::Ref<VectorX> zdot);
+  BodyMap body_map(int k) const {
+    return {X[at(k)], data.kinematics.qs_b[at(k)], free_joint[at(k)] == 0};
+  }
+  template <int M>
+  void recursive_inward(int k);
+  template <int M>
+  void recursive_outward(int k, Eigen::Ref<VectorX> zdot);
 };
+
+// The state, kinematics and loads at (q, z), and per body [P_K], [S_K], c_K and the force
+// b_K - F_ext,K; the joint loads' Q.
+void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
+  joint_state(tree, qq, zz, state);
+  compute_kinematics(model, state, data);
+  compute_resultants(model, state, data);
+  joint_force.setZero();
+  add_joint_load_forces(tree, qq, zz, joint_force);
+  const Kinematics& kin = data.kinematics;
+  const int n = model.num_bodies();
+  for (int k = 0; k < n; ++k) {
+    const auto i = at(k);
+    const int j = model.lower_body(k);
+    const bool root = j == kGround;
+    const bool is_free = free_joint[i] != 0;
+    const BodySpec& body = model.body(k);
+    // [X_K] = [R_K][R_J]^T maps body-J to body-K components ([R_K] for a root: J is R).
+    Matrix3& x = X[i];
+    x = root ? kin.R[i] : Matrix3(kin.R[i] * kin.R[at(j)].transpose());
+    const Vector3 w = state.angular_velocity(k);
+    const Vector3 v = kin.R[i] * kin.v_O[i];
+    // Eqs. (14)-(15) in body-K components: v'_K = [X](v'_J + w'_J x (q'_K + s'_K) + s'_K dot),
+    // and w'_K = w_rel + [X] w'_J (a free body: w'_K = z_K itself, no [X] w'_J term).
+    // [P_K] (BodyMap) is made of [X_K] and q'_K + s'_K (kin.qs_b).
+    // [S_K] = ([G_K]; [X_K][T_K]): the coefficient of z_K in V_K.
+    const int w_count = speeds[i], off = offset[i];
+    if (w_count > 0) {
+      Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
+      s.topRows<3>() = joint_rotation_block(tree, k, qq).leftCols(w_count);
+      const JointType type = tree.joint(k).type;
+      if (type == JointType::free || type == JointType::prismatic || type == JointType::cylindrical)
+        s.bottomRows<3>() = (x * joint_translation_block(tree, k)).leftCols(w_count);
+      else
+        s.bottomRows<3>().setZero();  // [T_K] = 0: the joint does not translate
+    }
+    // c_K = d/dt V_K at z dot = 0 with J's acceleration zero: d[X]/dt = -[w_rel~][X] (README,
+    // d[R]/dt = -[w'~][R] for K and J), w_rel = w'_K - [X] w'_J, d(q' + s')/dt = s'_K dot:
+    //   angular  [G_K dot] z_K - w_rel x [X] w'_J             (0 for a free body)
+    //   linear   [X](w'_J x s'_K dot) - w_rel x v'_K
+    const Vector3 xw_j = root ? Vector3::Zero() : Vector3(x * state.angular_velocity(j));
+    const Vector3 w_rel = w - xw_j;
+    Vector6& ck = c[i];
+    ck.head<3>() =
+        is_free ? Vector3::Zero()
+                : Vector3(joint_rotation_rate_times_speeds(tree, k, qq, zz) - w_rel.cross(xw_j));
+    ck.tail<3>() = -w_rel.cross(v);
+    if (!root) ck.tail<3>() += x * state.angular_velocity(j).cross(state.translation_rate(k));
+    // Newton-Euler about O_K in body-K components: with A = d/dt V (component rates),
+    // [I_O] A + b equals the force needed, b = (w x [I'_G] w + m r x (w x v_G), m w x v_G),
+    // v_G = v + w x r (a'_O = dv/dt + w x v). The external force about O_K is
+    // ([M'_K] + r x F'_K, F'_K), F'_K = [R_K] F_K: gravity and every force element.
+    const Vector3 r = body.com;
+    const Vector3 v_g = v + w.cross(r);
+    const Vector3 f_b = kin.R[i] * data.loads.force[i];
+    IA[i] = spatial_inertia(body);
+    Vector6& bk = p[i];
+    bk.head<3>() = w.cross(body.inertia * w) + body.mass * r.cross(w.cross(v_g)) -
+                   (data.loads.moment_b[i] + r.cross(f_b));
+    bk.tail<3>() = body.mass * w.cross(v_g) - f_b;
+  }
+}
+
+// Inward step of the articulated-body recursion at body k with M = speed_count: the joint's
+// [U] = IA [S], D = [S]^T [U], u = Q - [S]^T p, and what K's subtree passes to J:
+//   IA_J += [P]^T (IA - [U] D^-1 [U]^T) [P],   p_J += [P]^T (p + Ia c + [U] D^-1 u).
+template <int M>
+void JointDynamics::Impl::recursive_inward(int k) {
+  const auto i = at(k);
+  const int j = model.lower_body(k);
+  const Matrix6& ia = IA[i];
+  Matrix6 articulated = ia;
+  Vector6 passed = p[i];
+  if constexpr (M > 0) {
+    const int off = offset[i];
+    const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+    Eigen::Map<Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
+    Eigen::Map<Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
+    uk.noalias() = ia * s;
+    const Eigen::Matrix<double, M, M> d = s.transpose() * uk;
+    d_inv = inverse_spd<M>(d);
+    auto uu = u.segment<M>(off);
+    uu = joint_force.segment<M>(off) - s.transpose() * p[i];
+    if (j == kGround) return;
+    const Eigen::Matrix<double, 6, M> ud = uk * d_inv;
+    articulated.noalias() -= ud * uk.transpose();
+    passed.noalias() += ud * uu;
+  }
+  if (j == kGround) return;
+  passed.noalias() += articulated * c[i];
+  const BodyMap map = body_map(k);
+  add_carried_inertia(map, articulated, IA[at(j)]);
+  p[at(j)] += carry_force(map, passed);
+}
+
+// Outward step: A' = [P] A_J + c, z dot_K = D^-1 (u - [U]^T A'), A_K = A' + [S] z dot_K.
+template <int M>
+void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
+  const auto i = at(k);
+  const int j = model.lower_body(k);
+  Vector6 a = c[i];
+  if (j != kGround) a += map_velocity(body_map(k), A[at(j)]);
+  if constexpr (M > 0) {
+    const int off = offset[i];
+    const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+    const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
+    const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
+    auto zk = zdot.segment<M>(off);
+    zk.noalias() = d_inv * (u.segment<M>(off) - uk.transpose() * a);
+    a.noalias() += s * zk;
+  }
+  A[i] = a;
+}
+
+void JointDynamics::Impl::recursive(Eigen::Ref<VectorX> zdot) {
+  const int n = model.num_bodies();
+  for (int k = n - 1; k >= 0; --k) {
+    switch (speeds[at(k)]) {
+      case 0:
+        recursive_inward<0>(k);
+        break;
+      case 1:
+        recursive_inward<1>(k);
+        break;
+      case 2:
+        recursive_inward<2>(k);
+        break;
+      case 3:
+        recursive_inward<3>(k);
+        break;
+      default:
+        recursive_inward<6>(k);
+        break;
+    }
+  }
+  for (int k = 0; k < n; ++k) {
+    switch (speeds[at(k)]) {
+      case 0:
+        recursive_outward<0>(k, zdot);
+        break;
+      case 1:
+        recursive_outward<1>(k, zdot);
+        break;
+      case 2:
+        recursive_outward<2>(k, zdot);
+        break;
+      case 3:
+        recursive_outward<3>(k, zdot);
+        break;
+      default:
+        recursive_outward<6>(k, zdot);
+        break;
+    }
+  }
+}
+
+void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
+  const int n = model.num_bodies();
+  if (!ldlt) {
+    std::vector<int> sizes, lower;
+    for (int k = 0; k < n; ++k) {
+      sizes.push_back(speeds[at(k)]);
+      lower.push_back(model.lower_body(k));
+    }
+    const long long blocks = detail::JointTreeLdlt::count_blocks(sizes, lower);
+    if (blocks > Model::kMaxFlatChainEntries)
+      throw ModelError("joints: " + std::to_string(blocks) +
+                       " blocks of [C]^T [A] [C] are too many for Route::assembled (limit " +
+                       std::to_string(Model::kMaxFlatChainEntries) + "); use Route::recursive");
+    ldlt.emplace(sizes, lower);
+  }
+  detail::JointTreeLdlt& f = *ldlt;
+  // A_K at z dot = 0 (outward), then the force each body needs at that motion,
+  // [I_O] A_K + b_K - F_ext,K, and [I_O] itself, summed over subtrees through [P]^T (inward):
+  // the composite inertia and force of K's subtree about O_K. Every body of K's subtree has
+  // V = [P]..[P] V_K + (speeds of the subtree), so its partial velocities with respect to z_c,
+  // c on K's chain, are [P]..[P] times K's: [C]^T [A] [C] and [C]^T ({f} - [A][C dot] z) are sums
+  // over subtrees.
+  for (int k = 0; k < n; ++k) {
+    const auto i = at(k);
+    const int j = model.lower_body(k);
+    A[i] = c[i];
+    if (j != kGround) A[i] += map_velocity(body_map(k), A[at(j)]);
+    p[i].noalias() += IA[i] * A[i];  // IA_K is [I_O,K] until the inward pass
+  }
+  for (int k = n - 1; k >= 0; --k) {
+    const auto i = at(k);
+    const int j = model.lower_body(k);
+    const int m = f.size(k);
+    if (m > 0) {
+      const int off = offset[i];
+      const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, m);
+      // f_z = Q - [S_K]^T (composite force); block (K, K) = [S_K]^T IC_K [S_K]; then up K's
+      // chain, F = [P]^T F carries IC_K [S_K] to each ancestor I, block (K, I) = F^T [S_I].
+      // Lazy (coefficient-based) products: these blocks are at most 6 x 6, and Eigen's
+      // blocked product of dynamic sizes could ask for a workspace.
+      zdot.segment(off, m) = joint_force.segment(off, m);
+      zdot.segment(off, m).noalias() -= s.transpose().lazyProduct(p[i]);
+      Block force(6, m);
+      force.noalias() = IA[i].lazyProduct(s);
+      Eigen::Map<Eigen::MatrixXd>(f.block(k, 0), m, m).noalias() = s.transpose().lazyProduct(force);
+      int r = 1;
+      for (int e = k, a = j; a != kGround; e = a, a = model.lower_body(a)) {
+        const BodyMap map = body_map(e);
+        for (int col = 0; col < m; ++col) force.col(col) = carry_force(map, force.col(col));
+        const int w = f.size(a);
+        if (w == 0) continue;
+        const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> sa(
+            S.data() + 6 * offset[at(a)], 6, w);
+        Eigen::Map<Eigen::MatrixXd>(f.block(k, r), m, w).noalias() =
+            force.transpose().lazyProduct(sa);
+        ++r;
+      }
+    }
+    if (j == kGround) continue;
+    const BodyMap map = body_map(k);
+    add_carried_inertia(map, IA[i], IA[at(j)]);
+    p[at(j)] += carry_force(map, p[i]);
+  }
+  if (!f.compute())
+    throw std::runtime_error("JointDynamics: [C]^T [A] [C] is not positive definite");
+  f.solve_in_place(zdot);
+}
 
 JointDynamics::JointDynamics(const Model& model, const JointTree& tree)
     : impl_(std::make_unique<Impl>(model, tree)) {}
@@ -31,15 +415,14 @@ const State& JointDynamics::state() const { return impl_->state; }
 Data& JointDynamics::data() { return impl_->data; }
 const JointTree& JointDynamics::tree() const { return impl_->tree; }
 
-void JointDynamics::evaluate(const VectorX& q, const VectorX& z, Route /*route*/,
+void JointDynamics::evaluate(const VectorX& q, const VectorX& z, Route route,
                              Eigen::Ref<VectorX> zdot) {
   Impl& s = *impl_;
-  // Reference: the dense projected equations (allocates).
-  ProjectedEquations e = projected_equations(s.model, s.tree, q, z, s.data);
-  zdot = e.zdot;
-  s.state = e.state;
-  compute_kinematics(s.model, s.state, s.data);
-  compute_resultants(s.model, s.state, s.data);
+  s.prepare(q, z);
+  if (route == Route::recursive)
+    s.recursive(zdot);
+  else
+    s.assembled(zdot);
 }
 
 void JointDynamics::derivative(const VectorX& qz, Route route, Eigen::Ref<VectorX> dqz) {

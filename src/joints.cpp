@@ -147,8 +147,20 @@ JointTree::JointTree(const Model& model, std::vector<Joint> joints, std::vector<
                          std::to_string(m) + " entries per parameter, not " +
                          std::to_string(v->size()));
   }
+  // The chains' total length grows as N^2 along a chain of joints; they are stored up to the
+  // Model's limit for flat chains (the recursive route of JointDynamics needs none of them).
+  long long entries = 0;
+  std::vector<long long> length(at(n), 0);
   for (int k = 0; k < n; ++k) {
-    if (!is_free(joints_[at(k)].type)) constrained_ = true;
+    const int j = lower_[at(k)];
+    const JointType t = joints_[at(k)].type;
+    length[at(k)] = (speed_count(t) > 0 ? 1 : 0) + (is_free(t) || j == kGround ? 0 : length[at(j)]);
+    entries += length[at(k)];
+    if (!is_free(t)) constrained_ = true;
+  }
+  chain_entries_ = entries;
+  if (entries > Model::kMaxFlatChainEntries) return;
+  for (int k = 0; k < n; ++k) {
     // w'_K = w_rel + [R_K][R_J]^T w'_J down to the first free body, whose w' is its own z.
     for (int c = k; c != kGround; c = lower_[at(c)]) {
       if (speed_count(joints_[at(c)].type) > 0) w_chain_[at(k)].push_back(c);
@@ -194,9 +206,6 @@ Vector3 joint_translation(const JointTree& tree, int k, const VectorX& q) {
   }
 }
 
-namespace {
-
-// [G_K] of body k, 3 x speed_count (the first columns of a 3x6): w_rel = [G_K] z_K, body K.
 Matrix36 joint_rotation_block(const JointTree& tree, int k, const VectorX& q) {
   const Joint& jt = tree.joint(k);
   const int o = tree.coordinate_offset(k);
@@ -223,7 +232,6 @@ Matrix36 joint_rotation_block(const JointTree& tree, int k, const VectorX& q) {
   return g;
 }
 
-// The s'_K dot block, body-J components.
 Matrix36 joint_translation_block(const JointTree& tree, int k) {
   Matrix36 t = Matrix36::Zero();
   switch (tree.joint(k).type) {
@@ -241,6 +249,18 @@ Matrix36 joint_translation_block(const JointTree& tree, int k) {
   }
   return t;
 }
+
+Vector3 joint_rotation_rate_times_speeds(const JointTree& tree, int k, const VectorX& q,
+                                         const VectorX& z) {
+  const Joint& jt = tree.joint(k);
+  if (jt.type != JointType::universal) return Vector3::Zero();  // [G_K] constant in K
+  const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
+  // d/dt [R(a2, q2)] a1 = -(q2 dot a2) x [R(a2, q2)] a1
+  return -z[p] * z[p + 1] *
+         jt.axes[1].cross(axis_angle_rotation(jt.axes[1], q[o + 1]) * jt.axes[0]);
+}
+
+namespace {
 
 Eigen::Ref<const VectorX> speeds_of(const JointTree& tree, const VectorX& z, int c) {
   return z.segment(tree.speed_offset(c), speed_count(tree.joint(c).type));
@@ -314,6 +334,10 @@ void joint_coordinate_rates(const JointTree& tree, const VectorX& q, const Vecto
 }
 
 ConstraintMatrix::ConstraintMatrix(const JointTree& tree) {
+  if (!tree.has_angular_chains())
+    throw ModelError("joints: " + std::to_string(tree.angular_chain_entries()) +
+                     " angular chain entries are too many for [C] (limit " +
+                     std::to_string(Model::kMaxFlatChainEntries) + ")");
   const int n = tree.num_bodies();
   w_begin.push_back(0);
   for (int k = 0; k < n; ++k) {
@@ -395,12 +419,8 @@ void constraint_rate_times_speeds(const JointTree& tree, const ConstraintMatrix&
   for (int k = 0; k < n; ++k) {
     const Joint& jt = tree.joint(k);
     if (is_free(jt.type)) continue;  // w'_K = z_K: [C] rows constant
-    const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
     const Vector3 w_rel = joint_relative_angular_velocity(tree, k, q, z);
-    Vector3 b = Vector3::Zero();
-    if (jt.type == JointType::universal)  // d/dt [R(a2, q2)] a1 = -(q2 dot a2) x [R(a2, q2)] a1
-      b = -z[p] * z[p + 1] *
-          jt.axes[1].cross(axis_angle_rotation(jt.axes[1], q[o + 1]) * jt.axes[0]);
+    Vector3 b = joint_rotation_rate_times_speeds(tree, k, q, z);
     const int j = tree.lower_body(k);
     if (j != kGround) {
       // d/dt [R_K][R_J]^T = -[w_rel~][R_K][R_J]^T (from d[R]/dt = -[w'~][R], README).

@@ -26,7 +26,10 @@ class JointDynamics {
   /// [C]^T ({f} - [A][C dot]{z}) + Q. Both include the joint loads of the tree. Afterwards
   /// state() holds the notes' (x, y) at (q, z) and data() its kinematics (compute_kinematics)
   /// and loads (compute_resultants). Spherical q and free eps_K are used as given (unit norm
-  /// assumed).
+  /// assumed). Route::recursive needs O(N) memory for any tree; Route::assembled builds its
+  /// blocks (one per pair of joints on one chain) on its first call and throws ModelError when
+  /// there would be more than Model::kMaxFlatChainEntries. After each route's first call,
+  /// evaluate() and derivative() do not allocate.
   void evaluate(const VectorX& q, const VectorX& z, Route route, Eigen::Ref<VectorX> zdot);
 
   /// d/dt (q; z) at (q; z) (size num_coordinates() + num_speeds()): joint_coordinate_rates

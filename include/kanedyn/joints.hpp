@@ -102,12 +102,21 @@ class JointTree {
   bool has_constraints() const { return constrained_; }
   /// The bodies whose z enter w'_K: K (if it has speeds), then down its chain through welds
   /// and joints up to and including the first free body (a free body's w' is its own z).
+  /// Only when has_angular_chains() (empty otherwise).
   const std::vector<int>& angular_chain(int k) const { return w_chain_[static_cast<size_t>(k)]; }
+  /// The sum of the angular chains' lengths (the blocks of [C]'s w' rows), N^2/2 for a chain
+  /// of joints.
+  long long angular_chain_entries() const { return chain_entries_; }
+  /// True when the angular chains are stored: angular_chain_entries() <=
+  /// Model::kMaxFlatChainEntries. ConstraintMatrix and projected_equations need them; the
+  /// recursive route of JointDynamics does not.
+  bool has_angular_chains() const { return chain_entries_ <= Model::kMaxFlatChainEntries; }
 
  private:
   std::vector<Joint> joints_;
   std::vector<JointLoad> loads_;
   bool constrained_ = false;
+  long long chain_entries_ = 0;
   std::vector<int> lower_, q_offset_, z_offset_;
   std::vector<Vector3> axis_j_;
   std::vector<std::vector<int>> w_chain_;
@@ -118,6 +127,14 @@ class JointTree {
 Vector4 joint_relative_rotation(const JointTree& tree, int k, const VectorX& q);
 /// s'_K of a jointed body from q (body-J components); not for free joints.
 Vector3 joint_translation(const JointTree& tree, int k, const VectorX& q);
+/// [G_K] of body k at q, 3 x speed_count(type) (the first columns of a 3x6): w_rel = [G_K] z_K,
+/// body-K components (the table under ConstraintMatrix).
+Matrix36 joint_rotation_block(const JointTree& tree, int k, const VectorX& q);
+/// [T_K] of body k, 3 x speed_count(type): s'_K dot = [T_K] z_K, body-J components; constant.
+Matrix36 joint_translation_block(const JointTree& tree, int k);
+/// [G_K dot] z_K at (q, z), body-K components: nonzero only for a universal joint.
+Vector3 joint_rotation_rate_times_speeds(const JointTree& tree, int k, const VectorX& q,
+                                         const VectorX& z);
 /// Angular velocity of K relative to J, body-K components, from q and z ([G_K] z_K below).
 Vector3 joint_relative_angular_velocity(const JointTree& tree, int k, const VectorX& q,
                                         const VectorX& z);
@@ -150,6 +167,7 @@ struct ConstraintMatrix {
   std::vector<Matrix3> R;         ///< [R_K] of the state it was computed at (Eqs. 3-4)
 };
 
+/// (The constructor throws ModelError unless tree.has_angular_chains().)
 /// Fills C at the state joint_state() gave for q (its eps_K give the [R_K]).
 void compute_constraint_matrix(const JointTree& tree, const VectorX& q, const State& state,
                                ConstraintMatrix& C);

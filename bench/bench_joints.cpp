@@ -1,0 +1,83 @@
+// Google Benchmark entries of JointDynamics::evaluate(): chains of revolute links (the
+// generated chain's links, gravity and bushings, every joint revolute about the link's x axis)
+// by the articulated-body route (joints_recursive) and the block-sparse projected route
+// (joints_assembled, O(N d^2): only the shorter chains). The counter `per_body` is the time
+// per evaluation divided by N: flat in N for the recursive route. Run e.g.
+//   build/bench/kanedyn_bench_joints --benchmark_repetitions=3
+// and read `per_body` (the "_min" aggregate is the least disturbed on a shared machine).
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/testing/generate.hpp"
+
+namespace kanedyn {
+namespace {
+
+struct JointedChain {
+  std::unique_ptr<Model> model;
+  std::unique_ptr<JointTree> tree;
+  VectorX q, z;
+};
+
+JointedChain revolute_chain(int n) {
+  JointedChain c;
+  c.model = std::make_unique<Model>(chain_model(n).model);
+  Joint joint;
+  joint.type = JointType::revolute;
+  joint.axis = Vector3::UnitX();
+  c.tree = std::make_unique<JointTree>(*c.model, std::vector<Joint>(static_cast<size_t>(n), joint));
+  // Small bends and rates (a hanging chain in motion), from a fixed seed.
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> angle(-0.05, 0.05), rate(-0.5, 0.5);
+  c.q = VectorX::NullaryExpr(n, [&] { return angle(rng); });
+  c.z = VectorX::NullaryExpr(n, [&] { return rate(rng); });
+  return c;
+}
+
+void evaluate(benchmark::State& bench, int n, Route route) {
+  const JointedChain c = revolute_chain(n);
+  JointDynamics dyn(*c.model, *c.tree);
+  VectorX zdot(n);
+  dyn.evaluate(c.q, c.z, route, zdot);  // the assembled route builds its blocks once
+  for (auto _ : bench) {
+    dyn.evaluate(c.q, c.z, route, zdot);
+    benchmark::DoNotOptimize(zdot.data());
+    benchmark::ClobberMemory();
+  }
+  bench.counters["per_body"] = benchmark::Counter(
+      n, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
+void register_all() {
+  const auto add = [](Route route, int n) {
+    benchmark::RegisterBenchmark(
+        ("joints_" + to_string(route) + "/chain-" + std::to_string(n)).c_str(),
+        [route, n](benchmark::State& b) { evaluate(b, n, route); })
+        ->Unit(benchmark::kMicrosecond)
+        ->ComputeStatistics("min", [](const std::vector<double>& v) {
+          return *std::min_element(v.begin(), v.end());
+        });
+  };
+  for (const int n : {64, 512, 4096, 100000}) add(Route::recursive, n);
+  for (const int n : {64, 512}) add(Route::assembled, n);
+}
+
+}  // namespace
+}  // namespace kanedyn
+
+int main(int argc, char** argv) {
+  kanedyn::register_all();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

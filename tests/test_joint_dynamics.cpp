@@ -1,0 +1,583 @@
+// JointDynamics: the articulated-body route (Route::recursive) and the block-sparse projected
+// Kane route (Route::assembled) against the dense projected equations (projected_equations)
+// and each other on random jointed trees of every joint type, deep chains, wide trees, all-free
+// and all-weld trees; the state, kinematics and loads they leave; no allocation per
+// evaluation; derivative() against joint_coordinate_rates and a finite difference along a run;
+// energy conservation of a jointed eight-body figure.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "alloc_counter.hpp"
+#include "kanedyn/energy.hpp"
+#include "kanedyn/forces.hpp"
+#include "kanedyn/integrate.hpp"
+#include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "test_support.hpp"
+
+#include "../src/joint_ldlt.hpp"
+
+namespace kanedyn {
+namespace {
+
+constexpr JointType kAllTypes[] = {
+    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
+    JointType::cylindrical, JointType::universal, JointType::spherical};
+
+Vector3 random_unit(std::mt19937& rng) { return test::random_vector(rng, -1, 1).normalized(); }
+
+// A random joint of the given type: random frame, unnormalized axes (JointTree normalizes).
+Joint random_joint(std::mt19937& rng, JointType type) {
+  Joint j;
+  j.type = type;
+  j.frame = test::random_euler_parameters(rng);
+  j.axis = test::uniform(rng, 0.5, 2.0) * random_unit(rng);
+  const Vector3 a1 = random_unit(rng);
+  j.axes = {2.0 * a1, a1.cross(random_unit(rng)).normalized()};
+  j.translation = test::random_vector(rng, -0.3, 0.3);
+  return j;
+}
+
+bool takes_joint_loads(JointType t) {
+  return t == JointType::revolute || t == JointType::prismatic || t == JointType::cylindrical ||
+         t == JointType::universal;
+}
+
+// A joint spring with damping and a constant joint force on a loadable joint, with probability
+// 2/3 (damping 0 when `damped` is false: a conservative spring).
+std::vector<JointLoad> random_joint_loads(std::mt19937& rng, const std::vector<Joint>& joints,
+                                          bool damped = true) {
+  std::vector<JointLoad> loads;
+  for (size_t k = 0; k < joints.size(); ++k) {
+    if (!takes_joint_loads(joints[k].type) || test::uniform(rng, 0, 1) > 2.0 / 3.0) continue;
+    const int m = coordinate_count(joints[k].type);
+    JointLoad l;
+    l.body = static_cast<int>(k);
+    l.stiffness = VectorX::NullaryExpr(m, [&] { return test::uniform(rng, 0.0, 20.0); });
+    l.damping =
+        VectorX::NullaryExpr(m, [&] { return damped ? test::uniform(rng, 0.0, 2.0) : 0.0; });
+    l.rest = VectorX::NullaryExpr(m, [&] { return test::uniform(rng, -0.5, 0.5); });
+    l.value = VectorX::NullaryExpr(m, [&] { return damped ? test::uniform(rng, -3.0, 3.0) : 0.0; });
+    loads.push_back(l);
+  }
+  return loads;
+}
+
+// Random coordinates: angles in [-3, 3], slides in [-0.5, 0.5], Euler parameters uniform;
+// speeds in [-1, 1].
+void randomize(const JointTree& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
+  q = VectorX::Zero(tree.num_coordinates());
+  z = VectorX::Zero(tree.num_speeds());
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    const int o = tree.coordinate_offset(k);
+    switch (tree.joint(k).type) {
+      case JointType::free:
+        q.segment<4>(o) = test::random_euler_parameters(rng);
+        q.segment<3>(o + 4) = test::random_vector(rng, -0.3, 0.3);
+        break;
+      case JointType::spherical:
+        q.segment<4>(o) = test::random_euler_parameters(rng);
+        break;
+      case JointType::revolute:
+        q[o] = test::uniform(rng, -3, 3);
+        break;
+      case JointType::prismatic:
+        q[o] = test::uniform(rng, -0.5, 0.5);
+        break;
+      case JointType::cylindrical:
+        q[o] = test::uniform(rng, -3, 3);
+        q[o + 1] = test::uniform(rng, -0.5, 0.5);
+        break;
+      case JointType::universal:
+        q[o] = test::uniform(rng, -3, 3);
+        q[o + 1] = test::uniform(rng, -3, 3);
+        break;
+      case JointType::weld:
+        break;
+    }
+  }
+  for (int i = 0; i < z.size(); ++i) z[i] = test::uniform(rng, -1, 1);
+}
+
+// A model, its joints (JointTree keeps a copy of what it needs of the Model, but JointDynamics
+// keeps references to both: they live here together) and a random (q, z).
+struct Case {
+  std::string name;
+  Model model;
+  JointTree tree;
+  VectorX q, z;
+};
+
+Case make_case(std::string name, Model model, const std::vector<JointType>& types,
+               std::mt19937& rng, bool joint_loads = true) {
+  std::vector<Joint> joints;
+  for (JointType t : types) joints.push_back(random_joint(rng, t));
+  std::vector<JointLoad> loads;
+  if (joint_loads) loads = random_joint_loads(rng, joints);
+  JointTree tree(model, joints, loads);
+  Case c{std::move(name), std::move(model), std::move(tree), {}, {}};
+  randomize(c.tree, rng, c.q, c.z);
+  return c;
+}
+
+std::vector<JointType> random_types(std::mt19937& rng, int n) {
+  std::vector<JointType> types;
+  for (int k = 0; k < n; ++k) types.push_back(kAllTypes[test::uniform_int(rng, 0, 6)]);
+  return types;
+}
+
+// A loaded model (gravity in a random direction, bushings with damping, forces, torques) with
+// the given lower bodies.
+Model loaded_model(std::mt19937& rng, const std::vector<int>& lower) {
+  Model base = test::random_loaded_model(rng, static_cast<int>(lower.size()));
+  std::vector<BodySpec> bodies = base.bodies();
+  for (size_t k = 0; k < lower.size(); ++k) bodies[k].lower_body = lower[k];
+  return Model(bodies, base.gravity(), base.forces(), "shaped");
+}
+
+// The comparison cases: random forests of 1..12 bodies with random joint types, chains of
+// each single type, deep chains (depth 30 and 40) of mixed types and one of 35 revolute and
+// prismatic joints, wide trees (a star of 30 on one root, two levels of 6 x 5), every one
+// with bushings, forces, torques, joint springs and forces with damping, and gravity.
+std::vector<Case> comparison_cases(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::vector<Case> out;
+  for (JointType type : kAllTypes) {
+    Model m = test::random_loaded_model(rng, 4, true);
+    out.push_back(make_case(std::string("chain of ") + to_string(type), std::move(m),
+                            std::vector<JointType>(4, type), rng));
+  }
+  for (int i = 0; i < 40; ++i) {
+    const int n = test::uniform_int(rng, 1, 12);
+    Model m = test::random_loaded_model(rng, n);
+    out.push_back(
+        make_case("forest " + std::to_string(i), std::move(m), random_types(rng, n), rng));
+  }
+  {  // revolute and prismatic only: every row of [A_z] scalar (the factor's axpy path)
+    std::vector<JointType> types;
+    for (int k = 0; k < 35; ++k)
+      types.push_back(test::uniform_int(rng, 0, 3) == 0 ? JointType::prismatic
+                                                        : JointType::revolute);
+    out.push_back(make_case("deep chain of 1-DOF joints", test::random_loaded_model(rng, 35, true),
+                            types, rng));
+  }
+  for (int n : {30, 40}) {
+    Model m = test::random_loaded_model(rng, n, true);
+    out.push_back(
+        make_case("deep chain " + std::to_string(n), std::move(m), random_types(rng, n), rng));
+  }
+  {
+    std::vector<int> star(31, 0);
+    star[0] = kGround;
+    out.push_back(make_case("star of 30", loaded_model(rng, star), random_types(rng, 31), rng));
+    std::vector<int> two_levels{kGround};
+    for (int a = 0; a < 6; ++a) {
+      two_levels.push_back(0);
+      const int arm = static_cast<int>(two_levels.size()) - 1;
+      for (int b = 0; b < 5; ++b) two_levels.push_back(arm);
+    }
+    out.push_back(make_case("two levels of 6 x 5", loaded_model(rng, two_levels),
+                            random_types(rng, static_cast<int>(two_levels.size())), rng));
+  }
+  return out;
+}
+
+double relative_difference(const VectorX& a, const VectorX& b) {
+  return test::max_abs(a - b) / (1.0 + test::max_abs(b));
+}
+
+// Tolerance of the route comparisons: each route solves the same well-conditioned n x n system
+// (masses 0.5..5, lengths ~0.5, so the eigenvalues of [C]^T [A] [C] spread over a few orders)
+// in a different order of operations; their round-off is ~1e-14 relative (measured at most
+// 2e-13, on the deep chains). 1e-10 relative leaves room for the deeper chains while a wrong term
+// (a missing [C dot]{z} or bias, a joint load, a load on the wrong body) shows at O(1).
+constexpr double kRouteTolerance = 1e-10;
+
+TEST(JointDynamics, BothRoutesAgreeWithTheProjectedEquations) {
+  for (const Case& c : comparison_cases(1)) {
+    SCOPED_TRACE(c.name);
+    Data reference(c.model);  // with the dense [A] (at most 41 bodies here)
+    const ProjectedEquations e = projected_equations(c.model, c.tree, c.q, c.z, reference);
+    JointDynamics dyn(c.model, c.tree);
+    VectorX recursive(c.tree.num_speeds()), assembled(c.tree.num_speeds());
+    dyn.evaluate(c.q, c.z, Route::recursive, recursive);
+    dyn.evaluate(c.q, c.z, Route::assembled, assembled);
+    EXPECT_LT(relative_difference(recursive, e.zdot), kRouteTolerance);
+    EXPECT_LT(relative_difference(assembled, e.zdot), kRouteTolerance);
+    EXPECT_LT(relative_difference(recursive, assembled), kRouteTolerance);
+  }
+}
+
+// state() is joint_state's (the same function: exact), data() the kinematics and loads of that
+// state (compute_kinematics and compute_resultants on it: exact), after either route.
+TEST(JointDynamics, StateKinematicsAndLoadsAreThoseOfTheJointState) {
+  for (const Case& c : comparison_cases(2)) {
+    SCOPED_TRACE(c.name);
+    State expected(c.model);
+    joint_state(c.tree, c.q, c.z, expected);
+    Data fresh(c.model, DataOptions::recursive_only());
+    compute_kinematics(c.model, expected, fresh);
+    compute_resultants(c.model, expected, fresh);
+    for (Route route : {Route::recursive, Route::assembled}) {
+      JointDynamics dyn(c.model, c.tree);
+      VectorX zdot(c.tree.num_speeds());
+      dyn.evaluate(c.q, c.z, route, zdot);
+      EXPECT_EQ(dyn.state().x, expected.x);
+      EXPECT_EQ(dyn.state().y, expected.y);
+      for (int k = 0; k < c.model.num_bodies(); ++k) {
+        const auto i = static_cast<size_t>(k);
+        EXPECT_EQ(dyn.data().kinematics.R[i], fresh.kinematics.R[i]);
+        EXPECT_EQ(dyn.data().kinematics.p_G[i], fresh.kinematics.p_G[i]);
+        EXPECT_EQ(dyn.data().kinematics.v_G[i], fresh.kinematics.v_G[i]);
+        EXPECT_EQ(dyn.data().loads.force[i], fresh.loads.force[i]);
+        EXPECT_EQ(dyn.data().loads.moment_b[i], fresh.loads.moment_b[i]);
+      }
+    }
+  }
+}
+
+// Every joint free: z holds the notes' y body by body, and both routes are Eq. (36) of the free
+// model (forward_dynamics), to the round-off of two solves of one well-conditioned 6N system.
+TEST(JointDynamics, AllFreeIsForwardDynamicsOfTheFreeModel) {
+  std::mt19937 rng(3);
+  for (const Model& model : test::models_of_every_size(rng)) {
+    SCOPED_TRACE(model.num_bodies());
+    const int n = model.num_bodies();
+    const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(n)));
+    VectorX q, z;
+    randomize(tree, rng, q, z);
+    JointDynamics dyn(model, tree);
+    Data free(model);
+    for (Route route : {Route::recursive, Route::assembled}) {
+      VectorX zdot(tree.num_speeds());
+      dyn.evaluate(q, z, route, zdot);
+      VectorX ydot(6 * n);
+      for (int k = 0; k < n; ++k) {
+        ydot.segment<3>(3 * k) = zdot.segment<3>(6 * k);
+        ydot.segment<3>(3 * n + 3 * k) = zdot.segment<3>(6 * k + 3);
+      }
+      for (Route free_route : {Route::recursive, Route::assembled}) {
+        forward_dynamics(model, dyn.state(), free, free_route);
+        EXPECT_LT(relative_difference(ydot, free.ydot), kRouteTolerance)
+            << to_string(route) << " against the free model's " << to_string(free_route);
+      }
+    }
+  }
+}
+
+// A free root with every other body welded (random frames, translations, shapes): one rigid
+// body, one 6-DOF joint; both routes against the projected equations and the one rigid body's
+// Newton-Euler (its mass centre moves by the total force over the total mass).
+TEST(JointDynamics, AllWeldToOneFreeRoot) {
+  std::mt19937 rng(4);
+  for (int n : {2, 5, 12}) {
+    for (bool chain : {true, false}) {
+      std::vector<int> lower{kGround};
+      for (int k = 1; k < n; ++k) lower.push_back(chain ? k - 1 : test::uniform_int(rng, 0, k - 1));
+      Model model = loaded_model(rng, lower);
+      std::vector<JointType> types(static_cast<size_t>(n), JointType::weld);
+      types[0] = JointType::free;
+      const Case c = make_case("welded", std::move(model), types, rng);
+      ASSERT_EQ(c.tree.num_speeds(), 6);
+      Data reference(c.model);
+      const ProjectedEquations e = projected_equations(c.model, c.tree, c.q, c.z, reference);
+      JointDynamics dyn(c.model, c.tree);
+      for (Route route : {Route::recursive, Route::assembled}) {
+        VectorX zdot(6);
+        dyn.evaluate(c.q, c.z, route, zdot);
+        EXPECT_LT(relative_difference(zdot, e.zdot), kRouteTolerance) << to_string(route);
+        // The system's mass centre: m a_G = sum of the external forces (the welds' reactions
+        // cancel). a_G of each body from the root's motion: a_Gk = a_O1 + alpha x d + w x (w x d)
+        // with d = p_Gk - p_O1 (inertial); a_O1 from s''_1 (a root: inertial, s'_1 = p_O1).
+        const Kinematics& kin = dyn.data().kinematics;
+        const Matrix3 r1t = kin.R[0].transpose();
+        const Vector3 w = r1t * dyn.state().angular_velocity(0);
+        const Vector3 alpha = r1t * zdot.head<3>();
+        const Vector3 a_o = zdot.tail<3>();
+        Vector3 momentum_rate = Vector3::Zero(), force = Vector3::Zero();
+        for (int k = 0; k < n; ++k) {
+          const Vector3 d = kin.p_G[static_cast<size_t>(k)] - kin.p_O[0];
+          momentum_rate += c.model.body(k).mass * (a_o + alpha.cross(d) + w.cross(w.cross(d)));
+          force += dyn.data().loads.force[static_cast<size_t>(k)];
+        }
+        EXPECT_LT((momentum_rate - force).norm(), 1e-10 * (1.0 + force.norm()));
+      }
+    }
+  }
+}
+
+// The variable-block tree LDL^T on matrices with a tree's sparsity: A = L^T D L built from a
+// random unit block lower triangular L with blocks only at (node, node on its chain) and SPD
+// diagonal blocks D, so A has exactly that sparsity; node sizes 0..6 mixed, and all 1 (the
+// scalar rows' path). The solve must equal the dense LDL^T's: both are backward stable on
+// these well-conditioned matrices (cond ~1e3), 1e-10 relative.
+TEST(JointDynamics, VariableBlockTreeLdltSolvesLikeTheDenseFactor) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 30; ++trial) {
+    const int n = test::uniform_int(rng, 1, 25);
+    const bool scalar = trial % 3 == 0, chain = trial % 2 == 0;
+    std::vector<int> sizes, lower, offset{0};
+    constexpr int kSizes[] = {0, 1, 2, 3, 6};
+    for (int k = 0; k < n; ++k) {
+      sizes.push_back(scalar ? 1 : kSizes[test::uniform_int(rng, 0, 4)]);
+      lower.push_back(k == 0 ? -1 : (chain ? k - 1 : test::uniform_int(rng, -1, k - 1)));
+      offset.push_back(offset.back() + sizes.back());
+    }
+    const int total = offset.back();
+    if (total == 0) continue;
+    auto on_chain = [&](int a, int k) {  // a is k or one of its ancestors
+      for (int c = k; c >= 0; c = lower[static_cast<size_t>(c)])
+        if (c == a) return true;
+      return false;
+    };
+    MatrixX L = MatrixX::Identity(total, total), D = MatrixX::Zero(total, total);
+    for (int k = 0; k < n; ++k) {
+      const int mk = sizes[static_cast<size_t>(k)], ok = offset[static_cast<size_t>(k)];
+      if (mk == 0) continue;
+      const MatrixX r = MatrixX::Random(mk, mk);
+      D.block(ok, ok, mk, mk) = r * r.transpose() + MatrixX::Identity(mk, mk);
+      for (int a = 0; a < k; ++a)
+        if (on_chain(a, k) && sizes[static_cast<size_t>(a)] > 0)
+          L.block(ok, offset[static_cast<size_t>(a)], mk, sizes[static_cast<size_t>(a)]) =
+              0.3 * MatrixX::Random(mk, sizes[static_cast<size_t>(a)]);
+    }
+    const MatrixX A = L.transpose() * D * L;
+    detail::JointTreeLdlt f(sizes, lower);
+    for (int k = 0; k < n; ++k)
+      for (int r = 0; r < f.row_length(k); ++r) {
+        const int a = f.row_node(k, r);
+        Eigen::Map<MatrixX>(f.block(k, r), f.size(k), f.size(a)) =
+            A.block(f.offset(k), f.offset(a), f.size(k), f.size(a));
+      }
+    ASSERT_TRUE(f.compute());
+    const VectorX b = VectorX::Random(total);
+    VectorX x = b;
+    f.solve_in_place(x);
+    const VectorX expected = A.ldlt().solve(b);
+    EXPECT_LT(relative_difference(x, expected), 1e-10) << "trial " << trial;
+    EXPECT_LT(test::max_abs(A * x - b), 1e-10 * (1.0 + test::max_abs(b)));
+  }
+}
+
+// A copy is a workspace of its own: evaluating it leaves the original's state and data as they
+// were, and it computes what a new workspace computes.
+TEST(JointDynamics, CopiesAreIndependentWorkspaces) {
+  std::mt19937 rng(10);
+  Case c = make_case("forest", test::random_loaded_model(rng, 10), random_types(rng, 10), rng);
+  VectorX q2, z2;
+  randomize(c.tree, rng, q2, z2);
+  for (Route route : {Route::recursive, Route::assembled}) {
+    JointDynamics dyn(c.model, c.tree);
+    VectorX zdot(c.tree.num_speeds()), copied(c.tree.num_speeds()), fresh(c.tree.num_speeds());
+    dyn.evaluate(c.q, c.z, route, zdot);
+    const State before = dyn.state();
+    const std::vector<Vector3> forces = dyn.data().loads.force;
+    JointDynamics copy(dyn);
+    copy.evaluate(q2, z2, route, copied);
+    EXPECT_EQ(dyn.state().x, before.x);
+    EXPECT_EQ(dyn.state().y, before.y);
+    EXPECT_EQ(dyn.data().loads.force, forces);
+    JointDynamics(c.model, c.tree).evaluate(q2, z2, route, fresh);
+    EXPECT_EQ(copied, fresh);
+    EXPECT_NE(copy.state().x, before.x);
+  }
+}
+
+TEST(JointDynamics, NoAllocationPerEvaluation) {
+  if (!alloc_counter::available())
+    GTEST_SKIP() << "malloc is the sanitizer's here: Eigen's allocations are not counted";
+  for (const Case& c : comparison_cases(5)) {
+    SCOPED_TRACE(c.name);
+    JointDynamics dyn(c.model, c.tree);
+    VectorX zdot(c.tree.num_speeds());
+    VectorX qz(c.tree.num_coordinates() + c.tree.num_speeds()), dqz(qz.size());
+    qz << c.q, c.z;
+    for (Route route : {Route::recursive, Route::assembled}) {
+      dyn.evaluate(c.q, c.z, route, zdot);  // the first call may build the route's structures
+      alloc_counter::count = 0;
+      alloc_counter::counting = true;
+      for (int i = 0; i < 3; ++i) {
+        dyn.evaluate(c.q, c.z, route, zdot);
+        dyn.derivative(qz, route, dqz);
+      }
+      alloc_counter::counting = false;
+      EXPECT_EQ(alloc_counter::count.load(), 0) << to_string(route);
+    }
+  }
+}
+
+// derivative(): the q part is joint_coordinate_rates at the normalized q, the z part
+// evaluate() there.
+TEST(JointDynamics, DerivativeIsTheCoordinateRatesAndTheAccelerations) {
+  for (const Case& c : comparison_cases(6)) {
+    SCOPED_TRACE(c.name);
+    const int nq = c.tree.num_coordinates(), nz = c.tree.num_speeds();
+    VectorX q = c.q;
+    // Off unit norm by up to 1e-7 (what an integrator's step leaves): derivative() normalizes.
+    for (int k = 0; k < c.tree.num_bodies(); ++k) {
+      const JointType t = c.tree.joint(k).type;
+      if (t == JointType::free || t == JointType::spherical)
+        q.segment<4>(c.tree.coordinate_offset(k)) *= 1.0 + 1e-7;
+    }
+    VectorX qz(nq + nz), dqz(nq + nz), zdot(nz), qdot(nq);
+    qz << q, c.z;
+    JointDynamics dyn(c.model, c.tree);
+    for (Route route : {Route::recursive, Route::assembled}) {
+      dyn.derivative(qz, route, dqz);
+      VectorX qn = q;
+      normalize_joint_coordinates(c.tree, qn);
+      joint_coordinate_rates(c.tree, qn, c.z, qdot);
+      EXPECT_EQ(dqz.head(nq), qdot);
+      dyn.evaluate(qn, c.z, route, zdot);
+      EXPECT_EQ(dqz.tail(nz), zdot);
+    }
+  }
+}
+
+// Along an RK4 run of (q, z) by the recursive route with h = 1e-4, the central difference
+// (x(t+h) - x(t-h)) / 2h of the trajectory matches derivative() at t by either route: the
+// error is (h^2/6) x''' plus RK4's local error over h, measured 2e-5 at |dx| ~ 100 (and 2e-3
+// at h = 1e-3: it scales as h^2); tolerance 1e-5 relative, while a route that differs in any
+// term of z dot shows at O(1).
+TEST(JointDynamics, FiniteDifferenceOfARunMatchesTheDerivative) {
+  std::mt19937 rng(7);
+  std::vector<Case> cases;
+  cases.push_back(make_case(
+      "eight-body", test::eight_body_model(),
+      {JointType::free, JointType::spherical, JointType::revolute, JointType::universal,
+       JointType::cylindrical, JointType::prismatic, JointType::weld, JointType::revolute},
+      rng));
+  cases.push_back(
+      make_case("forest", test::random_loaded_model(rng, 9), random_types(rng, 9), rng));
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    JointDynamics dyn(c.model, c.tree);
+    const int size = c.tree.num_coordinates() + c.tree.num_speeds();
+    Rk4 rk4(size, [&](double, const VectorX& x, VectorX& dx) {
+      dyn.derivative(x, Route::recursive, dx);
+    });
+    VectorX x(size);
+    x << c.q, c.z;
+    const double h = 1e-4;
+    std::vector<VectorX> run{x};
+    for (int i = 0; i < 4; ++i) {
+      rk4.step(i * h, h, x);
+      run.push_back(x);
+    }
+    for (Route route : {Route::recursive, Route::assembled}) {
+      for (int i = 1; i + 1 < static_cast<int>(run.size()); ++i) {
+        VectorX d(size);
+        dyn.derivative(run[static_cast<size_t>(i)], route, d);
+        const VectorX fd =
+            (run[static_cast<size_t>(i + 1)] - run[static_cast<size_t>(i - 1)]) / (2 * h);
+        EXPECT_LT(test::max_abs(fd - d), 1e-5 * (1.0 + test::max_abs(d))) << to_string(route);
+      }
+    }
+  }
+}
+
+// The notes' eight-body figure jointed with every joint type under gravity, conservative
+// bushings and undamped joint springs: the total energy (kinetic, gravity, bushings, joint
+// springs) is constant. Dopri5 at rtol = atol = 1e-12 over 10 s on the recursive route
+// (about 11,000 steps): measured 1e-10 of the scale |E0| + max kinetic energy; tolerance
+// 1e-8, while a wrong [C dot]{z}, bias or joint-load term changes the energy at O(1).
+TEST(JointDynamics, EnergyIsConservedOnTheJointedEightBody) {
+  std::mt19937 rng(8);
+  const Model model = test::eight_body(Vector3(0, 0, -9.81), true, 0.0);
+  std::vector<Joint> joints;
+  for (JointType t :
+       {JointType::free, JointType::spherical, JointType::revolute, JointType::universal,
+        JointType::cylindrical, JointType::prismatic, JointType::weld, JointType::revolute})
+    joints.push_back(random_joint(rng, t));
+  const JointTree tree(model, joints, random_joint_loads(rng, joints, false));
+  ASSERT_FALSE(tree.loads().empty());
+  VectorX q, z;
+  randomize(tree, rng, q, z);
+  JointDynamics dyn(model, tree);
+  const int nq = tree.num_coordinates(), size = nq + tree.num_speeds();
+  Data data(model, DataOptions::recursive_only());
+  auto energy = [&](const VectorX& x) {
+    State s(model);
+    VectorX qq = x.head(nq);
+    normalize_joint_coordinates(tree, qq);
+    joint_state(tree, qq, x.tail(size - nq), s);
+    return total_energy(model, s, data) + joint_load_potential_energy(tree, qq);
+  };
+  Dopri5Options opt;
+  opt.rtol = opt.atol = 1e-12;
+  Dopri5 solver(
+      size, [&](double, const VectorX& x, VectorX& dx) { dyn.derivative(x, Route::recursive, dx); },
+      opt);
+  VectorX x0(size);
+  x0 << q, z;
+  ASSERT_EQ(solver.start(0.0, x0, 10.0), StepStatus::ok);
+  const double e0 = energy(x0);
+  double kinetic_max = 0.0;
+  while (solver.time() < 10.0) {
+    ASSERT_EQ(solver.step(), StepStatus::ok);
+    normalize_joint_coordinates(tree, solver.mutable_state().head(nq));
+    State s(model);
+    joint_state(tree, solver.state().head(nq), solver.state().tail(size - nq), s);
+    kinetic_max = std::max(kinetic_max, kinetic_energy(model, s, data));
+  }
+  const double scale = std::abs(e0) + kinetic_max;
+  EXPECT_LT(std::abs(energy(solver.state()) - e0), 1e-8 * scale)
+      << "e0 " << e0 << " steps " << solver.steps_accepted();
+  EXPECT_GT(kinetic_max, 1.0);  // the figure moves
+}
+
+// Past the flat-chain limit (a 6000-link chain of revolute joints: 1.8e7 blocks), the
+// assembled route and [C] refuse, and the recursive route runs in O(N) memory. Its z dot is
+// checked by the energy balance: with gravity only, E = kinetic + gravity has dE/dt =
+// grad E . (q dot, z dot) = 0, so (E(x + h dx) - E(x - h dx)) / 2h = O(h^2) plus the round-off
+// of E (~1e8 here) over 2h. Measured 3e-8 of the power scale sum m |g . v_G| (2e6) at
+// h = 1e-5, where scaling z dot by 1.001 gives 2e-3: tolerance 1e-6 of the scale.
+TEST(JointDynamics, LongChainsRunOnlyTheRecursiveRoute) {
+  const int n = 6000;
+  std::vector<BodySpec> bodies(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    BodySpec& b = bodies[static_cast<size_t>(k)];
+    b.name = test::numbered_name("l", k);
+    b.lower_body = k - 1;
+    b.mass = 1.0;
+    b.inertia = Vector3(0.02, 0.02, 0.001).asDiagonal();
+    b.com = Vector3(0, 0, -0.25);
+    b.joint = k == 0 ? Vector3::Zero() : Vector3(0, 0, -0.5);
+  }
+  const Model model(bodies, Vector3(0, 0, -9.81));
+  Joint j;
+  j.type = JointType::revolute;
+  j.axis = Vector3::UnitX();
+  const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(n), j));
+  EXPECT_FALSE(tree.has_angular_chains());
+  EXPECT_THROW(ConstraintMatrix{tree}, ModelError);
+  JointDynamics dyn(model, tree);
+  std::mt19937 rng(9);
+  VectorX x(2 * n), dx(2 * n);
+  for (int i = 0; i < n; ++i) {
+    x[i] = test::uniform(rng, -0.01, 0.01);
+    x[n + i] = test::uniform(rng, -0.01, 0.01);
+  }
+  EXPECT_THROW(dyn.evaluate(x.head(n), x.tail(n), Route::assembled, dx.tail(n)), ModelError);
+  dyn.derivative(x, Route::recursive, dx);
+  ASSERT_TRUE(dx.allFinite());
+  double power_scale = 0.0;
+  for (int k = 0; k < n; ++k)
+    power_scale += std::abs(model.gravity().dot(dyn.data().kinematics.v_G[static_cast<size_t>(k)]));
+  Data data(model, DataOptions::recursive_only());
+  auto energy = [&](const VectorX& xx) {
+    State s(model);
+    joint_state(tree, xx.head(n), xx.tail(n), s);
+    return total_energy(model, s, data);
+  };
+  const double h = 1e-5;
+  const double rate = (energy(x + h * dx) - energy(x - h * dx)) / (2 * h);
+  EXPECT_LT(std::abs(rate), 1e-6 * power_scale) << "scale " << power_scale;
+}
+
+}  // namespace
+}  // namespace kanedyn
