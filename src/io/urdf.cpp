@@ -31,10 +31,11 @@ bool urdf_supported() { return false; }
 
 std::string urdf_to_model_yaml(const std::string&, const std::string& source_name,
                                const UrdfOptions&, std::vector<std::string>*) {
-  throw ModelFileError(source_name, 0, 0, "",
-                       "this kanedyn was built without URDF support (liburdfdom was not found "
-                       "when it was configured): install liburdfdom-dev "
-                       "(scripts/install-deps.sh) and rebuild");
+  throw ModelFileError(
+      source_name, 0, 0, "",
+      "this kanedyn was built without URDF support (configured with KANEDYN_URDF=OFF, "
+      "or without liburdfdom): install liburdfdom-dev (scripts/install-deps.sh), "
+      "configure with -DKANEDYN_URDF=AUTO and rebuild");
 }
 
 #else
