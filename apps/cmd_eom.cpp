@@ -4,12 +4,14 @@
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "commands.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/kinematic_equations.hpp"
 #include "options.hpp"
@@ -107,7 +109,41 @@ void print_tables(const io::ModelFile& file, const Data& data, const std::string
   print_column("{x dot} (Eqs. 39-40)", data.xdot, coordinate_label, n);
 }
 
-void print_json(const io::ModelFile& file, const Data& data) {
+/// Label of independent speed i: NAME.jdN of a jointed body, NAME.wC / NAME.sdC of a free one.
+std::string independent_speed_label(const Model& model, const JointTree& tree, int i) {
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    if (i >= tree.speed_offset(k + 1)) continue;
+    const int r = i - tree.speed_offset(k);
+    if (tree.joint(k).type == JointType::free)
+      return model.body(k).name + (r < 3 ? ".w" : ".sd") + std::to_string(r % 3 + 1);
+    return model.body(k).name + ".jd" + std::to_string(r + 1);
+  }
+  return "?";
+}
+
+void print_projected(const io::ModelFile& file, const ProjectedEquations& e, bool full) {
+  const Model& model = file.model;
+  const JointTree& tree = *file.joints;
+  const int n = tree.num_speeds();
+  std::printf(
+      "\nprojected equations (docs/theory.md, \"Joints\"): [C]^T [A] [C] {z dot} = "
+      "[C]^T ({f} - [A][C dot]{z}) + Q, y = [C] z\nn = %d independent speeds; [C] is %d x %d\n",
+      n, model.num_speeds(), n);
+  if (full || n <= 6 * kTableBodies) {
+    std::printf("\nA_z = [C]^T [A] [C], %d x %d\n", n, n);
+    for (int i = 0; i < n; ++i) {
+      std::printf("%-12s", independent_speed_label(model, tree, i).c_str());
+      for (int j = 0; j < n; ++j) std::printf(" % 10.4g", e.A_z(i, j));
+      std::printf("\n");
+    }
+  }
+  std::printf("\n%-12s %18s %18s\n", "z", "f_z", "z dot");
+  for (int i = 0; i < n; ++i)
+    std::printf("%-12s % .10e % .10e\n", independent_speed_label(model, tree, i).c_str(), e.f_z[i],
+                e.zdot[i]);
+}
+
+void print_json(const io::ModelFile& file, const Data& data, const ProjectedEquations* e) {
   const Model& model = file.model;
   const int n = model.num_bodies();
   using Json = nlohmann::ordered_json;
@@ -132,6 +168,18 @@ void print_json(const io::ModelFile& file, const Data& data) {
   out["f"] = vec(data.kane.f);
   out["ydot"] = vec(data.ydot);
   out["xdot"] = vec(data.xdot);
+  if (e) {
+    const auto mat = [&](const MatrixX& m) {
+      Json rows = Json::array();
+      for (Eigen::Index i = 0; i < m.rows(); ++i) rows.push_back(vec(m.row(i).transpose()));
+      return rows;
+    };
+    out["n"] = e->zdot.size();
+    out["C"] = mat(e->C);
+    out["A_z"] = mat(e->A_z);
+    out["f_z"] = vec(e->f_z);
+    out["zdot"] = vec(e->zdot);
+  }
   std::cout << out.dump() << "\n";
 }
 
@@ -166,14 +214,19 @@ void add_eom(CLI::App& app) {
     Data data(file.model, DataOptions{.partials = false});  // [A] dense, as printed
     double t = 0.0;
     std::string where;
-    const State state = chosen_state(file, opt->state, t, where);
+    VectorX q, z;
+    const State state = chosen_state(file, opt->state, t, where, q, z);
+    std::optional<ProjectedEquations> projected;
+    if (file.jointed()) projected = projected_equations(file.model, *file.joints, q, z, data);
     kane_equations(file.model, state, data);
-    if (!data.ydot.allFinite())
+    if (!data.ydot.allFinite() || (projected && !projected->zdot.allFinite()))
       throw std::runtime_error(opt->path + ": the equations of motion are not finite");
-    if (opt->json)
-      print_json(file, data);
-    else
+    if (opt->json) {
+      print_json(file, data, projected ? &*projected : nullptr);
+    } else {
       print_tables(file, data, where, opt->full);
+      if (projected) print_projected(file, *projected, opt->full);
+    }
   });
 }
 

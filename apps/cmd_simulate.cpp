@@ -299,7 +299,8 @@ int run(const Options& o) {
   SignalGuard signals;
   // Rows are formatted and written on a thread of their own (their kinematics and energy
   // too): the integrating thread only copies each output state (docs/performance.md).
-  io::BackgroundTrajectoryWriter writer(model, out);
+  const JointTree* joints = file.jointed() ? &*file.joints : nullptr;
+  io::BackgroundTrajectoryWriter writer(model, out, joints);
   Progress progress(base.t_start, base.t_end);
   StepWatch watch(base.t_start, base.t_end, base.dt_out);
   SimulationSettings settings = base;
@@ -312,9 +313,13 @@ int run(const Options& o) {
   const Observer observer = [&](double t, const State& state, Data&) {
     writer.write_row(t, state);
   };
+  const JointObserver joint_observer = [&](double t, const State& state, const VectorX& q,
+                                           const VectorX& z,
+                                           Data&) { writer.write_row(t, state, q, z); };
   SimulationStats stats;
   try {
-    stats = simulate(model, file.initial, settings, observer);
+    stats = joints ? simulate(model, *joints, file.joint_q, file.joint_z, settings, joint_observer)
+                   : simulate(model, file.initial, settings, observer);
   } catch (const std::exception& e) {
     progress.clear();
     try {
@@ -326,7 +331,7 @@ int run(const Options& o) {
                              writer.partial_path());
   }
   progress.clear();
-  const long columns = 2 + 16L * model.num_bodies();
+  const long columns = static_cast<long>(io::trajectory_columns(model, joints).size());
   if (stats.ok()) {
     writer.finish();
     print_summary(file, settings, stats, writer.path(), writer.rows(), columns);

@@ -26,8 +26,10 @@ void run(const Options& o) {
   view::require_available();
   const io::ModelFile file = io::load_model_file(o.model);
   const bool have_traj = !o.trajectory.empty();
-  const io::Trajectory traj = have_traj ? io::read_trajectory(file.model, o.trajectory)
-                                        : view::initial_trajectory(file.model, file.initial);
+  const io::Trajectory traj =
+      have_traj
+          ? io::read_trajectory(file.model, o.trajectory, file.jointed() ? &*file.joints : nullptr)
+          : view::initial_trajectory(file.model, file.initial);
   const std::string& input = have_traj ? o.trajectory : o.model;
   std::string out = o.out;
   if (out.empty()) out = std::filesystem::path(input).filename().replace_extension(".html");

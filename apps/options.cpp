@@ -46,12 +46,23 @@ void add_state_options(CLI::App* cmd, StateChoice& choice) {
 
 State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
                    std::string& where) {
+  VectorX q, z;
+  return chosen_state(file, choice, t, where, q, z);
+}
+
+State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
+                   std::string& where, VectorX& q, VectorX& z) {
   if (choice.trajectory.empty()) {
     t = 0.0;
     where = "its initial state";
+    q = file.joint_q;
+    z = file.joint_z;
     return file.initial;
   }
-  const io::TrajectoryRow row = io::read_trajectory_row(file.model, choice.trajectory, choice.t);
+  const io::TrajectoryRow row = io::read_trajectory_row(file.model, choice.trajectory, choice.t,
+                                                        file.jointed() ? &*file.joints : nullptr);
+  q = row.q;
+  z = row.z;
   t = row.t;
   char time[32];
   std::snprintf(time, sizeof time, "%.10g", row.t);

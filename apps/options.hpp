@@ -32,5 +32,9 @@ void add_state_options(CLI::App* cmd, StateChoice& choice);
 /// initial state) and where to "its initial state" or "t = T of FILE (line L)".
 State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
                    std::string& where);
+/// The same, and for a jointed model the joint coordinates and speeds of that state (the
+/// file's initial ones, or the row's j, jd columns); empty for the free tree.
+State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
+                   std::string& where, VectorX& q, VectorX& z);
 
 }  // namespace kanedyn::cli

@@ -7,10 +7,12 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/kinematics.hpp"
 
 namespace kanedyn {
@@ -53,6 +55,33 @@ std::string describe_state_component(const Model& model, int component, int* bod
   std::string text = "body '";
   text.append(model.body(k).name).append("' (").append(column).append(")");
   return text;
+}
+
+std::string describe_joint_state_component(const Model& model, const JointTree& tree, int component,
+                                           int* body) {
+  // (q; z) body by body: a free body's q is (eps_K, s'_K) and z (w'_K, s'_K dot), the notes'
+  // columns; the other joints' are j1.. and jd1...
+  static const char* const kFreeQ[7] = {"e1", "e2", "e3", "e4", "s1", "s2", "s3"};
+  static const char* const kFreeZ[6] = {"w1", "w2", "w3", "sd1", "sd2", "sd3"};
+  const int n = model.num_bodies(), nq = tree.num_coordinates();
+  int k = -1;
+  std::string column;
+  const bool speed = component >= nq;
+  const int i = speed ? component - nq : component;
+  for (int b = 0; b < n && component >= 0; ++b) {
+    const int begin = speed ? tree.speed_offset(b) : tree.coordinate_offset(b);
+    const int end = speed ? tree.speed_offset(b + 1) : tree.coordinate_offset(b + 1);
+    if (i < begin || i >= end) continue;
+    k = b;
+    const int r = i - begin;
+    if (tree.joint(b).type == JointType::free)
+      column = speed ? kFreeZ[r] : kFreeQ[r];
+    else
+      column = (speed ? "jd" : "j") + std::to_string(r + 1);
+  }
+  if (body) *body = k;
+  if (k < 0) return "no body";
+  return "body '" + model.body(k).name + "' (" + column + ")";
 }
 
 namespace {
@@ -184,26 +213,28 @@ class Run {
  public:
   Run(const Model& model, const State& initial, const SimulationSettings& settings,
       const Observer& observer)
-      : model_(model),
-        s_(settings),
-        observer_(observer),
-        n_(model.num_bodies()),
-        data_(model, settings.route == Route::assembled
-                         ? DataOptions{.partials = false, .dense_mass_matrix = false}
-                         : DataOptions::recursive_only()),
-        work_(model),
-        out_state_(model),
-        z_(VectorX::Zero(13 * n_)),
-        z_out_(VectorX::Zero(13 * n_)),
-        z_prev_(VectorX::Zero(13 * n_)) {
+      : Run(model, settings, nullptr, 13 * model.num_bodies()) {
+    observer_ = &observer;
     State start = initial;
     start.normalize_euler_parameters();
     z_ << start.x, start.y;
-    if (start.x.allFinite() && start.y.allFinite())
-      stats_.energy_initial = total_energy(model_, start, data_);
-    else
-      stats_.energy_initial = std::numeric_limits<double>::quiet_NaN();
-    stats_.t_reached = settings.t_start;
+    initial_energy(start.x.allFinite() && start.y.allFinite(), start);
+  }
+
+  /// A jointed tree: the integrated state is (q; z).
+  Run(const Model& model, const JointTree& tree, const VectorX& q0, const VectorX& z0,
+      const SimulationSettings& settings, const JointObserver& observer)
+      : Run(model, settings, &tree, tree.num_coordinates() + tree.num_speeds()) {
+    joint_observer_ = &observer;
+    jd_.emplace(model, tree);
+    nq_ = tree.num_coordinates();
+    out_q_ = q0;
+    normalize_joint_coordinates(tree, out_q_);
+    z_ << out_q_, z0;
+    out_z_ = z0;
+    const bool finite = out_q_.allFinite() && z0.allFinite();
+    if (finite) joint_state(tree, out_q_, out_z_, work_);
+    initial_energy(finite, work_);
   }
 
   SimulationStats run() {
@@ -227,6 +258,34 @@ class Run {
   }
 
  private:
+  Run(const Model& model, const SimulationSettings& settings, const JointTree* tree, int size)
+      : model_(model),
+        s_(settings),
+        tree_(tree),
+        n_(model.num_bodies()),
+        size_(size),
+        data_(model, settings.route == Route::assembled && !tree
+                         ? DataOptions{.partials = false, .dense_mass_matrix = false}
+                         : DataOptions::recursive_only()),
+        work_(model),
+        out_state_(model),
+        z_(VectorX::Zero(size)),
+        z_out_(VectorX::Zero(size)),
+        z_prev_(VectorX::Zero(size)) {
+    stats_.t_reached = settings.t_start;
+  }
+
+  void initial_energy(bool finite, const State& start) {
+    stats_.energy_initial =
+        finite ? energy_of(start, out_q_) : std::numeric_limits<double>::quiet_NaN();
+  }
+
+  /// The total energy (notes' state, plus the joint springs' potentials of q).
+  double energy_of(const State& state, const VectorX& q) {
+    const double e = total_energy(model_, state, data_);
+    return tree_ ? e + joint_load_potential_energy(*tree_, q) : e;
+  }
+
   /// dz/dt at z: the Eq. (1) state from z, forward_dynamics, ({x dot}; {y dot}).
   /// The stages of a step lie slightly off |eps_K| = 1; the equations are evaluated at the
   /// normalized eps_K, so [R_K] is always a rotation and both routes of forward_dynamics see
@@ -236,6 +295,11 @@ class Run {
   /// allows), with Eigen's portable SSE2 loops they took as many instructions as the
   /// normalization.
   void derivative(const VectorX& z, VectorX& dz) {
+    if (tree_) {
+      // Spherical q and free eps_K normalized the same way (JointDynamics::derivative).
+      jd_->derivative(z, s_.route, dz);
+      return;
+    }
     copy(z.data(), 7 * n_, work_.x.data());
     copy(z.data() + 7 * n_, 6 * n_, work_.y.data());
     for (int k = 0; k < n_; ++k) work_.euler_parameters(k).normalize();
@@ -251,6 +315,12 @@ class Run {
   }
 
   double project(VectorX& z) {
+    if (tree_) {
+      auto q = z.head(nq_);
+      if (s_.project_euler_parameters) return normalize_joint_coordinates(*tree_, q);
+      VectorX copy_q = q;
+      return normalize_joint_coordinates(*tree_, copy_q);
+    }
     if (!s_.project_euler_parameters) {
       double drift = 0.0;
       for (int k = 0; k < n_; ++k)
@@ -275,12 +345,26 @@ class Run {
   bool outputs_done() const { return done_outputs_; }
 
   void emit(double t, const VectorX& z) {
+    if (tree_) {
+      out_q_ = z.head(nq_);
+      out_z_ = z.tail(size_ - nq_);
+      if (s_.project_euler_parameters) normalize_joint_coordinates(*tree_, out_q_);
+      if (*joint_observer_) {
+        joint_state(*tree_, out_q_, out_z_, out_state_);
+        if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
+        (*joint_observer_)(t, out_state_, out_q_, out_z_, data_);
+      }
+      ++stats_.outputs;
+      if (t >= s_.t_end) done_outputs_ = true;
+      ++next_output_;
+      return;
+    }
     out_state_.x = z.head(7 * n_);
     out_state_.y = z.tail(6 * n_);
     if (s_.project_euler_parameters) out_state_.normalize_euler_parameters();
-    if (observer_) {
+    if (*observer_) {
       if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
-      observer_(t, out_state_, data_);
+      (*observer_)(t, out_state_, data_);
     }
     ++stats_.outputs;
     if (t >= s_.t_end) done_outputs_ = true;
@@ -332,12 +416,14 @@ class Run {
   void fail(SimulationStatus status, int component, const std::string& before,
             const std::string& after) {
     stats_.status = status;
-    const std::string who = describe_state_component(model_, component, &stats_.failed_body);
+    const std::string who =
+        tree_ ? describe_joint_state_component(model_, *tree_, component, &stats_.failed_body)
+              : describe_state_component(model_, component, &stats_.failed_body);
     stats_.message = before + (component >= 0 ? ": " + who + after : "");
   }
 
   void run_rk4() {
-    Rk4 rk4(13 * n_, ode());
+    Rk4 rk4(size_, ode());
     double t = s_.t_start;
     emit(t, z_);
     while (!outputs_done()) {
@@ -387,7 +473,7 @@ class Run {
     opt.rtol = s_.rtol;
     opt.atol = s_.atol;
     opt.max_step = s_.max_step;
-    Dopri5 dp(13 * n_, ode(), opt);
+    Dopri5 dp(size_, ode(), opt);
     const StepStatus started = dp.start(s_.t_start, z_, s_.t_end);
     stats_.evaluations = dp.evaluations();
     if (started != StepStatus::ok) {
@@ -422,7 +508,7 @@ class Run {
       // On failure z_ keeps the last good state, for the final energy.
       if (!check_state(dp.state(), t_old, t)) return;
       step_done(t, project(dp.mutable_state()));
-      copy(dp.state().data(), 13 * n_, z_.data());
+      copy(dp.state().data(), size_, z_.data());
       const bool asked_on =
           emit_up_to(t, [&](double t_out, VectorX& z) { dp.dense_output(t_out, z); });
       if ((!asked_on || !keep_going(t)) && !outputs_done()) {
@@ -433,6 +519,18 @@ class Run {
   }
 
   void final_energy() {
+    if (tree_) {
+      out_q_ = z_.head(nq_);
+      out_z_ = z_.tail(size_ - nq_);
+      const bool finite = z_.allFinite();
+      if (finite) {
+        normalize_joint_coordinates(*tree_, out_q_);
+        joint_state(*tree_, out_q_, out_z_, work_);
+      }
+      stats_.energy_final =
+          finite ? energy_of(work_, out_q_) : std::numeric_limits<double>::quiet_NaN();
+      return;
+    }
     work_.x = z_.head(7 * n_);
     work_.y = z_.tail(6 * n_);
     stats_.energy_final = work_.x.allFinite() && work_.y.allFinite()
@@ -442,8 +540,12 @@ class Run {
 
   const Model& model_;
   const SimulationSettings& s_;
-  const Observer& observer_;
-  int n_;
+  const JointTree* tree_;  ///< null for the free tree
+  const Observer* observer_ = nullptr;
+  const JointObserver* joint_observer_ = nullptr;
+  std::optional<JointDynamics> jd_;
+  int n_, size_, nq_ = 0;
+  VectorX out_q_, out_z_;
   Data data_;
   State work_, out_state_;
   VectorX z_, z_out_, z_prev_;
@@ -460,6 +562,18 @@ SimulationStats simulate(const Model& model, const State& initial,
     throw std::invalid_argument("simulate: the state does not have the model's size (7N + 6N)");
   validate_settings(model, settings);
   Run run(model, initial, settings, observer);
+  return run.run();
+}
+
+SimulationStats simulate(const Model& model, const JointTree& tree, const VectorX& q0,
+                         const VectorX& z0, const SimulationSettings& settings,
+                         const JointObserver& observer) {
+  if (tree.num_bodies() != model.num_bodies() || q0.size() != tree.num_coordinates() ||
+      z0.size() != tree.num_speeds())
+    throw std::invalid_argument(
+        "simulate: the joint coordinates and speeds do not have the joint tree's sizes");
+  validate_settings(model, settings);
+  Run run(model, tree, q0, z0, settings, observer);
   return run.run();
 }
 

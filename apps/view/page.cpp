@@ -156,12 +156,33 @@ std::size_t stride(std::size_t rows) {
 namespace {
 
 /// The JSON the page reads (docs/viewer.md, "What the page holds").
-std::string page_data(const Model& model, const std::string& model_file, const io::Trajectory& traj,
-                      const std::string& source) {
+/// The trajectory with only the columns of the free-body layout, in its order: a jointed
+/// model's j and jd columns are left out (the page draws the bodies from their poses).
+io::Trajectory body_columns(const Model& model, const io::Trajectory& traj) {
+  const std::vector<std::string> wanted = io::trajectory_columns(model);
+  std::vector<std::size_t> from;
+  std::size_t c = 0;
+  for (const std::string& name : wanted) {
+    while (c < traj.columns.size() && traj.columns[c] != name) ++c;
+    if (c == traj.columns.size())
+      throw std::invalid_argument("view::page: the trajectory's columns are not the model's");
+    from.push_back(c++);
+  }
+  io::Trajectory out;
+  out.columns = wanted;
+  out.values.reserve(traj.rows() * wanted.size());
+  for (std::size_t r = 0; r < traj.rows(); ++r)
+    for (const std::size_t f : from) out.values.push_back(traj.at(r, f));
+  return out;
+}
+
+std::string page_data(const Model& model, const std::string& model_file,
+                      const io::Trajectory& given, const std::string& source) {
+  const bool plain = given.columns == io::trajectory_columns(model);
+  const io::Trajectory filtered = plain ? io::Trajectory{} : body_columns(model, given);
+  const io::Trajectory& traj = plain ? given : filtered;
   const std::size_t rows = traj.rows(), width = traj.columns.size();
   if (rows == 0) throw std::invalid_argument("view::page: the trajectory has no rows");
-  if (traj.columns != io::trajectory_columns(model))
-    throw std::invalid_argument("view::page: the trajectory's columns are not the model's");
   // Every stride-th row, and the last one, so that the page ends where the run ends.
   const std::size_t stride = view::stride(rows);
   std::vector<std::size_t> kept;

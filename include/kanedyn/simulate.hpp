@@ -10,6 +10,7 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/integrate.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
 
@@ -112,6 +113,26 @@ long rk4_substeps(double span, double step);
 /// integration failures are reported in the returned stats, not thrown.
 SimulationStats simulate(const Model& model, const State& initial,
                          const SimulationSettings& settings, const Observer& observer = {});
+
+/// Called at each output time of a jointed run: the notes' state computed from (q, z) by
+/// joint_state(), the joint coordinates and speeds themselves, and data as for Observer.
+using JointObserver = std::function<void(double t, const State& state, const VectorX& q,
+                                         const VectorX& z, Data& data)>;
+
+/// The same for a jointed tree (docs/theory.md, "Joints"): integrates (q; z), so that every
+/// joint holds by construction; the derivative is JointDynamics::derivative by settings.route
+/// (recursive: the O(N) route; assembled: the projected Kane equations). After each accepted
+/// step the spherical q and free eps_K are rescaled to unit norm (project_euler_parameters),
+/// and max_euler_drift records their drift. The energy adds the joint springs' potentials.
+/// Failures name the body and its column (describe_joint_state_component).
+SimulationStats simulate(const Model& model, const JointTree& tree, const VectorX& q0,
+                         const VectorX& z0, const SimulationSettings& settings,
+                         const JointObserver& observer = {});
+
+/// "body 'NAME' (COLUMN)" for a component of (q; z): a free body's e1..e4, s1..s3, w1..w3,
+/// sd1..sd3, another joint's j1.. and jd1...
+std::string describe_joint_state_component(const Model& model, const JointTree& tree, int component,
+                                           int* body = nullptr);
 
 /// "body 'NAME' (COLUMN)" for a component of the 13N vector z = ({x}; {y}): COLUMN is the
 /// trajectory column suffix (e1..e4, s1..s3, w1..w3, sd1..sd3). Sets body to its index.

@@ -67,13 +67,14 @@ int create_partial(const std::string& partial) {
 namespace {
 
 /// Throws for the row text [row, ...) whose number at `bad` is not finite, naming its column.
-[[noreturn]] void throw_non_finite(const Model& model, const char* row, const char* bad, double t) {
+[[noreturn]] void throw_non_finite(const Model& model, const JointTree* joints, const char* row,
+                                   const char* bad, double t) {
   const char* start = bad;
   while (start > row && start[-1] != ',') --start;
   const char* end = bad;
   while (*end != ',' && *end != '\n') ++end;
   const auto column = static_cast<size_t>(std::count(row, start, ','));
-  const auto columns = trajectory_columns(model);
+  const auto columns = trajectory_columns(model, joints);
   char time[32];
   std::snprintf(time, sizeof time, "%.10g", t);
   throw std::runtime_error("non-finite output at t = " + std::string(time) + ": column " +
@@ -114,26 +115,45 @@ void check_output_path(const std::string& path, const std::string& input_path) {
   }
 }
 
-std::vector<std::string> trajectory_columns(const Model& model) {
+namespace {
+/// The joint columns of body k: 0 for free and weld joints (and without joints).
+bool has_joint_columns(const JointTree* joints, int k) {
+  if (!joints) return false;
+  const JointType t = joints->joint(k).type;
+  return t != JointType::free && t != JointType::weld;
+}
+}  // namespace
+
+std::vector<std::string> trajectory_columns(const Model& model, const JointTree* joints) {
   static const char* const kSuffixes[] = {"x",  "y",  "z",  "e1", "e2", "e3",  "e4",  "s1",
                                           "s2", "s3", "w1", "w2", "w3", "sd1", "sd2", "sd3"};
   std::vector<std::string> columns{"t"};
-  for (const BodySpec& body : model.bodies())
-    for (const char* suffix : kSuffixes) columns.push_back(body.name + "." + suffix);
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const std::string& name = model.body(k).name;
+    for (const char* suffix : kSuffixes) columns.push_back(name + "." + suffix);
+    if (!has_joint_columns(joints, k)) continue;
+    const JointType t = joints->joint(k).type;
+    for (int i = 1; i <= coordinate_count(t); ++i)
+      columns.push_back(name + ".j" + std::to_string(i));
+    for (int i = 1; i <= speed_count(t); ++i) columns.push_back(name + ".jd" + std::to_string(i));
+  }
   columns.emplace_back("energy");
   return columns;
 }
 
-TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path)
-    : model_(model), path_(std::move(path)) {
+TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path, const JointTree* joints)
+    : model_(model), joints_(joints), path_(std::move(path)) {
+  if (joints && joints->num_bodies() != model.num_bodies())
+    throw std::invalid_argument("TrajectoryWriter: the joint tree is not the model's");
   check_output_path(path_);
   fd_ = create_partial(partial_path());
-  // A row holds 2 + 16N numbers, each followed by ',' or the newline.
-  const size_t row_bytes =
-      (kMaxNumberChars + 1) * (2 + 16 * static_cast<size_t>(model.num_bodies()));
+  // A row holds 2 + 16N numbers (and the joint columns, 7 a body at most), each followed by
+  // ',' or the newline.
+  const size_t row_bytes = (kMaxNumberChars + 1) *
+                           (2 + (16 + (joints ? 7 : 0)) * static_cast<size_t>(model.num_bodies()));
   buffer_ = std::make_unique_for_overwrite<char[]>(kFlushBytes + row_bytes);
   std::string header;
-  const auto columns = trajectory_columns(model);
+  const auto columns = trajectory_columns(model, joints);
   for (size_t i = 0; i < columns.size(); ++i) {
     if (i) header += ',';
     header += columns[i];
@@ -154,8 +174,14 @@ TrajectoryWriter::~TrajectoryWriter() {
   }
 }
 
-void TrajectoryWriter::write_row(double t, const State& state, const Data& data, double energy) {
+void TrajectoryWriter::write_row(double t, const State& state, const Data& data, double energy,
+                                 const VectorX* q, const VectorX* z) {
   if (fd_ < 0) throw std::logic_error("TrajectoryWriter: write_row after close");
+  if (joints_ &&
+      (!q || !z || q->size() != joints_->num_coordinates() || z->size() != joints_->num_speeds()))
+    throw std::invalid_argument(
+        "TrajectoryWriter: a jointed row needs the joint coordinates "
+        "and speeds of the joint tree");
   if (used_ >= kFlushBytes) flush();  // only after a flush that threw: retry (or throw again)
   // Fewer than kFlushBytes are buffered now, so the row fits (see the constructor).
   char* const row = buffer_.get() + used_;
@@ -172,6 +198,11 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
     put(state.translation(k));
     put(state.angular_velocity(k));
     put(state.translation_rate(k));
+    if (has_joint_columns(joints_, k)) {
+      const JointType type = joints_->joint(k).type;
+      put(q->segment(joints_->coordinate_offset(k), coordinate_count(type)));
+      put(z->segment(joints_->speed_offset(k), speed_count(type)));
+    }
   }
   *p++ = ',';
   p = put_number(p, energy);
@@ -180,7 +211,7 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
   // Checked on the text, where a non-finite number is the only one holding 'n'.
   if (const char* bad =
           static_cast<const char*>(std::memchr(row, 'n', static_cast<size_t>(p - row))))
-    throw_non_finite(model_, row, bad, t);
+    throw_non_finite(model_, joints_, row, bad, t);
   used_ = static_cast<size_t>(p - buffer_.get());
   ++rows_;
   if (used_ >= kFlushBytes) flush();
@@ -239,12 +270,16 @@ void TrajectoryWriter::finish() {
 // a row), and at the end at most that many rows are left to write after the last one comes.
 
 struct BackgroundTrajectoryWriter::Impl {
-  Impl(const Model& model, std::string path)
-      : writer(model, std::move(path)),
+  Impl(const Model& model, std::string path, const JointTree* joints)
+      : writer(model, std::move(path), joints),
         data(model, DataOptions::recursive_only()),
         state(model),
         nx(static_cast<size_t>(model.num_coordinates())),
-        ny(static_cast<size_t>(model.num_speeds())) {
+        ny(static_cast<size_t>(model.num_speeds())),
+        nq(joints ? static_cast<size_t>(joints->num_coordinates()) : 0),
+        nz(joints ? static_cast<size_t>(joints->num_speeds()) : 0),
+        q(VectorX::Zero(static_cast<Eigen::Index>(nq))),
+        z(VectorX::Zero(static_cast<Eigen::Index>(nz))) {
     const size_t slot_bytes = sizeof(double) * slot_size();
     capacity = std::clamp<size_t>((size_t{4} << 20) / slot_bytes, 2, 256);
     wake_at = std::clamp<size_t>(capacity / 4, 1, 32);
@@ -252,8 +287,8 @@ struct BackgroundTrajectoryWriter::Impl {
     thread = std::thread([this] { run(); });
   }
 
-  /// A slot of the ring: t, then {x}, then {y}.
-  size_t slot_size() const { return 1 + nx + ny; }
+  /// A slot of the ring: t, then {x}, then {y}, then (jointed) q and z.
+  size_t slot_size() const { return 1 + nx + ny + nq + nz; }
   double* slot(size_t i) { return ring.data() + i * slot_size(); }
 
   /// The thread: block signals (they are for the program's own threads), then write rows.
@@ -292,7 +327,15 @@ struct BackgroundTrajectoryWriter::Impl {
         std::copy_n(p + 1, nx, state.x.data());
         std::copy_n(p + 1 + nx, ny, state.y.data());
         compute_kinematics(model, state, data);
-        writer.write_row(p[0], state, data, total_energy_of_kinematics(model, state, data));
+        const double energy = total_energy_of_kinematics(model, state, data);
+        if (const JointTree* joints = writer.joints()) {
+          std::copy_n(p + 1 + nx + ny, nq, q.data());
+          std::copy_n(p + 1 + nx + ny + nq, nz, z.data());
+          writer.write_row(p[0], state, data, energy + joint_load_potential_energy(*joints, q), &q,
+                           &z);
+        } else {
+          writer.write_row(p[0], state, data, energy);
+        }
       }
       if (flush_now) writer.flush();
     } catch (...) {
@@ -340,7 +383,8 @@ struct BackgroundTrajectoryWriter::Impl {
   TrajectoryWriter writer;
   Data data;    // the thread's kinematics
   State state;  // the thread's copy of the row being written
-  size_t nx, ny;
+  size_t nx, ny, nq, nz;
+  VectorX q, z;  // the thread's copy of the row's joint coordinates and speeds
   size_t capacity = 0, wake_at = 0;
   std::vector<double> ring;  // capacity slots
   std::mutex mutex;
@@ -357,8 +401,9 @@ struct BackgroundTrajectoryWriter::Impl {
   std::thread thread;
 };
 
-BackgroundTrajectoryWriter::BackgroundTrajectoryWriter(const Model& model, std::string path)
-    : impl_(std::make_unique<Impl>(model, std::move(path))) {}
+BackgroundTrajectoryWriter::BackgroundTrajectoryWriter(const Model& model, std::string path,
+                                                       const JointTree* joints)
+    : impl_(std::make_unique<Impl>(model, std::move(path), joints)) {}
 
 BackgroundTrajectoryWriter::~BackgroundTrajectoryWriter() {
   try {
@@ -368,6 +413,24 @@ BackgroundTrajectoryWriter::~BackgroundTrajectoryWriter() {
 }
 
 void BackgroundTrajectoryWriter::write_row(double t, const State& state) {
+  if (impl_->writer.joints())
+    throw std::invalid_argument(
+        "BackgroundTrajectoryWriter: a jointed model's rows need their joint coordinates");
+  static const VectorX none;
+  queue(t, state, none, none);
+}
+
+void BackgroundTrajectoryWriter::write_row(double t, const State& state, const VectorX& jq,
+                                           const VectorX& jz) {
+  if (!impl_->writer.joints() || static_cast<size_t>(jq.size()) != impl_->nq ||
+      static_cast<size_t>(jz.size()) != impl_->nz)
+    throw std::invalid_argument(
+        "BackgroundTrajectoryWriter: the joint coordinates are not the joint tree's size");
+  queue(t, state, jq, jz);
+}
+
+void BackgroundTrajectoryWriter::queue(double t, const State& state, const VectorX& jq,
+                                       const VectorX& jz) {
   Impl& q = *impl_;
   if (q.closed) throw std::logic_error("BackgroundTrajectoryWriter: write_row after close");
   if (static_cast<size_t>(state.x.size()) != q.nx || static_cast<size_t>(state.y.size()) != q.ny)
@@ -384,6 +447,8 @@ void BackgroundTrajectoryWriter::write_row(double t, const State& state) {
   p[0] = t;
   std::copy_n(state.x.data(), q.nx, p + 1);
   std::copy_n(state.y.data(), q.ny, p + 1 + q.nx);
+  std::copy_n(jq.data(), q.nq, p + 1 + q.nx + q.ny);
+  std::copy_n(jz.data(), q.nz, p + 1 + q.nx + q.ny + q.nq);
   ++q.count;
   ++q.queued;
   const bool wake = q.consumer_waiting && q.count >= q.wake_at;

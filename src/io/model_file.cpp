@@ -872,9 +872,129 @@ Vector4 read_euler_parameters(const Reader& r, const Field& f) {
   return eps / norm;
 }
 
-void read_initial(const Reader& r, const Field& f, int k, State& state) {
+JointType joint_type_of(std::string_view name) {
+  JointType t = JointType::free;
+  for (int i = 0; i < 7; ++i)
+    if (to_string(static_cast<JointType>(i)) == name) t = static_cast<JointType>(i);
+  return t;
+}
+
+/// A direction: three numbers, not all zero, scaled by the largest (so that its norm neither
+/// overflows nor underflows); `what` names it in the message.
+Vector3 read_direction(const Reader& r, const Field& f, const std::string& what) {
+  Vector3 v = r.vector3(f);
+  const double largest = v.cwiseAbs().maxCoeff();
+  if (largest == 0.0) r.fail(f, what + " must not be zero");
+  return v / largest;
+}
+
+/// The mapping form of `joint` (docs/model-format.md, "Joints"); its `at` goes to `at`.
+Joint read_joint(const Reader& r, const Field& f, Vector3& at) {
   const Mapping m = r.mapping(f);
-  m.allow({"euler_parameters", "rotation", "translation", "angular_velocity", "translation_rate"});
+  m.allow({"at", "type", "frame", "axis", "axes"});
+  Joint joint;
+  const std::string type =
+      r.choice(m.require("type"),
+               {"free", "weld", "revolute", "prismatic", "cylindrical", "universal", "spherical"},
+               "joint type");
+  joint.type = joint_type_of(type);
+  if (auto v = m.get("at")) at = r.vector3(*v);
+  const auto refuse = [&](const std::optional<Field>& v, const std::string& why) {
+    if (v) r.fail(v->key_mark, v->path.str(), why);
+  };
+  const auto frame = m.get("frame");
+  if (joint.type == JointType::free)
+    refuse(frame, "'frame' is refused on a free joint, where it would mean nothing");
+  if (frame) joint.frame = read_rotation(r, *frame);
+  const bool axial = joint.type == JointType::revolute || joint.type == JointType::prismatic ||
+                     joint.type == JointType::cylindrical;
+  const auto axis = m.get("axis");
+  if (!axial)
+    refuse(axis,
+           "'axis' is refused on a " + type +
+               " joint; it is for revolute, prismatic and cylindrical joints" +
+               (joint.type == JointType::universal ? " (a universal joint takes 'axes')" : ""));
+  const auto axes = m.get("axes");
+  if (joint.type != JointType::universal)
+    refuse(axes, "'axes' is refused on a " + type + " joint; it is for universal joints");
+  if (axial) {
+    if (!axis)
+      r.fail(f.mark, child_path(f.path.str(), "axis"),
+             "missing required key 'axis' (F components) of a " + type + " joint");
+    joint.axis = read_direction(r, *axis, "the joint axis");
+  }
+  if (joint.type == JointType::universal) {
+    if (!axes)
+      r.fail(f.mark, child_path(f.path.str(), "axes"),
+             "missing required key 'axes' ([a1, a2], F components) of a universal joint");
+    if (!axes->node.IsSequence() || axes->node.size() != 2)
+      r.fail(*axes, "expected a list of two axes [[a1], [a2]], got " + describe(axes->node));
+    for (size_t i = 0; i < 2; ++i)
+      joint.axes[i] =
+          read_direction(r, r.element(*axes, i), "a universal joint's axis").normalized();
+    const double c = joint.axes[0].dot(joint.axes[1]);
+    if (!(std::abs(c) <= 1e-9)) {
+      char buf[48];
+      std::snprintf(buf, sizeof buf, "%.3g", c);
+      r.fail(*axes, std::string("the axes of a universal joint must be perpendicular "
+                                "(|a1 . a2| <= 1e-9), got a1 . a2 = ") +
+                        buf);
+    }
+  }
+  return joint;
+}
+
+/// A body's initial values: the v1 keys into `state` for a free joint (and `translation` into
+/// the joint of a weld); `joint` and `joint_rate` into q and z for the other joints.
+void read_initial(const Reader& r, const Field& f, int k, State& state, Joint& joint, VectorX& q,
+                  VectorX& z) {
+  const Mapping m = r.mapping(f);
+  m.allow({"euler_parameters", "rotation", "translation", "angular_velocity", "translation_rate",
+           "joint", "joint_rate"});
+  const std::string type = to_string(joint.type);
+  if (joint.type != JointType::free) {
+    for (const char* key :
+         {"euler_parameters", "rotation", "translation", "angular_velocity", "translation_rate"}) {
+      const auto v = m.get(key);
+      if (!v || (joint.type == JointType::weld && std::string_view(key) == "translation")) continue;
+      r.fail(v->key_mark, v->path.str(),
+             "'" + std::string(key) + "' is refused on a body with a " + type +
+                 " joint: its motion follows from the joint and from its parent" +
+                 (joint.type == JointType::weld ? " (a weld takes only 'translation')"
+                                                : "; give 'joint' and 'joint_rate'"));
+    }
+  }
+  if (joint.type == JointType::free || joint.type == JointType::weld) {
+    for (const char* key : {"joint", "joint_rate"})
+      if (const auto v = m.get(key))
+        r.fail(v->key_mark, v->path.str(),
+               "'" + std::string(key) + "' is refused on a " + type + " joint" +
+                   (joint.type == JointType::free
+                        ? ", whose initial state is given by the keys euler_parameters (or "
+                          "rotation), translation, angular_velocity and translation_rate"
+                        : ", which has no coordinates"));
+  }
+  if (joint.type == JointType::weld) {
+    if (auto v = m.get("translation")) joint.translation = r.vector3(*v);
+    return;
+  }
+  if (joint.type != JointType::free) {
+    const auto list = [&](const Field& v, int count, const char* what) {
+      if (!v.node.IsSequence() || v.node.size() != static_cast<size_t>(count)) {
+        const std::string got =
+            v.node.IsSequence() ? std::to_string(v.node.size()) + " numbers" : describe(v.node);
+        r.fail(v, "a " + type + " joint has " + std::to_string(count) + " " + what +
+                      (count == 1 ? "" : "s") + ", got " + got);
+      }
+      return VectorX(r.numbers(v, count));
+    };
+    if (auto v = m.get("joint")) {
+      q = list(*v, coordinate_count(joint.type), "coordinate");
+      if (joint.type == JointType::spherical) q = read_euler_parameters(r, *v);
+    }
+    if (auto v = m.get("joint_rate")) z = list(*v, speed_count(joint.type), "rate");
+    return;
+  }
   const auto eps = m.get("euler_parameters");
   const auto rotation = m.get("rotation");
   if (eps && rotation)
@@ -964,6 +1084,8 @@ struct BodiesSection {
   BodyNames names;
   std::vector<BodySpec> specs;
   std::vector<std::optional<Field>> initial;  // the `initial:` entries, where given
+  std::vector<Joint> joints;                  // free unless the mapping form says otherwise
+  bool constrained = false;                   // some joint is not free
 };
 
 BodiesSection read_bodies(const Reader& r, const Field& f) {
@@ -995,6 +1117,7 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
   }
   section.specs.reserve(items.size());
   section.initial.reserve(items.size());
+  section.joints.reserve(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     const Mapping& m = maps[i];
     const int k = static_cast<int>(i);
@@ -1023,27 +1146,82 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     b.mass = r.positive(m.require("mass"));
     b.inertia = read_inertia(r, m.require("inertia"));
     if (auto v = m.get("com")) b.com = r.vector3(*v);
-    if (auto v = m.get("joint")) b.joint = r.vector3(*v);
+    Joint joint;
+    if (auto v = m.get("joint")) {
+      if (v->node.IsMap()) {
+        joint = read_joint(r, *v, b.joint);
+        section.constrained = section.constrained || joint.type != JointType::free;
+      } else {
+        b.joint = r.vector3(*v);
+      }
+    }
+    section.joints.push_back(joint);
     section.specs.push_back(std::move(b));
     section.initial.push_back(m.get("initial"));
   }
   return section;
 }
 
-std::shared_ptr<const ForceElement> read_force(const Reader& r, const Field& f,
-                                               const BodyNames& names) {
+/// A joint_spring or joint_force entry: each parameter a number (the same for every
+/// coordinate) or one number per coordinate of the body's joint.
+JointLoad read_joint_load(const Reader& r, const Mapping& m, const std::string& type,
+                          const Field& body_field, int body, const std::vector<Joint>& joints) {
+  const JointType jt = joints[static_cast<size_t>(body)].type;
+  if (jt == JointType::free || jt == JointType::weld || jt == JointType::spherical)
+    r.fail(body_field, type + " acts on joint coordinates, and body '" +
+                           std::string(r.text_view(body_field)) + "' has a " + to_string(jt) +
+                           " joint; " + type +
+                           " is for revolute, prismatic, cylindrical and universal joints");
+  const int n = coordinate_count(jt);
+  const auto read = [&](const char* key, bool non_negative) -> VectorX {
+    const auto v = m.get(key);
+    if (!v) return VectorX::Zero(n);
+    VectorX value;
+    if (v->node.IsScalar()) {
+      value = VectorX::Constant(n, r.number(*v));
+    } else {
+      if (!v->node.IsSequence() || v->node.size() != static_cast<size_t>(n))
+        r.fail(*v, "expected a number or a list of " + std::to_string(n) +
+                       " numbers (one per coordinate of the " + to_string(jt) + " joint), got " +
+                       describe(v->node));
+      value = r.numbers(*v, n);
+    }
+    if (non_negative && (value.array() < 0.0).any()) r.fail(*v, std::string(key) + " must be >= 0");
+    return value;
+  };
+  JointLoad load;
+  load.body = body;
+  load.stiffness = read("stiffness", true);
+  load.damping = read("damping", true);
+  load.rest = read("rest", false);
+  load.value = read("value", false);
+  return load;
+}
+
+void read_force(const Reader& r, const Field& f, const BodyNames& names,
+                const std::vector<Joint>& joints,
+                std::vector<std::shared_ptr<const ForceElement>>& forces,
+                std::vector<JointLoad>& loads) {
   const Mapping m = r.mapping(f);
   // Keys no type knows first, so that a misspelt `type` is named as such.
   m.allow({"type", "body", "stiffness", "damping", "rotational_stiffness", "rotational_damping",
-           "value"});
+           "value", "rest"});
   const std::string type =
-      r.choice(m.require("type"), {"bushing", "force", "torque"}, "force type");
+      r.choice(m.require("type"), {"bushing", "force", "torque", "joint_spring", "joint_force"},
+               "force type");
   if (type == "bushing") {
     m.allow({"type", "body", "stiffness", "damping", "rotational_stiffness", "rotational_damping"});
+  } else if (type == "joint_spring") {
+    m.allow({"type", "body", "stiffness", "damping", "rest"});
   } else {
     m.allow({"type", "body", "value"});
   }
-  const int body = body_reference(r, m.require("body"), names);
+  const Field body_field = m.require("body");
+  const int body = body_reference(r, body_field, names);
+  if (type == "joint_spring" || type == "joint_force") {
+    loads.push_back(read_joint_load(r, m, type, body_field, body, joints));
+    return;
+  }
   if (type == "bushing") {
     const auto non_negative3 = [&](const char* key) -> Vector3 {
       const auto v = m.get(key);
@@ -1056,13 +1234,16 @@ std::shared_ptr<const ForceElement> read_force(const Reader& r, const Field& f,
       const auto v = m.get(key);
       return v ? r.non_negative(*v) : 0.0;
     };
-    return std::make_shared<Bushing>(body, non_negative3("stiffness"), non_negative3("damping"),
-                                     non_negative1("rotational_stiffness"),
-                                     non_negative1("rotational_damping"));
+    forces.push_back(std::make_shared<Bushing>(
+        body, non_negative3("stiffness"), non_negative3("damping"),
+        non_negative1("rotational_stiffness"), non_negative1("rotational_damping")));
+    return;
   }
   const Vector3 value = r.vector3(m.require("value"));
-  if (type == "force") return std::make_shared<ConstantForce>(body, value);
-  return std::make_shared<ConstantTorque>(body, value);
+  if (type == "force")
+    forces.push_back(std::make_shared<ConstantForce>(body, value));
+  else
+    forces.push_back(std::make_shared<ConstantTorque>(body, value));
 }
 
 SimulationSection read_simulation(const Reader& r, const Field& f) {
@@ -1117,20 +1298,50 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
 
   const BodyNames& names = bodies.names;
   std::vector<std::shared_ptr<const ForceElement>> forces;
+  std::vector<JointLoad> loads;
   if (const auto forces_field = top.get("forces"))
     for (const Field& item : r.list(*forces_field, "force entries"))
-      forces.push_back(read_force(r, item, names));
+      read_force(r, item, names, bodies.joints, forces, loads);
 
   SimulationSection simulation;
   if (const auto v = top.get("simulation")) simulation = read_simulation(r, *v);
 
-  State initial(static_cast<int>(bodies.specs.size()));
-  for (size_t i = 0; i < bodies.initial.size(); ++i)
-    if (bodies.initial[i]) read_initial(r, *bodies.initial[i], static_cast<int>(i), initial);
+  const int n = static_cast<int>(bodies.specs.size());
+  State initial(n);
+  // Per body: the joint coordinates and rates (identity for a spherical joint, else zero).
+  std::vector<VectorX> q(static_cast<size_t>(n)), z(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    const size_t i = static_cast<size_t>(k);
+    Joint& joint = bodies.joints[i];
+    q[i] = VectorX::Zero(coordinate_count(joint.type));
+    z[i] = VectorX::Zero(speed_count(joint.type));
+    if (joint.type == JointType::spherical) q[i][3] = 1.0;
+    if (bodies.initial[i]) read_initial(r, *bodies.initial[i], k, initial, joint, q[i], z[i]);
+  }
 
   try {
     Model model(std::move(bodies.specs), gravity, std::move(forces), name);
-    return ModelFile{std::move(model), std::move(initial), std::move(simulation), source_name};
+    ModelFile file{std::move(model), std::move(initial), std::move(simulation),
+                   source_name,      std::nullopt,       VectorX(),
+                   VectorX()};
+    if (bodies.constrained) {
+      file.joints.emplace(file.model, std::move(bodies.joints), std::move(loads));
+      const JointTree& tree = *file.joints;
+      file.joint_q = VectorX::Zero(tree.num_coordinates());
+      file.joint_z = VectorX::Zero(tree.num_speeds());
+      for (int k = 0; k < n; ++k) {
+        const size_t i = static_cast<size_t>(k);
+        if (tree.joint(k).type == JointType::free) {
+          // The notes' own coordinates and speeds: (eps_K, s'_K) and (w'_K, s'_K dot).
+          q[i] << file.initial.euler_parameters(k), file.initial.translation(k);
+          z[i] << file.initial.angular_velocity(k), file.initial.translation_rate(k);
+        }
+        file.joint_q.segment(tree.coordinate_offset(k), q[i].size()) = q[i];
+        file.joint_z.segment(tree.speed_offset(k), z[i].size()) = z[i];
+      }
+      joint_state(tree, file.joint_q, file.joint_z, file.initial);
+    }
+    return file;
   } catch (const ModelError& e) {
     // Everything the Model checks was checked above with a location; this is a safety net,
     // and the Model's message names the body or force entry. One line, as every message.

@@ -35,11 +35,12 @@ std::vector<std::string_view> fields(std::string_view line) {
 /// Opens the trajectory and checks that its header is this model's; `fail(line, problem)`
 /// builds the error.
 template <typename Fail>
-std::vector<std::string> open_and_check_header(const Model& model, const std::string& path,
-                                               std::ifstream& in, const Fail& fail) {
+std::vector<std::string> open_and_check_header(const Model& model, const JointTree* joints,
+                                               const std::string& path, std::ifstream& in,
+                                               const Fail& fail) {
   in.open(path, std::ios::binary);
   if (!in) throw fail(0, "cannot open the trajectory");
-  std::vector<std::string> columns = trajectory_columns(model);
+  std::vector<std::string> columns = trajectory_columns(model, joints);
   std::string line;
   if (!std::getline(in, line)) throw fail(0, "the trajectory is empty");
   if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -76,12 +77,13 @@ void parse_row(std::string_view line, int line_no, const std::vector<std::string
 
 }  // namespace
 
-TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t) {
+TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t,
+                                  const JointTree* joints) {
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
   std::ifstream in;
-  const std::vector<std::string> columns = open_and_check_header(model, path, in, fail);
+  const std::vector<std::string> columns = open_and_check_header(model, joints, path, in, fail);
   std::string line;
   // One pass: keep the row nearest to t and the times of its neighbours.
   const size_t width = columns.size();
@@ -126,8 +128,12 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
   out.line = best_line;
   out.state = State(model);
   const int n = model.num_bodies();
+  if (joints) {
+    out.q = VectorX::Zero(joints->num_coordinates());
+    out.z = VectorX::Zero(joints->num_speeds());
+  }
+  size_t b = 1;  // t, then 16 columns per body, each followed by its joint columns
   for (int k = 0; k < n; ++k) {
-    const size_t b = 1 + 16 * static_cast<size_t>(k);  // t, then 16 columns per body
     for (int i = 0; i < 4; ++i)
       out.state.euler_parameters(k)[i] = best[b + 3 + static_cast<size_t>(i)];
     for (int i = 0; i < 3; ++i) {
@@ -136,17 +142,31 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
       out.state.angular_velocity(k)[i] = best[b + 10 + ii];
       out.state.translation_rate(k)[i] = best[b + 13 + ii];
     }
+    if (joints) {
+      const JointType type = joints->joint(k).type;
+      const int o = joints->coordinate_offset(k), p = joints->speed_offset(k);
+      if (type == JointType::free) {  // the notes' own: (eps, s'), (w', s' dot)
+        for (int i = 0; i < 7; ++i) out.q[o + i] = best[b + 3 + static_cast<size_t>(i)];
+        for (int i = 0; i < 6; ++i) out.z[p + i] = best[b + 10 + static_cast<size_t>(i)];
+      } else if (type != JointType::weld) {
+        const int nq = coordinate_count(type), nz = speed_count(type);
+        for (int i = 0; i < nq; ++i) out.q[o + i] = best[b + 16 + static_cast<size_t>(i)];
+        for (int i = 0; i < nz; ++i) out.z[p + i] = best[b + 16 + static_cast<size_t>(nq + i)];
+        b += static_cast<size_t>(nq + nz);
+      }
+    }
+    b += 16;
   }
   return out;
 }
 
-Trajectory read_trajectory(const Model& model, const std::string& path) {
+Trajectory read_trajectory(const Model& model, const std::string& path, const JointTree* joints) {
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
   std::ifstream in;
   Trajectory out;
-  out.columns = open_and_check_header(model, path, in, fail);
+  out.columns = open_and_check_header(model, joints, path, in, fail);
   std::vector<double> row(out.columns.size());
   std::string line;
   int line_no = 1;

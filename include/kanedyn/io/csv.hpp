@@ -9,14 +9,17 @@
 #include <vector>
 
 #include "kanedyn/data.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
 
 namespace kanedyn::io {
 
 /// The header: t, then per body NAME.x NAME.y NAME.z NAME.e1..e4 NAME.s1..s3 NAME.w1..w3
-/// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns.
-std::vector<std::string> trajectory_columns(const Model& model);
+/// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns. With joints, a body
+/// whose joint is neither free nor weld adds NAME.j1..j<n> (its q) and NAME.jd1..jd<m> (its z)
+/// right after its own columns.
+std::vector<std::string> trajectory_columns(const Model& model, const JointTree* joints = nullptr);
 
 /// Throws std::runtime_error, naming the path and the problem, unless a trajectory can be
 /// written to `path`: not empty, not ending in '/', not a directory, in an existing writable
@@ -31,7 +34,7 @@ class TrajectoryWriter {
   /// name is refused, and the file is opened with O_EXCL | O_NOFOLLOW, so that nothing is
   /// ever written through a link planted there. Throws std::runtime_error naming the file
   /// when it cannot be created.
-  TrajectoryWriter(const Model& model, std::string path);
+  TrajectoryWriter(const Model& model, std::string path, const JointTree* joints = nullptr);
   /// Writes the buffered rows and closes the file; PATH.partial stays if finish() did not run.
   ~TrajectoryWriter();
   TrajectoryWriter(const TrajectoryWriter&) = delete;
@@ -43,7 +46,10 @@ class TrajectoryWriter {
   /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails,
   /// or if a number of the row is not finite (naming the time and the column; the row is
   /// not written).
-  void write_row(double t, const State& state, const Data& data, double energy);
+  /// With joints, q and z (the joint coordinates and speeds of the row) are required and
+  /// give the j and jd columns.
+  void write_row(double t, const State& state, const Data& data, double energy,
+                 const VectorX* q = nullptr, const VectorX* z = nullptr);
   /// Writes the buffered rows to the file (whole rows only).
   void flush();
   /// Flushes, closes and renames PATH.partial to PATH (replacing it). Throws on failure.
@@ -57,11 +63,13 @@ class TrajectoryWriter {
   /// Data rows that have reached the file: rows() once flushed; fewer after a failed write.
   long rows_in_file() const { return rows_in_file_; }
   const Model& model() const { return model_; }
+  const JointTree* joints() const { return joints_; }
 
  private:
   void write_out(const char* bytes, size_t size);
 
   const Model& model_;
+  const JointTree* joints_;
   std::string path_;
   /// Rows waiting for the file: buffer_[0, used_). Sized at construction for the flush
   /// threshold plus one longest row, so a row is written into it without checks.
@@ -83,7 +91,10 @@ class BackgroundTrajectoryWriter {
  public:
   /// Creates PATH.partial with its header (throws as TrajectoryWriter) and starts the thread.
   /// The queue holds up to about 4 MB of states, at least 2 and at most 256.
-  BackgroundTrajectoryWriter(const Model& model, std::string path);
+  /// With joints, rows are queued by the (t, state, q, z) overload and their energy adds the
+  /// joint springs' potentials.
+  BackgroundTrajectoryWriter(const Model& model, std::string path,
+                             const JointTree* joints = nullptr);
   /// Writes what is queued and closes (as close()), swallowing errors; PATH.partial stays if
   /// finish() did not run.
   ~BackgroundTrajectoryWriter();
@@ -93,6 +104,8 @@ class BackgroundTrajectoryWriter {
   /// Queues one row: t and a copy of the state (its Euler parameters as given). Throws
   /// std::invalid_argument for a state of another size than the model's.
   void write_row(double t, const State& state);
+  /// The same for a jointed model: q and z are queued too.
+  void write_row(double t, const State& state, const VectorX& q, const VectorX& z);
   /// Asks the thread to write the queued rows to the file now (returns at once).
   void flush();
   /// Writes every queued row, stops the thread, closes and renames PATH.partial to PATH.
@@ -107,6 +120,7 @@ class BackgroundTrajectoryWriter {
   long rows() const;
 
  private:
+  void queue(double t, const State& state, const VectorX& q, const VectorX& z);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

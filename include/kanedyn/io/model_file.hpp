@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/simulate.hpp"
 #include "kanedyn/state.hpp"
@@ -49,9 +50,18 @@ SimulationSettings simulation_settings(const SimulationSection& section);
 /// What a model file holds.
 struct ModelFile {
   Model model;
-  State initial;  ///< the `initial:` entries (Euler parameters normalized)
+  /// The notes' (x, y) at the start: the `initial:` entries (Euler parameters normalized), or,
+  /// for a jointed model, joint_state() of joint_q and joint_z.
+  State initial;
   SimulationSection simulation;
   std::string path;  ///< as given
+  /// The joints, when some body's `joint` is the mapping form with a type other than free;
+  /// empty for the notes' free tree (then nothing below is set).
+  std::optional<JointTree> joints;
+  VectorX
+      joint_q;  ///< initial q (the layout of JointTree): `initial.joint`, v1 keys of free bodies
+  VectorX joint_z;  ///< initial z: `initial.joint_rate`, v1 keys of free bodies
+  bool jointed() const { return joints.has_value(); }
 };
 
 /// Reads and validates a model file; throws ModelFileError.

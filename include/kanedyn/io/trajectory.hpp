@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
 
@@ -15,6 +16,9 @@ struct TrajectoryRow {
   double t = 0.0;
   State state;
   int line = 0;  ///< the row's line in the file (1 is the header)
+  /// Jointed models: the joint coordinates and speeds (j, jd columns; a free body's are its
+  /// e, s and w, sd columns); empty otherwise.
+  VectorX q, z;
 };
 
 /// The row of the trajectory at `path` whose time is nearest to t, when it lies within half
@@ -24,11 +28,13 @@ struct TrajectoryRow {
 /// file, the line and the problem: a header that is not this model's (the first differing
 /// column), a row with the wrong number of fields or a field that is not a number, no rows,
 /// or no row within half a step of t (naming the range of times, or the nearest rows).
-TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t);
+/// With joints, the header is trajectory_columns(model, joints) and q, z are filled.
+TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t,
+                                  const JointTree* joints = nullptr);
 
 /// A whole trajectory: every row, as written.
 struct Trajectory {
-  std::vector<std::string> columns;  ///< the header: trajectory_columns(model)
+  std::vector<std::string> columns;  ///< the header: trajectory_columns(model, joints)
   std::vector<double> values;        ///< row-major: rows() x columns.size()
   std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
   double at(std::size_t row, std::size_t column) const {
@@ -38,6 +44,7 @@ struct Trajectory {
 
 /// Every row of the trajectory at `path`. Throws std::runtime_error naming the file, the line
 /// and the problem, as read_trajectory_row does, and also for a time that goes backwards.
-Trajectory read_trajectory(const Model& model, const std::string& path);
+Trajectory read_trajectory(const Model& model, const std::string& path,
+                           const JointTree* joints = nullptr);
 
 }  // namespace kanedyn::io
