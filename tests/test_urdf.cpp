@@ -15,8 +15,11 @@
 #include <vector>
 
 #include "file_support.hpp"
+#include "kanedyn/data.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/urdf.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/kinematics.hpp"
 #include "kanedyn/rotation.hpp"
 
 namespace kanedyn::io {
@@ -538,6 +541,74 @@ TEST(Urdf, LoadModelFileReadsJointedUrdf) {
   EXPECT_EQ(g.model.num_bodies(), 2);
   const ModelFile arm = load_model_file(kanedyn::test::kExamples + "/urdf/arm.urdf");
   EXPECT_GE(arm.model.num_bodies(), 6);
+}
+
+namespace {
+
+/// A link frame in the inertial frame: its axes (columns) and origin.
+struct Pose {
+  Mat r;
+  Vec p;
+};
+/// URDF's forward kinematics, one joint: the child at `turn` (a rotation about `axis`) or
+/// `slide` (along it), the origin given by xyz and rpy.
+Pose child(const Pose& parent, const Vec& xyz, const Mat& origin, const Vec& axis = Vec::UnitX(),
+           double turn = 0.0, double slide = 0.0) {
+  const Mat r0 = parent.r * origin;
+  return {r0 * Eigen::AngleAxisd(turn, axis.normalized()).toRotationMatrix(),
+          parent.p + parent.r * xyz + r0 * axis.normalized() * slide};
+}
+
+/// Places every body of `file` at joint coordinates q and compares each with `expected`.
+void expect_poses(const ModelFile& file, const VectorX& q, const std::vector<Pose>& expected) {
+  ASSERT_TRUE(file.jointed());
+  State state(file.model);
+  joint_state(*file.joints, q, VectorX::Zero(file.joints->num_speeds()), state);
+  Data data(file.model);
+  compute_kinematics(file.model, state, data);
+  ASSERT_EQ(expected.size(), static_cast<std::size_t>(file.model.num_bodies()));
+  for (int k = 0; k < file.model.num_bodies(); ++k) {
+    // [R_K] maps inertial components to body-K ones: its transpose holds K's axes.
+    EXPECT_LT((data.kinematics.R[k].transpose() - expected[k].r).cwiseAbs().maxCoeff(), 1e-14)
+        << file.model.body(k).name;
+    EXPECT_LT((data.kinematics.p_O[k] - expected[k].p).norm(), 1e-14) << file.model.body(k).name;
+  }
+}
+
+}  // namespace
+
+TEST(Urdf, JointedModelPlacesEveryLinkAsUrdfDoes) {
+  REQUIRE_URDF();
+  REQUIRE_MAPPING_FORM();
+  {
+    const ModelFile f = load_model_file(kData + "joints.urdf");
+    ASSERT_TRUE(f.jointed());
+    VectorX q = f.joint_q;
+    const double a = 0.6, b = -1.1, d = 0.25;  // shoulder, elbow, slide
+    q[f.joints->coordinate_offset(2)] = a;
+    q[f.joints->coordinate_offset(3)] = b;
+    q[f.joints->coordinate_offset(4)] = d;
+    const Pose ground{Mat::Identity(), Vec::Zero()};
+    const Pose base = child(ground, Vec(0.1, -0.2, 0.3), rpy(0, 0, 0.5));
+    const Pose drone = child(base, Vec(1, 2, 3), rpy(0.1, 0.2, 0.3));
+    const Pose upper = child(base, Vec(0, 0, 0.2), rpy(0.3, -0.4, 1.2), Vec::UnitY(), a);
+    const Pose fore = child(upper, Vec(0.5, 0, 0), Mat::Identity(), Vec::UnitX(), b);
+    const Pose carriage =
+        child(fore, Vec(0.4, 0, 0), rpy(std::numbers::pi / 2, 0, 0), Vec(0, 0, 2), 0.0, d);
+    expect_poses(f, q, {base, drone, upper, fore, carriage});
+  }
+  {
+    const ModelFile f = load_model_file(kData + "flange.urdf");
+    VectorX q = f.joint_q;
+    const double a = 0.7, b = -0.4;  // j1, tool_joint
+    q[f.joints->coordinate_offset(0)] = a;
+    q[f.joints->coordinate_offset(1)] = b;
+    const Pose pedestal = child({Mat::Identity(), Vec::Zero()}, Vec(0, 0, 0.1), rpy(0, 0, 0.3));
+    const Pose link1 = child(pedestal, Vec(0.02, 0, 0.3), Mat::Identity(), Vec::UnitZ(), a);
+    const Pose flange = child(link1, Vec(0, 0.01, 0.4), rpy(0.1, 0.2, 0.785398163397));
+    const Pose tool = child(flange, Vec(0.05, 0, 0), rpy(0.2, 0, 0), Vec::UnitZ(), b);
+    expect_poses(f, q, {link1, tool});
+  }
 }
 
 // ---- kanedyn import ----
