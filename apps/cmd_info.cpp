@@ -1,4 +1,5 @@
-// `kanedyn info MODEL`: the topology of the notes (N, L(K), u_K, chains) and the total mass.
+// `kanedyn info MODEL`: the topology of the notes (N, L(K), u_K, chains) and the total mass;
+// for a jointed model each body's joint and its coordinates.
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -36,6 +37,38 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
     out << head;
     for (const int c : model.chain(k)) out << c + 1 << " -> ";
     out << "0\n";
+  }
+  if (file.jointed()) {
+    const JointTree& tree = *file.joints;
+    out << "\njoints: " << tree.num_coordinates() << " joint coordinates q, " << tree.num_speeds()
+        << " independent speeds z (y = [C] z)\n";
+    out << "  K  name               joint        q (initial)\n";
+    for (int k = 0; k < n; ++k) {
+      const Joint& jt = tree.joint(k);
+      char head[96];
+      std::snprintf(head, sizeof head, "%3d  %-18s %-12s ", k + 1, model.body(k).name.c_str(),
+                    to_string(jt.type));
+      out << head;
+      const int nq = coordinate_count(jt.type);
+      if (jt.type == JointType::free) {
+        out << "the notes' own: eps_K, s'_K (7)";
+      } else if (nq == 0) {
+        out << "none";
+      } else {
+        const char* what = jt.type == JointType::spherical     ? "Euler parameters of K rel. F"
+                           : jt.type == JointType::prismatic   ? "distance along the axis"
+                           : jt.type == JointType::cylindrical ? "angle, distance"
+                           : jt.type == JointType::universal   ? "angles about a1, a2"
+                                                               : "angle about the axis";
+        out << "[";
+        for (int i = 0; i < nq; ++i)
+          out << (i ? ", " : "") << file.joint_q[tree.coordinate_offset(k) + i];
+        out << "] (" << what << ")";
+      }
+      out << "\n";
+    }
+    if (!tree.loads().empty())
+      out << "joint loads (joint_spring, joint_force): " << tree.loads().size() << "\n";
   }
   out << "\ntotal mass = " << model.total_mass() << "\n";
   out << "roots (bodies attached to R):";

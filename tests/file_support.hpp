@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cstdlib>
 #include <filesystem>
@@ -16,6 +17,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "kanedyn/io/model_file.hpp"
 
 namespace kanedyn::test {
 
@@ -108,6 +111,76 @@ inline pid_t spawn_in(const fs::path& dir, std::initializer_list<std::string> ar
     _exit(97);
   execv(kTool.c_str(), argv.data());
   _exit(98);
+}
+
+/// `text` with its one occurrence of `from` replaced by `to`.
+inline std::string edit(const std::string& text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "'" << from << "' not in the text";
+  EXPECT_EQ(text.find(from, at + 1), std::string::npos) << "'" << from << "' not unique";
+  if (at == std::string::npos) return text;
+  return text.substr(0, at) + to + text.substr(at + from.size());
+}
+
+struct Location {
+  int line = 0, column = 0;  // 1-based
+};
+
+/// Where `needle` (with '^' marking the spot; the '^' is not part of the text) occurs in
+/// `text`, counted independently of the parser.
+inline Location locate(const std::string& text, const std::string& needle) {
+  const size_t caret = needle.find('^');
+  std::string plain = needle;
+  plain.erase(caret, 1);
+  const size_t at = text.find(plain);
+  EXPECT_NE(at, std::string::npos) << "'" << plain << "' not in the text";
+  EXPECT_EQ(text.find(plain, at + 1), std::string::npos) << "'" << plain << "' not unique";
+  const size_t pos = at + caret;
+  Location loc;
+  loc.line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + pos, '\n'));
+  const size_t line_start = text.rfind('\n', pos == 0 ? 0 : pos - 1);
+  loc.column = 1 + static_cast<int>(
+                       pos - (line_start == std::string::npos || pos == 0 ? 0 : line_start + 1));
+  return loc;
+}
+
+/// A model text that must be refused, and how.
+struct BadCase {
+  std::string label;
+  std::string text;
+  std::string at;        // where the error points ('^' marks the spot); "" for no location
+  std::string key_path;  // "" when the error concerns the whole file
+  std::vector<std::string> words;  // parts of the problem that must appear
+};
+
+/// Expects parse_model_file to refuse the case's text with one line naming the file, the
+/// place (line and column of '^'), the key path and the problem's words.
+inline void expect_refused(const BadCase& c) {
+  SCOPED_TRACE(c.label);
+  try {
+    io::parse_model_file(c.text, "bad.yaml");
+    ADD_FAILURE() << "accepted";
+  } catch (const io::ModelFileError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    std::string prefix = "bad.yaml";
+    if (!c.at.empty()) {
+      const Location loc = locate(c.text, c.at);
+      prefix += ":" + std::to_string(loc.line) + ":" + std::to_string(loc.column);
+      EXPECT_EQ(e.line(), loc.line);
+      EXPECT_EQ(e.column(), loc.column);
+    } else {
+      EXPECT_EQ(e.line(), 0);
+      EXPECT_EQ(e.column(), 0);
+    }
+    prefix += ": ";
+    if (!c.key_path.empty()) prefix += c.key_path + ": ";
+    EXPECT_EQ(what.substr(0, prefix.size()), prefix) << what;
+    EXPECT_EQ(e.file(), "bad.yaml");
+    EXPECT_EQ(e.key_path(), c.key_path);
+    for (const std::string& w : c.words)
+      EXPECT_NE(e.problem().find(w), std::string::npos) << "'" << w << "' not in: " << what;
+  }
 }
 
 }  // namespace kanedyn::test

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -70,31 +71,41 @@ long stack_size(const System& s) {
   return static_cast<long>(std::min(2.0e9, 1.0e6 + 100.0 * nv + 16.0 * ancestor_dofs(s, 1)));
 }
 
+// One body's element: its opening tag, inertial and joints (the children and the closing tag
+// are added by Mjcf).
+std::string inertial(const Body& b) {
+  const Mat3& I = b.inertia;
+  std::ostringstream x;
+  x << "<inertial pos=\"" << vec(b.com) << "\" mass=\"" << num(b.mass) << "\" ";
+  if (I[1] == 0 && I[2] == 0 && I[5] == 0)
+    x << "diaginertia=\"" << vec({I[0], I[4], I[8]}) << "\"/>\n";
+  else
+    x << "fullinertia=\"" << num(I[0]) << ' ' << num(I[4]) << ' ' << num(I[8]) << ' ' << num(I[1])
+      << ' ' << num(I[2]) << ' ' << num(I[5]) << "\"/>\n";
+  return x.str();
+}
+
+// The free body's joints of the comment at the top: three slides, then a ball, with the
+// bushing as their springs and dampers.
+std::string free_joints(const Body& b, const std::string& id) {
+  std::ostringstream x;
+  static const char* axes[3] = {"1 0 0", "0 1 0", "0 0 1"};
+  for (int i = 0; i < 3; ++i)
+    x << "<joint name=\"" << id << "_s" << i << "\" type=\"slide\" axis=\"" << axes[i]
+      << "\" stiffness=\"" << num(b.k[static_cast<size_t>(i)]) << "\" damping=\""
+      << num(b.c[static_cast<size_t>(i)]) << "\"/>\n";
+  x << "<joint name=\"" << id << "_r\" type=\"ball\" stiffness=\"" << num(b.kr) << "\" damping=\""
+    << num(b.cr) << "\"/>\n";
+  return x.str();
+}
+
 struct Mjcf {
-  const System& s;
   std::vector<std::vector<int>> children;
+  std::function<std::string(int)> element;                 // body k's element, as above
   std::vector<std::pair<std::string, std::string>> files;  // (name, text); files[0] is the model
 
   void body(std::string& xml, int k, int depth) {
-    const Body& b = s.bodies[static_cast<size_t>(k)];
-    const Mat3& I = b.inertia;
-    const std::string id = name("b%zu", static_cast<size_t>(k));
-    std::ostringstream x;
-    x << "<body name=\"" << id << "\" pos=\"" << vec(b.joint) << "\">\n"
-      << "<inertial pos=\"" << vec(b.com) << "\" mass=\"" << num(b.mass) << "\" ";
-    if (I[1] == 0 && I[2] == 0 && I[5] == 0)
-      x << "diaginertia=\"" << vec({I[0], I[4], I[8]}) << "\"/>\n";
-    else
-      x << "fullinertia=\"" << num(I[0]) << ' ' << num(I[4]) << ' ' << num(I[8]) << ' ' << num(I[1])
-        << ' ' << num(I[2]) << ' ' << num(I[5]) << "\"/>\n";
-    static const char* axes[3] = {"1 0 0", "0 1 0", "0 0 1"};
-    for (int i = 0; i < 3; ++i)
-      x << "<joint name=\"" << id << "_s" << i << "\" type=\"slide\" axis=\"" << axes[i]
-        << "\" stiffness=\"" << num(b.k[static_cast<size_t>(i)]) << "\" damping=\""
-        << num(b.c[static_cast<size_t>(i)]) << "\"/>\n";
-    x << "<joint name=\"" << id << "_r\" type=\"ball\" stiffness=\"" << num(b.kr) << "\" damping=\""
-      << num(b.cr) << "\"/>\n";
-    xml += x.str();
+    xml += element(k);
     const std::vector<int>& kids = children[static_cast<size_t>(k)];
     if (depth >= kMaxDepth && !kids.empty()) {
       const size_t slot = files.size();  // taken before the recursion names deeper files
@@ -110,29 +121,39 @@ struct Mjcf {
     xml += "</body>\n";
   }
 
-  explicit Mjcf(const System& system) : s(system), children(system.bodies.size()) {
-    for (size_t k = 0; k < s.bodies.size(); ++k)
-      if (s.bodies[k].parent >= 0)
-        children[static_cast<size_t>(s.bodies[k].parent)].push_back(static_cast<int>(k));
-    std::string model = s.name;  // as an XML attribute
+  Mjcf(const std::string& title, const Vec3& gravity, const std::vector<Body>& bodies, long stack,
+       std::function<std::string(int)> body_element)
+      : children(bodies.size()), element(std::move(body_element)) {
+    for (size_t k = 0; k < bodies.size(); ++k)
+      if (bodies[k].parent >= 0)
+        children[static_cast<size_t>(bodies[k].parent)].push_back(static_cast<int>(k));
+    std::string model = title;  // as an XML attribute
     for (char& ch : model)
       if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-') ch = '_';
     files.emplace_back("kanedyn_peer.xml", "");
     std::string xml = "<mujoco model=\"" + model + "\">\n<compiler angle=\"radian\"/>\n" +
-                      "<option gravity=\"" + vec(s.gravity) +
+                      "<option gravity=\"" + vec(gravity) +
                       "\">\n<flag contact=\"disable\"/>\n</option>\n";
-    if (const long stack = stack_size(s); stack > 0)
-      xml += "<size nstack=\"" + std::to_string(stack) + "\"/>\n";
+    if (stack > 0) xml += "<size nstack=\"" + std::to_string(stack) + "\"/>\n";
     xml += "<worldbody>\n";
-    for (size_t k = 0; k < s.bodies.size(); ++k)
-      if (s.bodies[k].parent < 0) body(xml, static_cast<int>(k), 1);
+    for (size_t k = 0; k < bodies.size(); ++k)
+      if (bodies[k].parent < 0) body(xml, static_cast<int>(k), 1);
     xml += "</worldbody>\n</mujoco>\n";
     files[0].second = std::move(xml);
   }
 };
 
-mjModel* load(const System& system) {
-  const Mjcf mjcf(system);
+// The free-body model of the comment at the top.
+Mjcf free_mjcf(const System& s) {
+  return Mjcf(s.name, s.gravity, s.bodies, stack_size(s), [&s](int k) {
+    const Body& b = s.bodies[static_cast<size_t>(k)];
+    const std::string id = name("b%zu", static_cast<size_t>(k));
+    return "<body name=\"" + id + "\" pos=\"" + vec(b.joint) + "\">\n" + inertial(b) +
+           free_joints(b, id);
+  });
+}
+
+mjModel* load(const Mjcf& mjcf) {
   auto vfs = std::make_unique<mjVFS>();  // large (file tables): keep it off the stack
   mj_defaultVFS(vfs.get());
   for (const auto& [file, text] : mjcf.files) {
@@ -155,7 +176,7 @@ void constant_loads(const mjModel* m, mjData* d);
 
 class MujocoEngine final : public Engine {
  public:
-  explicit MujocoEngine(const System& system) : system_(system), m_(load(system)) {
+  explicit MujocoEngine(const System& system) : system_(system), m_(load(free_mjcf(system))) {
     d_ = mj_makeData(m_);
     const size_t n = system.bodies.size();
     body_id_.resize(n);
@@ -343,7 +364,231 @@ void constant_loads(const mjModel* m, mjData* d) {
   if (g_current) g_current->add_constant_loads(m, d);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Jointed trees. Body K is nested in J at pos = q'_K (plus the weld's translation) with
+// quat = the joint frame F, so that K's frame is F at zero joint coordinates; the joints then
+// act in F's axes in the order MuJoCo composes them (each one in the frame the previous ones
+// left): revolute one hinge about n; prismatic one slide along n; cylindrical a hinge then a
+// slide along n (they commute); universal a hinge about a1 then one about a2, which MuJoCo
+// carries by the first (a body with two hinges: MuJoCo's universal joint); spherical a ball
+// (qpos the quaternion of K relative to F, qvel w_rel in K components: kanedyn's q and z);
+// weld none. Free joints (roots) are the three slides and the ball of the free-body model.
+// Joint springs and dampers are MuJoCo's (stiffness, springref, damping); constant joint
+// forces go into qfrc_applied.
+class MujocoJointedEngine final : public JointedEngine {
+ public:
+  explicit MujocoJointedEngine(const JointedSystem& system)
+      : system_(system), m_(load(jointed_mjcf(system))) {
+    d_ = mj_makeData(m_);
+    const size_t n = system.bodies.size();
+    qpos_.assign(static_cast<size_t>(m_->nq), 0.0);
+    qvel_.assign(static_cast<size_t>(m_->nv), 0.0);
+    dofs_.resize(n);
+    body_id_.resize(n);
+    for (size_t k = 0; k < n; ++k) {
+      body_id_[k] = mj_name2id(m_, mjOBJ_BODY, name("b%zu", k).c_str());
+      const JointSpec& j = system.joints[k];
+      const double* q = system.q.data() + system.q_offset[k];
+      const double* z = system.z.data() + system.z_offset[k];
+      auto joint_id = [&](int i) {
+        const int id = mj_name2id(m_, mjOBJ_JOINT, name("b%zu_j%d", k, i).c_str());
+        if (id < 0) throw std::logic_error("MuJoCo: joint " + name("b%zu_j%d", k, i) + " missing");
+        return id;
+      };
+      if (j.type == JointKind::free) {
+        // qpos: slides s'_K, then the ball eps_K (scalar first); dofs: slides, then the ball.
+        for (int i = 0; i < 3; ++i) {
+          const int id = joint_id(i);
+          qpos_[static_cast<size_t>(m_->jnt_qposadr[id])] = q[4 + i];
+          qvel_[static_cast<size_t>(m_->jnt_dofadr[id])] = z[3 + i];
+        }
+        const int ball = joint_id(3);
+        set_quaternion(m_->jnt_qposadr[ball], q);
+        for (int i = 0; i < 3; ++i) qvel_[static_cast<size_t>(m_->jnt_dofadr[ball] + i)] = z[i];
+        // kanedyn's z order: the ball's three, then the slides'.
+        for (int i = 0; i < 3; ++i) dofs_[k].push_back(m_->jnt_dofadr[ball] + i);
+        for (int i = 0; i < 3; ++i) dofs_[k].push_back(m_->jnt_dofadr[joint_id(i)]);
+      } else if (j.type == JointKind::spherical) {
+        const int ball = joint_id(0);
+        set_quaternion(m_->jnt_qposadr[ball], q);
+        for (int i = 0; i < 3; ++i) {
+          qvel_[static_cast<size_t>(m_->jnt_dofadr[ball] + i)] = z[i];
+          dofs_[k].push_back(m_->jnt_dofadr[ball] + i);
+        }
+      } else {
+        const int count = system.z_offset[k + 1] - system.z_offset[k];
+        for (int i = 0; i < count; ++i) {
+          const int id = joint_id(i);
+          qpos_[static_cast<size_t>(m_->jnt_qposadr[id])] = q[i];
+          qvel_[static_cast<size_t>(m_->jnt_dofadr[id])] = z[i];
+          dofs_[k].push_back(m_->jnt_dofadr[id]);
+          d_->qfrc_applied[m_->jnt_dofadr[id]] = j.value[static_cast<size_t>(i)];
+        }
+      }
+    }
+  }
+  ~MujocoJointedEngine() override {
+    if (integration_) mj_deleteData(integration_);
+    mj_deleteData(d_);
+    mj_deleteModel(m_);
+  }
+  MujocoJointedEngine(const MujocoJointedEngine&) = delete;
+  MujocoJointedEngine& operator=(const MujocoJointedEngine&) = delete;
+
+  void evaluate() override {
+    mju_copy(d_->qpos, qpos_.data(), m_->nq);
+    mju_copy(d_->qvel, qvel_.data(), m_->nv);
+    mj_forward(m_, d_);
+  }
+
+  std::vector<double> zdot() override {
+    std::vector<double> out(system_.z.size());
+    for (size_t k = 0; k < dofs_.size(); ++k)
+      for (size_t i = 0; i < dofs_[k].size(); ++i)
+        out[static_cast<size_t>(system_.z_offset[k]) + i] = d_->qacc[dofs_[k][i]];
+    return out;
+  }
+
+  IntegratorInfo start(const IntegratorSettings& settings) override {
+    IntegratorInfo info;
+    if (settings.method.empty() || settings.method == "rk4") {
+      m_->opt.integrator = mjINT_RK4;
+      info = {"RK4 (mjINT_RK4)", true, 4.0};
+    } else if (settings.method == "euler") {
+      m_->opt.integrator = mjINT_EULER;
+      info = {"semi-implicit Euler (mjINT_EULER)", true, 1.0};
+    } else {
+      throw std::invalid_argument("MuJoCo: unknown integrator '" + settings.method +
+                                  "' (rk4, euler)");
+    }
+    if (!(settings.step > 0)) throw std::invalid_argument("MuJoCo: the step must be > 0");
+    step_ = settings.step;
+    info.description += ", step " + num_short(step_);
+    if (!integration_) integration_ = mj_makeData(m_);
+    mj_resetData(m_, integration_);
+    mju_copy(integration_->qpos, qpos_.data(), m_->nq);
+    mju_copy(integration_->qvel, qvel_.data(), m_->nv);
+    mju_copy(integration_->qfrc_applied, d_->qfrc_applied, m_->nv);
+    time_ = 0;
+    steps_ = 0;
+    return info;
+  }
+
+  void advance_to(double t) override {
+    const double span = t - time_;
+    const long n = equal_steps(span, step_);
+    m_->opt.timestep = span / static_cast<double>(n);
+    for (long i = 0; i < n; ++i) mj_step(m_, integration_);
+    for (int i = 0; i < mjNWARNING; ++i)
+      if (integration_->warning[i].number > 0)
+        throw std::runtime_error("MuJoCo: warning " + std::to_string(i) + " during integration");
+    time_ = t;
+    steps_ += n;
+  }
+
+  std::vector<BodyPose> pose() override {
+    mjData* d = integration_;
+    mj_forward(m_, d);
+    std::vector<BodyPose> out(system_.bodies.size());
+    for (size_t k = 0; k < out.size(); ++k) {
+      const int b = body_id_[k];
+      mjtNum v[6];
+      mj_objectVelocity(m_, d, mjOBJ_BODY, b, v, 0);  // at xipos = G_K, world axes
+      for (size_t i = 0; i < 3; ++i) {
+        out[k].p_G[i] = d->xipos[3 * b + static_cast<int>(i)];
+        out[k].w[i] = v[i];
+        out[k].v_G[i] = v[3 + i];
+      }
+      for (size_t i = 0; i < 9; ++i) out[k].R[i] = d->xmat[9 * b + static_cast<int>(i)];
+    }
+    return out;
+  }
+
+  long steps() const override { return steps_; }
+
+ private:
+  // kanedyn's Euler parameters (e1, e2, e3, e4) as MuJoCo's quaternion (w, x, y, z).
+  void set_quaternion(int adr, const double* e) {
+    const double wxyz[4] = {e[3], e[0], e[1], e[2]};
+    for (int i = 0; i < 4; ++i) qpos_[static_cast<size_t>(adr + i)] = wxyz[i];
+  }
+
+  static std::string joint_element(const std::string& id, int i, const char* type, const Vec3& axis,
+                                   const JointSpec& j, size_t c) {
+    return "<joint name=\"" + id + "_j" + std::to_string(i) + "\" type=\"" + type + "\" axis=\"" +
+           vec(axis) + "\" stiffness=\"" + num(j.stiffness[c]) + "\" springref=\"" +
+           num(j.rest[c]) + "\" damping=\"" + num(j.damping[c]) + "\"/>\n";
+  }
+
+  static Mjcf jointed_mjcf(const JointedSystem& s) {
+    return Mjcf(s.name, s.gravity, s.bodies, 0, [&s](int k) {
+      const auto i = static_cast<size_t>(k);
+      const Body& b = s.bodies[i];
+      const JointSpec& j = s.joints[i];
+      const std::string id = name("b%zu", i);
+      Vec3 pos = b.joint;
+      if (j.type == JointKind::weld)
+        for (size_t r = 0; r < 3; ++r) pos[r] += j.translation[r];
+      std::string x = "<body name=\"" + id + "\" pos=\"" + vec(pos) + "\"";
+      if (j.type != JointKind::free)
+        x += " quat=\"" + num(j.frame[0]) + " " + vec({j.frame[1], j.frame[2], j.frame[3]}) + "\"";
+      x += ">\n" + inertial(b);
+      switch (j.type) {
+        case JointKind::free: {
+          // free_joints() names them _s0.._s2, _r; here _j0.._j3.
+          std::string f = free_joints(b, id);
+          for (int c = 0; c < 3; ++c) {
+            const std::string from = id + "_s" + std::to_string(c) + "\"";
+            f.replace(f.find(from), from.size(), id + "_j" + std::to_string(c) + "\"");
+          }
+          f.replace(f.find(id + "_r\""), id.size() + 3, id + "_j3\"");
+          x += f;
+          break;
+        }
+        case JointKind::weld:
+          break;
+        case JointKind::revolute:
+          x += joint_element(id, 0, "hinge", j.axis, j, 0);
+          break;
+        case JointKind::prismatic:
+          x += joint_element(id, 0, "slide", j.axis, j, 0);
+          break;
+        case JointKind::cylindrical:
+          x += joint_element(id, 0, "hinge", j.axis, j, 0) +
+               joint_element(id, 1, "slide", j.axis, j, 1);
+          break;
+        case JointKind::universal:
+          x += joint_element(id, 0, "hinge", j.axis, j, 0) +
+               joint_element(id, 1, "hinge", j.axis2, j, 1);
+          break;
+        case JointKind::spherical:
+          x += "<joint name=\"" + id + "_j0\" type=\"ball\"/>\n";
+          break;
+      }
+      return x;
+    });
+  }
+
+  JointedSystem system_;
+  mjModel* m_;
+  mjData* d_ = nullptr;
+  std::vector<int> body_id_;
+  std::vector<std::vector<int>> dofs_;  // per body, MuJoCo's dof of each entry of kanedyn's z_K
+  std::vector<mjtNum> qpos_, qvel_;
+  mjData* integration_ = nullptr;
+  double step_ = 0, time_ = 0;
+  long steps_ = 0;
+};
+
 }  // namespace
+
+JointedEngineInfo mujoco_jointed_engine() {
+  const EngineInfo free = mujoco_engine();
+  return {free.name, free.version, [](const JointedSystem&) { return std::string(); },
+          [](const JointedSystem& s) -> std::unique_ptr<JointedEngine> {
+            return std::make_unique<MujocoJointedEngine>(s);
+          }};
+}
 
 EngineInfo mujoco_engine() {
   const int v = mj_version();

@@ -147,4 +147,71 @@ inline long equal_steps(double span, double step) {
   return std::max(1L, static_cast<long>(std::ceil(span / step * (1 - 1e-12))));
 }
 
+// ---------------------------------------------------------------------------------------------
+// Jointed trees (kanedyn::JointTree): the same bodies with one joint each, in the joint
+// coordinates q and independent speeds z of kanedyn's layout (include/kanedyn/joints.hpp).
+
+enum class JointKind { free, weld, revolute, prismatic, cylindrical, universal, spherical };
+
+/// The joint of body K at Q_K, relative to its lower body J, in plain numbers.
+struct JointSpec {
+  JointKind type = JointKind::free;
+  Quat frame{1, 0, 0, 0};  ///< F relative to J (Hamilton: maps F components to J components)
+  Vec3 axis{1, 0, 0};      ///< revolute, prismatic, cylindrical axis; universal a1 (unit, F)
+  Vec3 axis2{0, 1, 0};     ///< universal a2 (unit, F components, perpendicular to a1)
+  Vec3 translation{};      ///< weld: the constant s'_K, body-J components
+  /// Joint load on coordinate i (revolute, prismatic, cylindrical, universal):
+  /// Q_i = value_i - stiffness_i (q_i - rest_i) - damping_i dq_i/dt.
+  std::array<double, 2> stiffness{}, damping{}, rest{}, value{};
+};
+
+/// A jointed tree at a state. Free joints are roots only (a free joint is then the notes' own
+/// free body: z = (w'_K body-K components, s'_K dot inertial)), and only they carry the
+/// bushing fields of Body.
+struct JointedSystem {
+  std::string name;
+  std::vector<Body> bodies;
+  std::vector<JointSpec> joints;
+  Vec3 gravity{};
+  std::vector<double> q, z;             ///< kanedyn's joint coordinates and speeds
+  std::vector<int> q_offset, z_offset;  ///< per body, N + 1 entries
+};
+
+/// One engine holding one JointedSystem at its state.
+class JointedEngine {
+ public:
+  virtual ~JointedEngine() = default;
+  /// One forward-dynamics evaluation at the state (the timed call).
+  virtual void evaluate() = 0;
+  /// The engine's joint accelerations after evaluate(), mapped to kanedyn's z order and
+  /// convention (d/dt of kanedyn's z).
+  virtual std::vector<double> zdot() = 0;
+  /// Trajectories, as Engine's: integrated from the system's state at t = 0.
+  virtual IntegratorInfo start(const IntegratorSettings&) { return {}; }
+  virtual void advance_to(double t) { (void)t; }
+  virtual std::vector<BodyPose> pose() { return {}; }
+  virtual long steps() const { return 0; }
+};
+
+struct JointedEngineInfo {
+  std::string name;
+  std::string version;
+  /// Why the engine cannot build this system, or "" when it can.
+  std::string (*unsupported)(const JointedSystem&);
+  std::unique_ptr<JointedEngine> (*make)(const JointedSystem&);
+};
+
+JointedEngineInfo simbody_jointed_engine();
+JointedEngineInfo mujoco_jointed_engine();
+#ifdef KANEDYN_PEERS_HAVE_DART
+JointedEngineInfo dart_jointed_engine();
+#endif
+
+/// The first free joint that is not on a root, or -1 (the peers' free joints are roots).
+inline int nonroot_free_joint(const JointedSystem& s) {
+  for (size_t k = 0; k < s.joints.size(); ++k)
+    if (s.joints[k].type == JointKind::free && s.bodies[k].parent >= 0) return static_cast<int>(k);
+  return -1;
+}
+
 }  // namespace peers

@@ -1,6 +1,8 @@
 // kanedyn_peers: one forward-dynamics evaluation of the same model at the same state in
 // kanedyn (recursive and Kane routes), Simbody, MuJoCo and DART; median time per evaluation,
-// ratios to kanedyn, and agreement of the body accelerations. See docs/performance.md.
+// ratios to kanedyn, and agreement of the body accelerations. The jointed sections
+// (jointed_section.hpp) do the same for jointed trees with kanedyn's JointDynamics, and time
+// it per body on revolute chains. See docs/performance.md.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -20,6 +22,7 @@
 #include <vector>
 
 #include "describe.hpp"
+#include "jointed_section.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
@@ -27,12 +30,19 @@
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/testing/generate.hpp"
 #include "peer.hpp"
+#include "timing.hpp"
 
 namespace {
 
 using kanedyn::Matrix3;
 using kanedyn::Vector3;
 using kanedyn::Vector4;
+using peers::format_ns;
+using peers::format_ratio;
+using peers::format_sci;
+using peers::Runner;
+using peers::seconds_since;
+using peers::Timing;
 using Clock = std::chrono::steady_clock;
 
 struct Options {
@@ -48,6 +58,11 @@ struct Options {
   double max_memory_gb = 0;      // 0: half of MemAvailable
   double tolerance = 1e-8;
   double backward_tolerance = 1e-10;
+  std::vector<std::string> sections{"free", "jointed", "scaling"};
+  int jointed_chain = 512;
+  int jointed_states = 4;
+  std::vector<int> scaling_sizes{64, 512, 4096};
+  double joint_tolerance = 1e-10;
 };
 
 struct Case {
@@ -149,104 +164,12 @@ Agreement compare(const std::vector<peers::BodyMotion>& x,
           std::max(relative_difference(x, ref, &M::a_G), relative_difference(x, ref, &M::alpha))};
 }
 
-struct Timing {
-  double median_ns = 0, min_ns = 0;
-  long evals = 0;
-};
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-// One column of one case while it is timed: its batch function and the samples so far.
-// A batch lasts about opt.batch_seconds (at least one evaluation), so that the clock's own cost
-// and the cache refill after the other engines' batches do not count.
-struct Runner {
-  std::function<void(long)> run_batch;  // runs that many evaluations
-  double first = 0;                     // seconds of the first (untimed, cold) evaluation
-  long batch = 1;
-  std::vector<double> per_eval_ns;  // one sample per batch
-  double spent = 0;                 // seconds
-  bool active = true;
-};
-
-// Times all columns of a case in interleaved rounds, one batch of each per round, so that a
-// slow spell of the shared machine hits every engine alike and the ratios stay fair. Each
-// column first warms up (up to 0.05 s) and sizes its batch from the warm time per evaluation.
-// A column stops after opt.reps batches or opt.max_seconds of its own time (at least one batch).
-void time_interleaved(std::vector<Runner*>& runners, const Options& opt) {
-  const double warm_up = std::min(0.05, 0.1 * opt.max_seconds);
-  for (Runner* r : runners) {
-    double per_eval = r->first;
-    if (r->first < warm_up) {
-      long count = 0;
-      const auto t0 = Clock::now();
-      while (seconds_since(t0) < warm_up) {
-        r->run_batch(1);
-        ++count;
-      }
-      per_eval = seconds_since(t0) / static_cast<double>(count);
-    }
-    r->batch = std::max(1L, std::lround(opt.batch_seconds / std::max(per_eval, 1e-9)));
-  }
-  for (bool any = true; any;) {
-    any = false;
-    for (Runner* r : runners) {
-      if (!r->active) continue;
-      const auto t0 = Clock::now();
-      r->run_batch(r->batch);
-      const double dt = seconds_since(t0);
-      r->per_eval_ns.push_back(dt * 1e9 / static_cast<double>(r->batch));
-      r->spent += dt;
-      r->active = static_cast<int>(r->per_eval_ns.size()) < opt.reps && r->spent < opt.max_seconds;
-      any = any || r->active;
-    }
-  }
-}
-
-Timing statistics(Runner& r) {
-  Timing t;
-  t.evals = r.batch * static_cast<long>(r.per_eval_ns.size());
-  auto& v = r.per_eval_ns;
-  t.min_ns = *std::min_element(v.begin(), v.end());
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  t.median_ns = v[v.size() / 2];
-  return t;
-}
-
 struct Cell {
   std::optional<Timing> timing;
   Agreement agreement;
   std::vector<double> backward;  // engine's and kanedyn's backward errors, if the engine has them
   std::string note;              // why it was skipped
 };
-
-std::string format_ns(double ns) {
-  std::ostringstream s;
-  if (ns >= 1e9) {
-    s << std::setprecision(3) << ns * 1e-9 << "e9";
-    return s.str();
-  }
-  const auto v = static_cast<long long>(std::llround(ns));
-  std::string digits = std::to_string(v), out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
-
-std::string format_sci(double x) {
-  std::ostringstream s;
-  s << std::scientific << std::setprecision(1) << x;
-  return s.str();
-}
-
-std::string format_ratio(double r) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(r < 10 ? 2 : (r < 100 ? 1 : 0)) << r;
-  return s.str();
-}
 
 double mem_available_bytes() {
   std::ifstream in("/proc/meminfo");
@@ -297,89 +220,11 @@ std::string machine_model() {
   return "unknown CPU";
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options opt;
-  CLI::App app{"Forward dynamics of the same models in kanedyn, Simbody, MuJoCo and DART"};
-  app.add_option("--models", opt.models,
-                 "Models to run: eight-body, chain-N, tree-N (default: all)")
-      ->delimiter(',');
-  app.add_option("--sizes", opt.sizes, "N of the chains and random trees")
-      ->delimiter(',')
-      ->capture_default_str();
-  app.add_option("--engines", opt.engines, "recursive, kane, simbody, mujoco, dart")
-      ->delimiter(',')
-      ->capture_default_str();
-  app.add_option("--eight-body", opt.eight_body, "Model file of the eight-body example")
-      ->capture_default_str();
-  app.add_option("--seed", opt.seed, "Seed of the generated models")->capture_default_str();
-  app.add_option("--reps", opt.reps, "Timed batches per engine and model (at most)")
-      ->capture_default_str();
-  app.add_option("--max-seconds", opt.max_seconds,
-                 "Timing budget per engine and model, s (at least one batch is timed)")
-      ->capture_default_str();
-  app.add_option("--batch-seconds", opt.batch_seconds,
-                 "Length of one timed batch of evaluations, s (engines take turns batch by batch)")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  app.add_option("--max-eval-seconds", opt.max_eval_seconds,
-                 "Skip a case when one evaluation is predicted (from the engine's smaller "
-                 "measured cases) to take longer, s")
-      ->capture_default_str();
-  app.add_option("--max-memory-gb", opt.max_memory_gb,
-                 "Skip a case when the engine's estimated memory exceeds this (0: half of "
-                 "MemAvailable)")
-      ->capture_default_str();
-  app.add_option("--tolerance", opt.tolerance,
-                 "Largest accepted relative difference of body accelerations")
-      ->capture_default_str();
-  app.add_option("--backward-tolerance", opt.backward_tolerance,
-                 "Accept a larger difference when kanedyn's accelerations satisfy the engine's "
-                 "own M qacc = f to this componentwise backward error (ill-conditioned M)")
-      ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
-  if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
-
-  std::vector<EngineColumn> columns;
-  for (const std::string& e : opt.engines) {
-    if (e == "recursive")
-      columns.push_back({e, "kanedyn recursive", std::nullopt});
-    else if (e == "kane")
-      columns.push_back({e, "kanedyn kane", std::nullopt});
-    else if (e == "simbody")
-      columns.push_back({e, "", peers::simbody_engine()});
-    else if (e == "mujoco")
-      columns.push_back({e, "", peers::mujoco_engine()});
-#ifdef KANEDYN_PEERS_HAVE_DART
-    else if (e == "dart")
-      columns.push_back({e, "", peers::dart_engine()});
-#else
-    else if (e == "dart")
-      std::cerr << "kanedyn_peers: built without DART; dart skipped\n";
-#endif
-    else {
-      std::cerr << "kanedyn_peers: unknown engine '" << e << "'\n";
-      return 1;
-    }
-    if (columns.back().info)
-      columns.back().title = columns.back().info->name + " " + columns.back().info->version;
-  }
-  const bool have_recursive =
-      std::find(opt.engines.begin(), opt.engines.end(), "recursive") != opt.engines.end();
-
-  {
-    const std::time_t now = std::time(nullptr);
-    char date[32];
-    std::strftime(date, sizeof date, "%Y-%m-%d %H:%M", std::localtime(&now));
-    std::cout << "# kanedyn_peers, " << date << ", " << machine_model() << "\n"
-              << "# median ns per forward-dynamics evaluation at the model's initial state; "
-              << "budget " << opt.max_seconds << " s per cell, skip above " << opt.max_eval_seconds
-              << " s/eval or " << std::setprecision(3) << opt.max_memory_gb << " GB\n"
-              << std::flush;
-  }
-
+// The free-body section: every engine on the free-body models (the tables of
+// docs/performance.md, "Results"). Returns the exit code: 2 when some engine disagrees.
+int free_bodies(const Options& opt, std::vector<EngineColumn>& columns, bool have_recursive) {
   const std::vector<Case> cases = make_cases(opt);
+  if (cases.empty()) return 0;  // only jointed models asked for
   std::vector<std::vector<Cell>> table(cases.size(), std::vector<Cell>(columns.size()));
   bool all_agree = true;
   for (size_t ci = 0; ci < cases.size(); ++ci) {
@@ -463,14 +308,14 @@ int main(int argc, char** argv) {
       runners.push_back(&slot.runner);
     }
 
-    time_interleaved(runners, opt);
+    peers::time_interleaved(runners, {opt.reps, opt.max_seconds, opt.batch_seconds});
 
     for (size_t ei = 0; ei < columns.size(); ++ei) {
       EngineColumn& col = columns[ei];
       Cell& cell = table[ci][ei];
       Slot& slot = slots[ei];
       if (!cell.note.empty()) continue;
-      const Timing t = statistics(slot.runner);
+      const Timing t = peers::statistics(slot.runner);
       cell.timing = t;
       col.last_cost = slot.cost;
       col.last_seconds = t.median_ns * 1e-9;
@@ -563,4 +408,137 @@ int main(int argc, char** argv) {
     return 2;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  CLI::App app{"Forward dynamics of the same models in kanedyn, Simbody, MuJoCo and DART"};
+  app.add_option(
+         "--models", opt.models,
+         "Models to run: eight-body, chain-N, tree-N; eight-body-jointed, every-joint-type, "
+         "revolute-chain-N (default: all)")
+      ->delimiter(',');
+  app.add_option("--sizes", opt.sizes, "N of the chains and random trees")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--engines", opt.engines,
+                 "recursive, kane, simbody, mujoco, dart (the jointed sections: kanedyn's "
+                 "recursive route and the peers among these)")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--eight-body", opt.eight_body, "Model file of the eight-body example")
+      ->capture_default_str();
+  app.add_option("--seed", opt.seed, "Seed of the generated models")->capture_default_str();
+  app.add_option("--reps", opt.reps, "Timed batches per engine and model (at most)")
+      ->capture_default_str();
+  app.add_option("--max-seconds", opt.max_seconds,
+                 "Timing budget per engine and model, s (at least one batch is timed)")
+      ->capture_default_str();
+  app.add_option("--batch-seconds", opt.batch_seconds,
+                 "Length of one timed batch of evaluations, s (engines take turns batch by batch)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-eval-seconds", opt.max_eval_seconds,
+                 "Skip a case when one evaluation is predicted (from the engine's smaller "
+                 "measured cases) to take longer, s")
+      ->capture_default_str();
+  app.add_option("--max-memory-gb", opt.max_memory_gb,
+                 "Skip a case when the engine's estimated memory exceeds this (0: half of "
+                 "MemAvailable)")
+      ->capture_default_str();
+  app.add_option("--tolerance", opt.tolerance,
+                 "Largest accepted relative difference of body accelerations")
+      ->capture_default_str();
+  app.add_option("--backward-tolerance", opt.backward_tolerance,
+                 "Accept a larger difference when kanedyn's accelerations satisfy the engine's "
+                 "own M qacc = f to this componentwise backward error (ill-conditioned M)")
+      ->capture_default_str();
+  app.add_option("--sections", opt.sections,
+                 "free (the free-body tables), jointed (jointed models: accelerations and "
+                 "timing), scaling (kanedyn's time per body on revolute chains)")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--jointed-chain", opt.jointed_chain,
+                 "Links of the revolute chain of the jointed comparison")
+      ->capture_default_str();
+  app.add_option("--jointed-states", opt.jointed_states,
+                 "Random states per jointed model at which accelerations are compared")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--scaling-sizes", opt.scaling_sizes, "Links of the revolute chains timed")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--joint-tolerance", opt.joint_tolerance,
+                 "Largest accepted relative difference of joint accelerations (raised to 10 "
+                 "cond(M) eps where the joint-space mass matrix is ill-conditioned)")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  for (const std::string& section : opt.sections)
+    if (section != "free" && section != "jointed" && section != "scaling") {
+      std::cerr << "kanedyn_peers: unknown section '" << section << "' (free, jointed, scaling)\n";
+      return 1;
+    }
+  if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
+
+  std::vector<EngineColumn> columns;
+  for (const std::string& e : opt.engines) {
+    if (e == "recursive")
+      columns.push_back({e, "kanedyn recursive", std::nullopt});
+    else if (e == "kane")
+      columns.push_back({e, "kanedyn kane", std::nullopt});
+    else if (e == "simbody")
+      columns.push_back({e, "", peers::simbody_engine()});
+    else if (e == "mujoco")
+      columns.push_back({e, "", peers::mujoco_engine()});
+#ifdef KANEDYN_PEERS_HAVE_DART
+    else if (e == "dart")
+      columns.push_back({e, "", peers::dart_engine()});
+#else
+    else if (e == "dart")
+      std::cerr << "kanedyn_peers: built without DART; dart skipped\n";
+#endif
+    else {
+      std::cerr << "kanedyn_peers: unknown engine '" << e << "'\n";
+      return 1;
+    }
+    if (columns.back().info)
+      columns.back().title = columns.back().info->name + " " + columns.back().info->version;
+  }
+  const bool have_recursive =
+      std::find(opt.engines.begin(), opt.engines.end(), "recursive") != opt.engines.end();
+
+  {
+    const std::time_t now = std::time(nullptr);
+    char date[32];
+    std::strftime(date, sizeof date, "%Y-%m-%d %H:%M", std::localtime(&now));
+    std::cout << "# kanedyn_peers, " << date << ", " << machine_model() << "\n"
+              << "# median ns per forward-dynamics evaluation at the model's initial state; "
+              << "budget " << opt.max_seconds << " s per cell, skip above " << opt.max_eval_seconds
+              << " s/eval or " << std::setprecision(3) << opt.max_memory_gb << " GB\n"
+              << std::flush;
+  }
+
+  const auto selected = [&](const char* section) {
+    return std::find(opt.sections.begin(), opt.sections.end(), section) != opt.sections.end();
+  };
+  int rc = selected("free") ? free_bodies(opt, columns, have_recursive) : 0;
+  if (selected("jointed") || selected("scaling")) {
+    peers::JointedOptions j;
+    j.models = opt.models;
+    j.engines = opt.engines;
+    j.eight_body = opt.eight_body;
+    j.seed = opt.seed;
+    j.chain = opt.jointed_chain;
+    j.states = opt.jointed_states;
+    j.scaling_sizes = opt.scaling_sizes;
+    j.budget = {opt.reps, opt.max_seconds, opt.batch_seconds};
+    j.max_eval_seconds = opt.max_eval_seconds;
+    j.tolerance = opt.joint_tolerance;
+    j.compare = selected("jointed");
+    j.scaling = selected("scaling");
+    if (!peers::run_jointed_sections(j) && rc == 0) rc = 2;
+  }
+  return rc;
 }

@@ -44,6 +44,80 @@ SimTK::Vec3 rotation_vector(Real w, const SimTK::Vec3& xyz) {
   return (2.0 * std::atan2(n, w) / n) * v;
 }
 
+// The integrator of `settings` on `system`, started at `initial` (t = 0).
+IntegratorInfo start_integrator(SimTK::MultibodySystem& system, const SimTK::State& initial,
+                                const IntegratorSettings& settings,
+                                std::unique_ptr<SimTK::Integrator>& integrator) {
+  const std::string& method = settings.method;
+  std::string name;
+  if (method.empty() || method == "rkmerson") {
+    integrator = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(system);
+    name = "RungeKuttaMerson";
+  } else if (method == "rkf") {
+    integrator = std::make_unique<SimTK::RungeKuttaFeldbergIntegrator>(system);
+    name = "RungeKuttaFeldberg";
+  } else if (method == "rk3") {
+    integrator = std::make_unique<SimTK::RungeKutta3Integrator>(system);
+    name = "RungeKutta3";
+  } else if (method == "cpodes") {
+    integrator = std::make_unique<SimTK::CPodesIntegrator>(system, SimTK::CPodes::BDF,
+                                                           SimTK::CPodes::Newton);
+    name = "CPodes (BDF, Newton)";
+  } else {
+    throw std::invalid_argument("Simbody: unknown integrator '" + method +
+                                "' (rkmerson, rkf, rk3, cpodes)");
+  }
+  integrator->setAccuracy(settings.accuracy);
+  // Step to each output time exactly: no interpolated (lower-order) output states.
+  integrator->setAllowInterpolation(false);
+  SimTK::State start = initial;
+  start.setTime(0);
+  integrator->initialize(start);
+  char accuracy[32];
+  std::snprintf(accuracy, sizeof accuracy, "%.3g", settings.accuracy);
+  // Error control per step: the global error follows the accuracy to about the first power.
+  return {name + ", accuracy " + accuracy, false, 1.0};
+}
+
+void advance_integrator(SimTK::Integrator& integrator, double t) {
+  while (integrator.getTime() < t) {
+    const auto status = integrator.stepTo(t);
+    if (status == SimTK::Integrator::EndOfSimulation || integrator.isSimulationOver())
+      throw std::runtime_error(
+          "Simbody: integration ended at t = " + std::to_string(integrator.getTime()) + ": " +
+          SimTK::Integrator::getTerminationReasonString(integrator.getTerminationReason()));
+    if (status == SimTK::Integrator::ReachedReportTime) break;
+  }
+}
+
+// Poses of the bodies at an integrated state.
+std::vector<BodyPose> body_poses(const SimTK::MultibodySystem& system, SimTK::State state,
+                                 const std::vector<SimTK::MobilizedBody>& bodies,
+                                 const std::vector<Body>& specs) {
+  system.realize(state, SimTK::Stage::Velocity);
+  std::vector<BodyPose> out(bodies.size());
+  for (size_t k = 0; k < bodies.size(); ++k) {
+    const SimTK::MobilizedBody& mb = bodies[k];
+    const SimTK::Vec3 com = v3(specs[k].com);
+    out[k].p_G = a3(mb.findStationLocationInGround(state, com));
+    out[k].v_G = a3(mb.findStationVelocityInGround(state, com));
+    out[k].w = a3(mb.getBodyAngularVelocity(state));
+    const SimTK::Mat33& R = mb.getBodyRotation(state).asMat33();  // body axes -> ground
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) out[k].R[static_cast<size_t>(3 * r + c)] = R(r, c);
+  }
+  return out;
+}
+
+SimTK::Body::Rigid rigid_body(const Body& b) {
+  const SimTK::Inertia central(SimTK::Mat33(b.inertia[0], b.inertia[1], b.inertia[2], b.inertia[3],
+                                            b.inertia[4], b.inertia[5], b.inertia[6], b.inertia[7],
+                                            b.inertia[8]));
+  // MassProperties wants the inertia about the body origin O_K.
+  return SimTK::Body::Rigid(
+      SimTK::MassProperties(b.mass, v3(b.com), central.shiftFromMassCenter(v3(b.com), b.mass)));
+}
+
 // The spec's bushing laws and constant loads. A bushing's translational force on s'_K and
 // its moment pair about theta are exactly generalized forces on the Free mobilizer's
 // translational speeds (v_FM in F = s'_K dot) and rotational speeds (w_FM in F = w_K - w_J
@@ -89,12 +163,7 @@ class SimbodyEngine final : public Engine {
       : system_(system), matter_(mb_system_), forces_(mb_system_) {
     SimTK::Force::Gravity(forces_, matter_, v3(system.gravity));
     for (const Body& b : system.bodies) {
-      const SimTK::Inertia central(SimTK::Mat33(b.inertia[0], b.inertia[1], b.inertia[2],
-                                                b.inertia[3], b.inertia[4], b.inertia[5],
-                                                b.inertia[6], b.inertia[7], b.inertia[8]));
-      // MassProperties wants the inertia about the body origin O_K.
-      const SimTK::Body::Rigid body(
-          SimTK::MassProperties(b.mass, v3(b.com), central.shiftFromMassCenter(v3(b.com), b.mass)));
+      const SimTK::Body::Rigid body = rigid_body(b);
       SimTK::MobilizedBody& parent =
           b.parent < 0 ? matter_.updGround() : bodies_[static_cast<size_t>(b.parent)];
       bodies_.push_back(
@@ -136,65 +205,16 @@ class SimbodyEngine final : public Engine {
   }
 
   IntegratorInfo start(const IntegratorSettings& settings) override {
-    const std::string& method = settings.method;
-    std::string name;
-    if (method.empty() || method == "rkmerson") {
-      integrator_ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(mb_system_);
-      name = "RungeKuttaMerson";
-    } else if (method == "rkf") {
-      integrator_ = std::make_unique<SimTK::RungeKuttaFeldbergIntegrator>(mb_system_);
-      name = "RungeKuttaFeldberg";
-    } else if (method == "rk3") {
-      integrator_ = std::make_unique<SimTK::RungeKutta3Integrator>(mb_system_);
-      name = "RungeKutta3";
-    } else if (method == "cpodes") {
-      integrator_ = std::make_unique<SimTK::CPodesIntegrator>(mb_system_, SimTK::CPodes::BDF,
-                                                              SimTK::CPodes::Newton);
-      name = "CPodes (BDF, Newton)";
-    } else {
-      throw std::invalid_argument("Simbody: unknown integrator '" + method +
-                                  "' (rkmerson, rkf, rk3, cpodes)");
-    }
-    integrator_->setAccuracy(settings.accuracy);
-    // Step to each output time exactly: no interpolated (lower-order) output states.
-    integrator_->setAllowInterpolation(false);
     SimTK::State initial = state_;
-    initial.setTime(0);
     initial.updQ() = q_;
     initial.updU() = u_;
-    integrator_->initialize(initial);
-    char accuracy[32];
-    std::snprintf(accuracy, sizeof accuracy, "%.3g", settings.accuracy);
-    // Error control per step: the global error follows the accuracy to about the first power.
-    return {name + ", accuracy " + accuracy, false, 1.0};
+    return start_integrator(mb_system_, initial, settings, integrator_);
   }
 
-  void advance_to(double t) override {
-    while (integrator_->getTime() < t) {
-      const auto status = integrator_->stepTo(t);
-      if (status == SimTK::Integrator::EndOfSimulation || integrator_->isSimulationOver())
-        throw std::runtime_error(
-            "Simbody: integration ended at t = " + std::to_string(integrator_->getTime()) + ": " +
-            SimTK::Integrator::getTerminationReasonString(integrator_->getTerminationReason()));
-      if (status == SimTK::Integrator::ReachedReportTime) break;
-    }
-  }
+  void advance_to(double t) override { advance_integrator(*integrator_, t); }
 
   std::vector<BodyPose> pose() override {
-    SimTK::State state = integrator_->getState();
-    mb_system_.realize(state, SimTK::Stage::Velocity);
-    std::vector<BodyPose> out(bodies_.size());
-    for (size_t k = 0; k < bodies_.size(); ++k) {
-      const SimTK::MobilizedBody& mb = bodies_[k];
-      const SimTK::Vec3 com = v3(system_.bodies[k].com);
-      out[k].p_G = a3(mb.findStationLocationInGround(state, com));
-      out[k].v_G = a3(mb.findStationVelocityInGround(state, com));
-      out[k].w = a3(mb.getBodyAngularVelocity(state));
-      const SimTK::Mat33& R = mb.getBodyRotation(state).asMat33();  // body axes -> ground
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) out[k].R[static_cast<size_t>(3 * r + c)] = R(r, c);
-    }
-    return out;
+    return body_poses(mb_system_, integrator_->getState(), bodies_, system_.bodies);
   }
 
   long steps() const override { return integrator_ ? integrator_->getNumStepsTaken() : 0; }
@@ -210,7 +230,230 @@ class SimbodyEngine final : public Engine {
   std::unique_ptr<SimTK::Integrator> integrator_;
 };
 
+// ---------------------------------------------------------------------------------------------
+// Jointed trees. Simbody's mobilizers move about fixed axes of their inboard frame F_s: Pin
+// and Cylinder about z, Slider along x, Universal about x then the new y. Each joint's F_s is
+// kanedyn's F turned by a constant S that takes those axes onto the joint's (S z = n for a
+// revolute or cylindrical joint, S x = n for a prismatic one, S (x, y) = (a1, a2) for a
+// universal one), and the outboard frame M is the body frame turned by the same S, so that
+// R_FK = S R_FsM S^T: the turn by q about n (or a1 then a2), with Simbody's q equal to
+// kanedyn's. Ball: F_s = F, M = the body frame, q = the quaternion of K relative to F, u = the
+// angular velocity of K relative to J in F components (kanedyn's z in K components turned by
+// R_FK). Free (roots only): as SimbodyEngine's, u = (w_K, v) in ground components.
+class JointLoads : public SimTK::Force::Custom::Implementation {
+ public:
+  JointLoads(const JointedSystem& system, const std::vector<SimTK::MobilizedBody>& bodies)
+      : system_(system), bodies_(bodies) {}
+
+  void calcForce(const SimTK::State& state, SimTK::Vector_<SpatialVec>&,
+                 SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector& mobility_forces) const override {
+    const SimTK::Vector& q = state.getQ();
+    const SimTK::Vector& u = state.getU();
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const JointSpec& j = system_.joints[k];
+      const SimTK::MobilizedBody& mb = bodies_[k];
+      const int iq = mb.getFirstQIndex(state), iu = mb.getFirstUIndex(state);
+      if (j.type == JointKind::free) {
+        const Body& b = system_.bodies[k];
+        const SimTK::Vec3 theta =
+            rotation_vector(q[iq], SimTK::Vec3(q[iq + 1], q[iq + 2], q[iq + 3]));
+        for (int i = 0; i < 3; ++i) {
+          mobility_forces[iu + i] -= b.kr * theta[i] + b.cr * u[iu + i];
+          mobility_forces[iu + 3 + i] -= b.k[i] * q[iq + 4 + i] + b.c[i] * u[iu + 3 + i];
+        }
+        continue;
+      }
+      if (j.type == JointKind::weld || j.type == JointKind::spherical) continue;
+      const int n = mb.getNumU(state);
+      for (int i = 0; i < n; ++i) {
+        const auto c = static_cast<size_t>(i);
+        mobility_forces[iu + i] +=
+            j.value[c] - j.stiffness[c] * (q[iq + i] - j.rest[c]) - j.damping[c] * u[iu + i];
+      }
+    }
+  }
+  Real calcPotentialEnergy(const SimTK::State&) const override { return 0; }
+
+ private:
+  const JointedSystem& system_;
+  std::vector<SimTK::MobilizedBody> bodies_;
+};
+
+SimTK::Rotation rotation(const Quat& q) { return Rotation(Quaternion(q[0], q[1], q[2], q[3])); }
+
+// A rotation whose columns are u, v, w (unit, right-handed).
+Rotation columns(const SimTK::Vec3& u, const SimTK::Vec3& v, const SimTK::Vec3& w) {
+  return Rotation(SimTK::Mat33(u[0], v[0], w[0], u[1], v[1], w[1], u[2], v[2], w[2]), true);
+}
+
+// S of the comment above for a joint: F_s components -> F components.
+Rotation axes_rotation(const JointSpec& j) {
+  const SimTK::Vec3 n = v3(j.axis);
+  // Some unit vector perpendicular to n.
+  const SimTK::Vec3 p = (std::fabs(n[0]) < 0.9 ? SimTK::Vec3(1, 0, 0) : SimTK::Vec3(0, 1, 0)) % n;
+  const SimTK::Vec3 u = p / p.norm();
+  switch (j.type) {
+    case JointKind::revolute:
+    case JointKind::cylindrical:
+      return columns(u, n % u, n);
+    case JointKind::prismatic:
+      return columns(n, u, n % u);
+    case JointKind::universal:
+      return columns(n, v3(j.axis2), n % v3(j.axis2));
+    default:  // the identity (Rotation() trips GCC 12's -Warray-bounds in Simbody's Mat)
+      return columns(SimTK::Vec3(1, 0, 0), SimTK::Vec3(0, 1, 0), SimTK::Vec3(0, 0, 1));
+  }
+}
+
+class SimbodyJointedEngine final : public JointedEngine {
+ public:
+  explicit SimbodyJointedEngine(const JointedSystem& system)
+      : system_(system), matter_(mb_system_), forces_(mb_system_) {
+    SimTK::Force::Gravity(forces_, matter_, v3(system.gravity));
+    for (size_t k = 0; k < system.bodies.size(); ++k) {
+      const Body& b = system.bodies[k];
+      const JointSpec& j = system.joints[k];
+      SimTK::MobilizedBody& parent =
+          b.parent < 0 ? matter_.updGround() : bodies_[static_cast<size_t>(b.parent)];
+      const Rotation S = axes_rotation(j);
+      const Transform X_PF(rotation(j.frame) * S, v3(b.joint));
+      const Transform X_BM(S);
+      const SimTK::Body::Rigid body = rigid_body(b);
+      switch (j.type) {
+        case JointKind::free:
+          bodies_.push_back(
+              SimTK::MobilizedBody::Free(parent, Transform(v3(b.joint)), body, Transform()));
+          break;
+        case JointKind::weld:
+          bodies_.push_back(SimTK::MobilizedBody::Weld(
+              parent, Transform(rotation(j.frame), v3(b.joint) + v3(j.translation)), body,
+              Transform()));
+          break;
+        case JointKind::revolute:
+          bodies_.push_back(SimTK::MobilizedBody::Pin(parent, X_PF, body, X_BM));
+          break;
+        case JointKind::prismatic:
+          bodies_.push_back(SimTK::MobilizedBody::Slider(parent, X_PF, body, X_BM));
+          break;
+        case JointKind::cylindrical:
+          bodies_.push_back(SimTK::MobilizedBody::Cylinder(parent, X_PF, body, X_BM));
+          break;
+        case JointKind::universal:
+          bodies_.push_back(SimTK::MobilizedBody::Universal(parent, X_PF, body, X_BM));
+          break;
+        case JointKind::spherical:
+          bodies_.push_back(SimTK::MobilizedBody::Ball(parent, X_PF, body, X_BM));
+          break;
+      }
+    }
+    SimTK::Force::Custom(forces_, new JointLoads(system_, bodies_));
+    mb_system_.realizeTopology();
+    state_ = mb_system_.getDefaultState();
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const JointSpec& j = system.joints[k];
+      const double* q = system.q.data() + system.q_offset[k];
+      const double* z = system.z.data() + system.z_offset[k];
+      SimTK::MobilizedBody& mb = bodies_[k];
+      switch (j.type) {
+        case JointKind::free: {
+          // kanedyn's eps_K (e4 scalar) as the Hamilton quaternion of K in the ground.
+          const Rotation R(Quaternion(q[3], q[0], q[1], q[2]));
+          mb.setQToFitTransform(state_, Transform(R, SimTK::Vec3(q[4], q[5], q[6])));
+          mb.setUToFitVelocity(
+              state_, SpatialVec(R * SimTK::Vec3(z[0], z[1], z[2]), SimTK::Vec3(z[3], z[4], z[5])));
+          break;
+        }
+        case JointKind::spherical: {
+          const Rotation R_FK(Quaternion(q[3], q[0], q[1], q[2]));
+          mb.setQToFitRotation(state_, R_FK);
+          mb.setUToFitAngularVelocity(state_, R_FK * SimTK::Vec3(z[0], z[1], z[2]));
+          break;
+        }
+        case JointKind::weld:
+          break;
+        default:
+          for (int i = 0; i < mb.getNumQ(state_); ++i) {
+            mb.setOneQ(state_, i, q[i]);
+            mb.setOneU(state_, i, z[i]);
+          }
+      }
+    }
+    q_ = state_.getQ();
+    u_ = state_.getU();
+  }
+
+  void evaluate() override {
+    state_.updQ() = q_;
+    state_.updU() = u_;
+    mb_system_.realize(state_, SimTK::Stage::Acceleration);
+  }
+
+  std::vector<double> zdot() override {
+    std::vector<double> out(system_.z.size(), 0.0);
+    const SimTK::Vector& udot = state_.getUDot();
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const SimTK::MobilizedBody& mb = bodies_[k];
+      const int iu = mb.getFirstUIndex(state_);
+      double* z = out.data() + system_.z_offset[k];
+      auto rates = [&] { return SimTK::Vec3(udot[iu], udot[iu + 1], udot[iu + 2]); };
+      switch (system_.joints[k].type) {
+        case JointKind::free: {
+          // d/dt of w's ground components is alpha; in K components the same vector (the
+          // turning of K's axes adds w x w = 0).
+          const SimTK::Vec3 alpha_k = ~mb.getBodyRotation(state_) * rates();
+          for (int i = 0; i < 3; ++i) {
+            z[i] = alpha_k[i];
+            z[3 + i] = udot[iu + 3 + i];
+          }
+          break;
+        }
+        case JointKind::spherical: {
+          // Likewise from F components to K's.
+          const SimTK::Vec3 w_dot_k = ~mb.getMobilizerTransform(state_).R() * rates();
+          for (int i = 0; i < 3; ++i) z[i] = w_dot_k[i];
+          break;
+        }
+        case JointKind::weld:
+          break;
+        default:
+          for (int i = 0; i < mb.getNumU(state_); ++i) z[i] = udot[iu + i];
+      }
+    }
+    return out;
+  }
+
+  IntegratorInfo start(const IntegratorSettings& settings) override {
+    SimTK::State initial = state_;
+    initial.updQ() = q_;
+    initial.updU() = u_;
+    return start_integrator(mb_system_, initial, settings, integrator_);
+  }
+  void advance_to(double t) override { advance_integrator(*integrator_, t); }
+  std::vector<BodyPose> pose() override {
+    return body_poses(mb_system_, integrator_->getState(), bodies_, system_.bodies);
+  }
+  long steps() const override { return integrator_ ? integrator_->getNumStepsTaken() : 0; }
+
+ private:
+  JointedSystem system_;
+  SimTK::MultibodySystem mb_system_;
+  SimTK::SimbodyMatterSubsystem matter_;
+  SimTK::GeneralForceSubsystem forces_;
+  std::vector<SimTK::MobilizedBody> bodies_;
+  SimTK::State state_;
+  SimTK::Vector q_, u_;
+  std::unique_ptr<SimTK::Integrator> integrator_;
+};
+
 }  // namespace
+
+JointedEngineInfo simbody_jointed_engine() {
+  const EngineInfo free = simbody_engine();
+  return {free.name, free.version, [](const JointedSystem&) { return std::string(); },
+          [](const JointedSystem& s) -> std::unique_ptr<JointedEngine> {
+            return std::make_unique<SimbodyJointedEngine>(s);
+          }};
+}
 
 EngineInfo simbody_engine() {
   int major = 0, minor = 0, build = 0;

@@ -19,14 +19,20 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "describe.hpp"
+#include "jointed.hpp"
 #include "kanedyn/data.hpp"
+#include "kanedyn/integrate.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
 #include "kanedyn/testing/generate.hpp"
 #include "peer.hpp"
@@ -38,7 +44,7 @@ using kanedyn::Vector3;
 using Clock = std::chrono::steady_clock;
 
 struct Options {
-  std::vector<std::string> models{"eight-body", "tree-8", "tree-64"};
+  std::vector<std::string> models{"eight-body", "tree-8", "tree-64", "eight-body-jointed"};
   std::vector<std::string> engines{"simbody", "mujoco", "dart"};
   std::string eight_body = KANEDYN_SOURCE_DIR "/examples/eight_body.yaml";
   unsigned seed = 1;
@@ -61,6 +67,7 @@ struct Case {
   kanedyn::State state;
   double t_end = 1;  // defaults: the span and the fixed step of MuJoCo's and DART's RK4
   double step = 1e-4;
+  std::shared_ptr<peers::JointedCase> jointed;  // a jointed tree at its state (model: its bodies)
 };
 
 /// One integrated motion: body poses at the output times.
@@ -194,7 +201,11 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+Trajectory run_kanedyn_jointed(const peers::JointedCase& c, double t_end, double dt_out,
+                               double rtol);
+
 Trajectory run_kanedyn(const Case& c, double t_end, double dt_out, double rtol) {
+  if (c.jointed) return run_kanedyn_jointed(*c.jointed, t_end, dt_out, rtol);
   kanedyn::SimulationSettings s;
   s.t_end = t_end;
   s.dt_out = dt_out;
@@ -228,6 +239,83 @@ Trajectory run_kanedyn(const Case& c, double t_end, double dt_out, double rtol) 
   return out;
 }
 
+// The jointed tree integrated in (q; z) by kanedyn's Dopri5 on JointDynamics::derivative,
+// poses at every dt_out from its continuous extension (joint coordinates normalized, then the
+// notes' state and kinematics).
+Trajectory run_kanedyn_jointed(const peers::JointedCase& c, double t_end, double dt_out,
+                               double rtol) {
+  kanedyn::JointDynamics ws(c.model, c.tree);
+  const int nq = c.tree.num_coordinates(), nz = c.tree.num_speeds(), n = c.model.num_bodies();
+  kanedyn::Dopri5Options options;
+  options.rtol = rtol;
+  options.atol = rtol * 1e-2;
+  kanedyn::Dopri5 integrator(
+      nq + nz,
+      [&ws](double, const kanedyn::VectorX& x, kanedyn::VectorX& dx) {
+        ws.derivative(x, kanedyn::Route::recursive, dx);
+      },
+      options);
+  kanedyn::VectorX x(nq + nz);
+  x << c.q, c.z;
+  kanedyn::State state(c.model);
+  kanedyn::Data data(c.model, kanedyn::DataOptions::recursive_only());
+  Trajectory out;
+  auto record = [&](double t, const kanedyn::VectorX& at) {
+    kanedyn::VectorX q = at.head(nq);
+    kanedyn::normalize_joint_coordinates(c.tree, q);
+    kanedyn::joint_state(c.tree, q, at.tail(nz), state);
+    kanedyn::compute_kinematics(c.model, state, data);
+    std::vector<peers::BodyPose> poses(static_cast<size_t>(n));
+    for (int k = 0; k < n; ++k) {
+      peers::BodyPose& p = poses[static_cast<size_t>(k)];
+      const auto i = static_cast<size_t>(k);
+      const Matrix3 Rt = data.kinematics.R[i].transpose();  // body-K components -> inertial
+      for (int r = 0; r < 3; ++r) {
+        p.p_G[static_cast<size_t>(r)] = data.kinematics.p_G[i][r];
+        p.v_G[static_cast<size_t>(r)] = data.kinematics.v_G[i][r];
+        for (int col = 0; col < 3; ++col) p.R[static_cast<size_t>(3 * r + col)] = Rt(r, col);
+      }
+      const Vector3 w = Rt * state.angular_velocity(k);
+      p.w = {w.x(), w.y(), w.z()};
+    }
+    out.t.push_back(t);
+    out.poses.push_back(std::move(poses));
+  };
+  const auto t0 = Clock::now();
+  if (integrator.start(0.0, x, t_end) != kanedyn::StepStatus::ok)
+    throw std::runtime_error("kanedyn: the jointed initial state is not finite");
+  record(0.0, x);
+  const long outputs = std::lround(t_end / dt_out);
+  kanedyn::VectorX at(nq + nz);
+  for (long i = 1; i <= outputs; ++i) {
+    const double t = i == outputs ? t_end : static_cast<double>(i) * dt_out;
+    while (integrator.time() < t)
+      if (integrator.step() != kanedyn::StepStatus::ok)
+        throw std::runtime_error("kanedyn: the jointed integration failed at t = " +
+                                 std::to_string(integrator.time()));
+    integrator.dense_output(t, at);
+    record(t, at);
+  }
+  out.seconds = seconds_since(t0);
+  out.steps = integrator.steps_accepted();
+  return out;
+}
+
+// A jointed engine as the free-body interface the comparison drives (trajectories only).
+class JointedAsEngine final : public peers::Engine {
+ public:
+  explicit JointedAsEngine(std::unique_ptr<peers::JointedEngine> e) : e_(std::move(e)) {}
+  void evaluate() override { e_->evaluate(); }
+  std::vector<peers::BodyMotion> motion() override { return {}; }
+  peers::IntegratorInfo start(const peers::IntegratorSettings& s) override { return e_->start(s); }
+  void advance_to(double t) override { e_->advance_to(t); }
+  std::vector<peers::BodyPose> pose() override { return e_->pose(); }
+  long steps() const override { return e_->steps(); }
+
+ private:
+  std::unique_ptr<peers::JointedEngine> e_;
+};
+
 Trajectory run_peer(peers::Engine& engine, const peers::IntegratorSettings& settings,
                     const std::vector<double>& times, peers::IntegratorInfo* info) {
   Trajectory out;
@@ -246,6 +334,17 @@ Trajectory run_peer(peers::Engine& engine, const peers::IntegratorSettings& sett
 std::vector<Case> make_cases(const Options& opt) {
   std::vector<Case> cases;
   for (const std::string& name : opt.models) {
+    if (name == "eight-body-jointed") {
+      std::shared_ptr<peers::JointedCase> j = peers::jointed_eight_body(opt.eight_body);
+      std::mt19937 rng(opt.seed);
+      peers::random_joint_state(*j, rng);
+      kanedyn::State state(j->model);
+      kanedyn::joint_state(j->tree, j->q, j->z, state);
+      // 0.5 s: several swings of the stiffest joint (the lumbar spring, about 100 rad/s) from
+      // a random state; RK4 at 1e-4 s has omega h ~ 0.01 there.
+      cases.push_back({name, j->model, std::move(state), 0.5, 1e-4, j});
+      continue;
+    }
     if (name == "eight-body") {
       if (!std::filesystem::exists(opt.eight_body))
         throw std::runtime_error(opt.eight_body + " not found");
@@ -253,7 +352,7 @@ std::vector<Case> make_cases(const Options& opt) {
       // 2 s: the motion the initial state starts (the forearm swings through 2.3 rad, the head
       // twists at up to 20 rad/s) has mostly decayed. Fixed step 1e-4 s: the three runs (1e-4,
       // 2e-4, 4e-4 s) converge at the same order in all four measures (asymptotic range).
-      cases.push_back({name, std::move(f.model), std::move(f.initial), 2.0, 1e-4});
+      cases.push_back({name, std::move(f.model), std::move(f.initial), 2.0, 1e-4, nullptr});
       continue;
     }
     const auto dash = name.find('-');
@@ -273,7 +372,7 @@ std::vector<Case> make_cases(const Options& opt) {
     // (sqrt(100 / 5.2e-5)); at 2e-5 s the coarsest run (8e-5 s) still has omega h ~ 0.1 and
     // the three runs converge at the same order in all measures (at 1e-4 s the angular
     // velocity of the 4e-4 s run is not yet asymptotic, which the estimate allows for).
-    cases.push_back({name, std::move(g.model), std::move(g.initial), 1.0, 2e-5});
+    cases.push_back({name, std::move(g.model), std::move(g.initial), 1.0, 2e-5, nullptr});
   }
   return cases;
 }
@@ -315,7 +414,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Trajectories of the same models in kanedyn and in Simbody, MuJoCo and DART with their "
       "own integrators; body motions compared at every output time"};
-  app.add_option("--models", opt.models, "eight-body, tree-N, chain-N")
+  app.add_option("--models", opt.models, "eight-body, tree-N, chain-N, eight-body-jointed")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--engines", opt.engines, "simbody, mujoco, dart")
@@ -325,7 +424,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed", opt.seed, "Seed of the generated models")->capture_default_str();
   app.add_option("--t-end", opt.t_end,
-                 "End time, s (0: per model, 2 s for eight-body, 1 s for generated ones)")
+                 "End time, s (0: per model, 2 s for eight-body, 1 s for generated ones, 0.5 s for "
+                 "eight-body-jointed)")
       ->capture_default_str();
   app.add_option("--dt-out", opt.dt_out, "Interval between compared output times, s")
       ->capture_default_str()
@@ -377,15 +477,21 @@ int main(int argc, char** argv) {
   }
 
   std::vector<peers::EngineInfo> engines;
+  std::vector<peers::JointedEngineInfo> jointed_engines;  // the same engines, for jointed trees
   std::vector<std::string> engine_keys;
   for (const std::string& e : opt.engines) {
-    if (e == "simbody")
+    if (e == "simbody") {
       engines.push_back(peers::simbody_engine());
-    else if (e == "mujoco")
+      jointed_engines.push_back(peers::simbody_jointed_engine());
+    } else if (e == "mujoco") {
       engines.push_back(peers::mujoco_engine());
+      jointed_engines.push_back(peers::mujoco_jointed_engine());
+    }
 #ifdef KANEDYN_PEERS_HAVE_DART
-    else if (e == "dart")
+    else if (e == "dart") {
       engines.push_back(peers::dart_engine());
+      jointed_engines.push_back(peers::dart_jointed_engine());
+    }
 #else
     else if (e == "dart") {
       std::cerr << "kanedyn_peers_trajectory: built without DART; dart skipped\n";
@@ -427,8 +533,15 @@ int main(int argc, char** argv) {
         std::cout << ' ' << kMeasureNames[i] << ' ' << sci(kd.error[i] / scale[i]);
       std::cout << "\n" << std::flush;
 
-      peers::System sys = peers::describe(c.name, c.model, c.state);
-      if (opt.perturb != 0) sys.bodies.back().mass *= 1.0 + opt.perturb;
+      peers::System sys;
+      peers::JointedSystem jointed_sys;
+      if (c.jointed) {
+        jointed_sys = peers::describe_jointed(*c.jointed);
+        if (opt.perturb != 0) jointed_sys.bodies.back().mass *= 1.0 + opt.perturb;
+      } else {
+        sys = peers::describe(c.name, c.model, c.state);
+        if (opt.perturb != 0) sys.bodies.back().mass *= 1.0 + opt.perturb;
+      }
 
       for (size_t ei = 0; ei < engines.size(); ++ei) {
         const peers::EngineInfo& info = engines[ei];
@@ -445,7 +558,9 @@ int main(int argc, char** argv) {
         settings.accuracy = opt.accuracy;
         settings.step = step;
         try {
-          const std::unique_ptr<peers::Engine> engine = info.make(sys);
+          const std::unique_ptr<peers::Engine> engine =
+              c.jointed ? std::make_unique<JointedAsEngine>(jointed_engines[ei].make(jointed_sys))
+                        : info.make(sys);
           peers::IntegratorInfo integrator;
           std::vector<Trajectory> peer_levels;
           peer_levels.push_back(run_peer(*engine, settings, times, &integrator));
