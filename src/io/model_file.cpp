@@ -32,6 +32,7 @@
 
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/io/urdf.hpp"
 #include "kanedyn/rotation.hpp"
 #include "model_tree.hpp"
 
@@ -1412,6 +1413,9 @@ ModelFile load_model_file(const std::string& path) {
   } catch (const std::bad_alloc&) {
     out_of_memory(path);
   }
+  // A URDF robot reads as the model file `kanedyn import` writes for it (docs/urdf.md).
+  if (path.ends_with(".urdf"))
+    return parse_model_file(urdf_to_model_yaml(text, path, {}, nullptr), path);
   return parse_model_file(text, path);
 }
 

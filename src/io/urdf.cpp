@@ -1,0 +1,455 @@
+// URDF import (docs/urdf.md): urdfdom parses the XML into links and joints; the tree is then
+// walked from the root, massless links folded into the frames of their neighbours, and written
+// as a kanedyn-model/1 file with the mapping form of `joint`.
+#include "kanedyn/io/urdf.hpp"
+
+#ifdef KANEDYN_HAVE_URDF
+#include <console_bridge/console.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+#include "kanedyn/io/text.hpp"
+#include "kanedyn/model.hpp"
+#endif
+
+namespace kanedyn::io {
+
+#ifndef KANEDYN_HAVE_URDF
+
+bool urdf_supported() { return false; }
+
+std::string urdf_to_model_yaml(const std::string&, const std::string& source_name,
+                               const UrdfOptions&, std::vector<std::string>*) {
+  throw ModelFileError(
+      source_name, 0, 0, "",
+      "this kanedyn was built without URDF support (configured with KANEDYN_URDF=OFF, "
+      "or without liburdfdom): install liburdfdom-dev (scripts/install-deps.sh), "
+      "configure with -DKANEDYN_URDF=AUTO and rebuild");
+}
+
+#else
+
+bool urdf_supported() { return true; }
+
+namespace {
+
+using Quat = Eigen::Quaterniond;
+using Vec = Eigen::Vector3d;
+
+/// A link's place: the frame it is rigidly fixed in (a body, or the ground) and the link
+/// frame's pose in it; and its orientation relative to the ground with every joint at zero.
+struct Place {
+  int body = -1;  ///< index into the bodies written, -1 for the ground
+  Vec p = Vec::Zero();
+  Quat q = Quat::Identity();
+  Quat absolute = Quat::Identity();
+};
+
+struct Body {
+  std::string name, link, joint, comment;
+  int parent = -1;
+  double mass = 0.0;
+  Eigen::Matrix3d inertia;
+  Vec com;
+  std::string joint_type;  ///< "free", "weld", "revolute", "prismatic"
+  Vec at = Vec::Zero();
+  Quat frame = Quat::Identity();
+  Vec axis = Vec::UnitX();
+  Quat absolute = Quat::Identity();  ///< written as `initial.rotation` of a free body
+  double damping = 0.0;
+};
+
+/// The shortest decimal that reads back as the same double.
+std::string num(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string vec(const Vec& v) {
+  return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]";
+}
+
+std::string quoted_name(const std::string& kind, const std::string& name) {
+  return kind + " '" + printable(name, 60) + "'";
+}
+
+/// A YAML double-quoted scalar holding `text` exactly: backslash and quote escaped, control
+/// characters as printable() writes them (\n, \t, \xNN, \uNNNN are YAML escapes too).
+std::string yaml_string(const std::string& text) {
+  std::string s;
+  for (const char c : text) {
+    if (c == '\\' || c == '"') s += '\\';
+    s += c;
+  }
+  return "\"" + printable(s) + "\"";
+}
+
+/// The axis and angle of q, the angle in [0, pi].
+std::string axis_angle(Quat q) {
+  q.normalize();
+  if (q.w() < 0.0) q.coeffs() = -q.coeffs();
+  const Vec v = q.vec();
+  const double s = v.norm();
+  const double angle = 2.0 * std::atan2(s, q.w());
+  return "{axis: " + vec(v / s) + ", angle: " + num(angle) + "}";
+}
+
+bool is_identity(const Quat& q) { return q.vec().squaredNorm() == 0.0; }
+
+Quat quat(const urdf::Rotation& r) { return Quat(r.w, r.x, r.y, r.z).normalized(); }
+Vec vec3(const urdf::Vector3& v) { return Vec(v.x, v.y, v.z); }
+
+/// Body names: [A-Za-z0-9_-]+, `ground` reserved. Other characters become '_'.
+std::string body_name(const std::string& link) {
+  std::string name = link;
+  for (char& c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) c = '_';
+  if (name.empty()) name = "_";
+  if (name == "ground") name = "ground_";
+  return name;
+}
+
+/// Notes of one kind for several elements, so that a 30-joint robot gives one line per kind.
+class Notes {
+ public:
+  /// `kind` is "joint" or "link".
+  void add(const std::string& kind, const std::string& text, const std::string& element) {
+    auto it = std::find_if(kinds_.begin(), kinds_.end(),
+                           [&](const Kind& k) { return k.kind == kind && k.text == text; });
+    if (it == kinds_.end()) {
+      kinds_.push_back({kind, text, {}});
+      it = kinds_.end() - 1;
+    }
+    it->elements.push_back(element);
+  }
+  void add_line(const std::string& line) { lines_.push_back(line); }
+  std::vector<std::string> lines() const {
+    std::vector<std::string> out = lines_;
+    constexpr std::size_t kShown = 8;
+    for (const Kind& k : kinds_) {
+      std::string line = k.kind + (k.elements.size() > 1 ? "s " : " ");
+      for (std::size_t i = 0; i < k.elements.size() && i < kShown; ++i)
+        line += (i ? ", '" : "'") + printable(k.elements[i], 60) + "'";
+      if (k.elements.size() > kShown)
+        line += " and " + std::to_string(k.elements.size() - kShown) + " more";
+      out.push_back(line + ": " + k.text);
+    }
+    return out;
+  }
+
+ private:
+  struct Kind {
+    std::string kind, text;
+    std::vector<std::string> elements;
+  };
+  std::vector<Kind> kinds_;
+  std::vector<std::string> lines_;
+};
+
+/// urdfdom reports through console_bridge, which prints to the terminal by default: its
+/// messages are collected instead (the library never prints), the errors to refuse the file
+/// with (urdfdom returns a model even when it could not read an element: a link whose
+/// <inertial> is broken comes back massless), the warnings as notes. console_bridge's handler
+/// is process-wide: one parse at a time.
+class Capture : public console_bridge::OutputHandler {
+ public:
+  std::vector<std::string> errors, warnings;
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR)
+      errors.push_back(text);
+    else if (level == console_bridge::CONSOLE_BRIDGE_LOG_WARN)
+      warnings.push_back(text);
+  }
+};
+
+std::mutex& console_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::string& source,
+                                         std::vector<std::string>& warnings) {
+  std::lock_guard<std::mutex> lock(console_mutex());
+  Capture capture;
+  const console_bridge::LogLevel level = console_bridge::getLogLevel();
+  console_bridge::useOutputHandler(&capture);
+  console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_WARN);
+  struct Restore {
+    console_bridge::LogLevel level;
+    ~Restore() {
+      console_bridge::restorePreviousOutputHandler();
+      console_bridge::setLogLevel(level);
+    }
+  } restore{level};
+  urdf::ModelInterfaceSharedPtr model;
+  try {
+    model = urdf::parseURDF(text);
+  } catch (const std::exception& e) {
+    capture.errors.push_back(e.what());
+  }
+  if (!model || !capture.errors.empty()) {
+    std::string why;
+    for (const std::string& e : capture.errors) why += (why.empty() ? "" : "; ") + e;
+    if (why.empty()) why = "no reason given";
+    throw ModelFileError(
+        source, 0, 0, "",
+        "not a valid URDF file (urdfdom could not parse it): " + printable(why, 400));
+  }
+  for (const std::string& w : capture.warnings) warnings.push_back("urdfdom: " + w);
+  return model;
+}
+
+}  // namespace
+
+std::string urdf_to_model_yaml(const std::string& urdf_text, const std::string& source_name,
+                               const UrdfOptions& options, std::vector<std::string>* notes_out) {
+  std::vector<std::string> warnings;
+  const urdf::ModelInterfaceSharedPtr model = parse_urdf(urdf_text, source_name, warnings);
+  const auto fail = [&](const std::string& element, const std::string& problem) -> void {
+    throw ModelFileError(source_name, 0, 0, element, problem);
+  };
+  Notes notes;
+  for (const std::string& w : warnings) notes.add_line(w);
+
+  // The joints below each link, in urdfdom's order (by joint name); each link the child of one
+  // joint at most: a second one closes a loop.
+  std::unordered_map<std::string, std::vector<const urdf::Joint*> > below;
+  std::unordered_map<std::string, const urdf::Joint*> above;
+  for (const auto& [name, joint] : model->joints_) {
+    if (const auto [it, fresh] = above.emplace(joint->child_link_name, joint.get()); !fresh)
+      fail(quoted_name("link", joint->child_link_name),
+           "is the child of two joints, '" + printable(it->second->name, 60) + "' and '" +
+               printable(name, 60) +
+               "': the joints form a closed loop, and a kanedyn model is a tree");
+    below[joint->parent_link_name].push_back(joint.get());
+  }
+
+  const urdf::LinkConstSharedPtr root = model->getRoot();
+  const auto mass_of = [&](const urdf::Link& link) {
+    if (!link.inertial) return 0.0;
+    const double m = link.inertial->mass;
+    if (!std::isfinite(m) || m < 0.0)
+      fail(quoted_name("link", link.name), "mass must be a finite number >= 0, got " + num(m));
+    return m;
+  };
+
+  std::vector<Body> bodies;
+  std::unordered_map<std::string, std::string> body_link;  // body name -> link
+  const auto add_body = [&](const urdf::Link& link, const urdf::Joint* joint, const Place& at) {
+    Body b;
+    b.link = link.name;
+    b.name = body_name(link.name);
+    if (b.name != link.name)
+      notes.add("link",
+                "is the body '" + b.name +
+                    "' (body names use only [A-Za-z0-9_-], and 'ground' is reserved)",
+                link.name);
+    if (const auto [it, fresh] = body_link.emplace(b.name, link.name); !fresh)
+      fail(quoted_name("link", link.name),
+           "its body name '" + b.name + "' is that of " + quoted_name("link", it->second) +
+               " too (body names use only [A-Za-z0-9_-]): rename one of them");
+    const urdf::Inertial& in = *link.inertial;
+    b.mass = in.mass;
+    Eigen::Matrix3d i;
+    i << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+    const Eigen::Matrix3d r = quat(in.origin.rotation).toRotationMatrix();
+    b.inertia = r * i * r.transpose();
+    b.inertia = (0.5 * (b.inertia + b.inertia.transpose())).eval();
+    if (!b.inertia.allFinite())
+      fail(quoted_name("link", link.name), "inertia has a non-finite entry");
+    if (const std::string problem = check_inertia(b.inertia); !problem.empty())
+      fail(quoted_name("link", link.name), problem + " (about the mass centre, in link axes)");
+    b.com = vec3(in.origin.position);
+    if (!b.com.allFinite()) fail(quoted_name("link", link.name), "inertial origin is not finite");
+    b.parent = at.body;
+    b.at = at.p;
+    b.frame = at.q;
+    b.absolute = at.absolute;
+    if (joint) b.joint = joint->name;
+    bodies.push_back(std::move(b));
+    return static_cast<int>(bodies.size()) - 1;
+  };
+
+  std::unordered_map<std::string, Place> place;
+  // Depth first, without recursion (a chain may be thousands of links long): a body is
+  // written when its joint comes off the stack, so each subtree is written whole.
+  std::vector<const urdf::Joint*> stack;
+  const auto push_below = [&](const urdf::Link& link) {
+    const auto it = below.find(link.name);
+    if (it == below.end()) return;
+    // In reverse, so that the joints come off in urdfdom's order.
+    for (auto j = it->second.rbegin(); j != it->second.rend(); ++j) stack.push_back(*j);
+  };
+  const double root_mass = mass_of(*root);
+  if (root_mass > 0.0) {
+    const int k = add_body(*root, nullptr, Place{});
+    bodies[k].joint_type = options.floating ? "free" : "weld";
+    place[root->name] = Place{k, Vec::Zero(), Quat::Identity(), Quat::Identity()};
+  } else {
+    if (options.floating)
+      notes.add_line(quoted_name("root link", root->name) +
+                     " has no mass, so it is the ground: the option floating frees nothing");
+    place[root->name] = Place{};
+  }
+  bool geometry = root->visual || root->collision;
+  push_below(*root);
+  std::size_t visited = 1;
+  while (!stack.empty()) {
+    const urdf::Joint& joint = *stack.back();
+    stack.pop_back();
+    ++visited;
+    const Place from = place.at(joint.parent_link_name);
+    {
+      const std::string jname = quoted_name("joint", joint.name);
+      const urdf::LinkConstSharedPtr child = model->getLink(joint.child_link_name);
+      if (!child)
+        fail(jname, "its child link '" + printable(joint.child_link_name, 60) + "' is not defined");
+      if (joint.mimic)
+        fail(jname,
+             "mimics joint '" + printable(joint.mimic->joint_name, 60) +
+                 "': kanedyn has no coupled joints (give it its own coordinate, or make it fixed)");
+      std::string type;
+      switch (joint.type) {
+        case urdf::Joint::REVOLUTE:
+        case urdf::Joint::CONTINUOUS:
+          type = "revolute";
+          break;
+        case urdf::Joint::PRISMATIC:
+          type = "prismatic";
+          break;
+        case urdf::Joint::FIXED:
+          type = "weld";
+          break;
+        case urdf::Joint::FLOATING:
+          type = "free";
+          break;
+        case urdf::Joint::PLANAR:
+          fail(jname,
+               "is planar: kanedyn has no planar joint (free, weld, revolute, prismatic, "
+               "cylindrical, universal, spherical)");
+          break;
+        default:
+          fail(jname, "has an unknown type");
+      }
+      const urdf::Pose& o = joint.parent_to_joint_origin_transform;
+      const Vec xyz = vec3(o.position);
+      if (!xyz.allFinite() ||
+          !Eigen::Vector4d(o.rotation.x, o.rotation.y, o.rotation.z, o.rotation.w).allFinite())
+        fail(jname, "origin is not finite");
+      // The child's frame at zero joint position, in the frame `from` is fixed in.
+      Place to{from.body, from.p + from.q * xyz, (from.q * quat(o.rotation)).normalized(),
+               (from.absolute * quat(o.rotation)).normalized()};
+      const double mass = mass_of(*child);
+      if (mass > 0.0) {
+        const int k = add_body(*child, &joint, to);
+        bodies[k].joint_type = type;
+        if (type == "revolute" || type == "prismatic") {
+          bodies[k].axis = vec3(joint.axis);
+          if (!bodies[k].axis.allFinite() || bodies[k].axis.squaredNorm() == 0.0)
+            fail(jname, "axis must be a nonzero finite vector, got " + vec(bodies[k].axis));
+        }
+        to = Place{k, Vec::Zero(), Quat::Identity(), to.absolute};
+      } else if (type != "weld") {
+        fail(quoted_name("link", child->name),
+             "has no mass, but " + jname + " (" +
+                 (type == "free" ? std::string("floating") : type) +
+                 ") moves it: a massless link must hang on a fixed joint (give it a mass and "
+                 "inertia, or make the joint fixed)");
+      }
+      // What the mapping leaves out, said once per kind.
+      const bool moving = type == "revolute" || type == "prismatic";
+      if (joint.limits && moving)
+        notes.add("joint",
+                  joint.type == urdf::Joint::CONTINUOUS
+                      ? "velocity and effort limits are ignored"
+                      : "position, velocity and effort limits are ignored",
+                  joint.name);
+      if (joint.safety) notes.add("joint", "safety controller is ignored", joint.name);
+      if (joint.calibration) notes.add("joint", "calibration is ignored", joint.name);
+      if (joint.dynamics) {
+        const double d = joint.dynamics->damping, f = joint.dynamics->friction;
+        if (!std::isfinite(d) || d < 0.0)
+          fail(jname, "damping must be a finite number >= 0, got " + num(d));
+        if (f != 0.0) notes.add("joint", "friction is ignored", joint.name);
+        if (d > 0.0) {
+          if (moving && mass > 0.0)
+            bodies.back().damping = d;
+          else
+            notes.add("joint",
+                      "damping is ignored (kanedyn damps revolute and prismatic joints only)",
+                      joint.name);
+        }
+      }
+      place[child->name] = to;
+      geometry = geometry || child->visual || child->collision;
+      push_below(*child);
+    }
+  }
+  if (visited != model->links_.size()) {
+    for (const auto& [name, link] : model->links_)
+      if (!place.count(name))
+        fail(quoted_name("link", name),
+             "cannot be reached from the root link '" + printable(root->name, 60) +
+                 "': its joints form a closed loop, and a kanedyn model is a tree");
+  }
+  if (geometry) notes.add_line("visual and collision geometry is ignored");
+  if (bodies.empty())
+    fail(quoted_name("robot", model->getName()),
+         "no link has a mass: there is no body to simulate");
+
+  std::string y;
+  y += "# Converted from " + printable(source_name) + " by kanedyn's URDF import (docs/urdf.md).\n";
+  y += "# Each body is the link of its name, with the link frame as the body frame.\n";
+  y += "format: kanedyn-model/1\n";
+  if (!model->getName().empty()) y += "name: " + yaml_string(model->getName()) + "\n";
+  y += "gravity: " + vec(Vec(options.gravity[0], options.gravity[1], options.gravity[2])) + "\n";
+  y += "bodies:\n";
+  for (const Body& b : bodies) {
+    y += "  - name: \"" + b.name + "\"";
+    y += b.joint.empty() ? "  # root link\n" : "  # joint " + printable(b.joint) + "\n";
+    y += "    parent: " +
+         (b.parent < 0 ? std::string("ground") : "\"" + bodies[b.parent].name + "\"") + "\n";
+    y += "    mass: " + num(b.mass) + "\n";
+    const Eigen::Matrix3d& i = b.inertia;
+    y += "    inertia: [" + num(i(0, 0)) + ", " + num(i(1, 1)) + ", " + num(i(2, 2)) + ", " +
+         num(i(0, 1)) + ", " + num(i(0, 2)) + ", " + num(i(1, 2)) + "]\n";
+    y += "    com: " + vec(b.com) + "\n";
+    if (b.joint_type == "free") {
+      // The list form: the point Q_K, orientation absolute (every joint above at zero).
+      y += "    joint: " + vec(b.at) + "\n";
+      if (!is_identity(b.absolute))
+        y += "    initial:\n      rotation: " + axis_angle(b.absolute) + "\n";
+      continue;
+    }
+    y += "    joint:\n      type: " + b.joint_type + "\n      at: " + vec(b.at) + "\n";
+    if (!is_identity(b.frame)) y += "      frame: " + axis_angle(b.frame) + "\n";
+    if (b.joint_type == "revolute" || b.joint_type == "prismatic")
+      y += "      axis: " + vec(b.axis) + "\n";
+  }
+  bool forces = false;
+  for (const Body& b : bodies) {
+    if (b.damping <= 0.0) continue;
+    if (!forces) y += "forces:\n";
+    forces = true;
+    y += "  - type: joint_spring  # <dynamics> of joint " + printable(b.joint) + "\n";
+    y += "    body: \"" + b.name + "\"\n    damping: " + num(b.damping) + "\n";
+  }
+  if (notes_out) *notes_out = notes.lines();
+  return y;
+}
+
+#endif
+
+}  // namespace kanedyn::io
