@@ -1,0 +1,180 @@
+// kanedyn_peers' urdf section (urdf_section.hpp).
+#include "urdf_section.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <dart/dynamics/BodyNode.hpp>
+#include <dart/dynamics/Joint.hpp>
+#include <dart/dynamics/Skeleton.hpp>
+#include <dart/utils/urdf/DartLoader.hpp>
+#include <exception>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "kanedyn/data.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/joints.hpp"
+
+namespace peers {
+namespace {
+
+using kanedyn::MatrixX;
+using kanedyn::VectorX;
+
+// max |a - b| / max |b|: the difference at the scale of the largest entry of the reference.
+template <class A, class B>
+double relative_difference(const A& a, const B& b) {
+  const double scale = b.cwiseAbs().maxCoeff();
+  const double diff = (a - b).cwiseAbs().maxCoeff();
+  return scale > 0 ? diff / scale : diff;
+}
+
+struct Row {
+  std::string file;
+  int n = 0;
+  double mass_matrix = 0, accelerations = 0, of_tolerance = 0;
+  std::string skipped;  // why the file was not compared
+};
+
+// One file: kanedyn's speed i is DART's generalized coordinate dart_index[i].
+Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& rng) {
+  Row row;
+  row.file = std::filesystem::path(path).filename().string();
+  const kanedyn::io::ModelFile file = kanedyn::io::load_model_file(path);
+  if (!file.jointed()) {
+    row.skipped = "no joints in kanedyn's model (a single welded or free body)";
+    return row;
+  }
+  const kanedyn::Model& model = file.model;
+  const kanedyn::JointTree& tree = *file.joints;
+  const int n = tree.num_speeds();
+  row.n = n;
+
+  // DART gives a link without <inertial> a unit mass by default; URDF (and kanedyn) make it
+  // massless. The root is welded as kanedyn's importer welds it (the files here have no
+  // floating root; a floating one is refused below with the floating joints).
+  dart::utils::DartLoader::Options options(
+      nullptr, dart::utils::DartLoader::RootJointType::FIXED,
+      dart::dynamics::Inertia(0, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Zero()));
+  dart::utils::DartLoader loader(options);
+  const dart::dynamics::SkeletonPtr skel =
+      loader.parseSkeleton(dart::common::Uri::createFromPath(path));
+  if (!skel) {
+    row.skipped = "DART's loader could not read it";
+    return row;
+  }
+  if (static_cast<int>(skel->getNumDofs()) != n) {
+    row.skipped = "DART has " + std::to_string(skel->getNumDofs()) + " coordinates, kanedyn " +
+                  std::to_string(n);
+    return row;
+  }
+
+  // Each kanedyn body with one speed is a revolute, continuous or prismatic URDF joint whose
+  // child link has the body's name; any other joint with speeds is a floating one, whose
+  // coordinates (kanedyn's Euler parameters and body-frame speeds, DART's exponential
+  // coordinates) do not map one to one.
+  std::vector<Eigen::Index> q_index(static_cast<size_t>(n)), dart_index(static_cast<size_t>(n));
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    const int speeds = tree.speed_offset(k + 1) - tree.speed_offset(k);
+    if (speeds == 0) continue;
+    const std::string& name = model.body(k).name;
+    if (speeds != 1 || tree.coordinate_offset(k + 1) - tree.coordinate_offset(k) != 1) {
+      row.skipped =
+          "floating joint to '" + name + "': kanedyn's and DART's free-joint coordinates differ";
+      return row;
+    }
+    const dart::dynamics::BodyNode* node = skel->getBodyNode(name);
+    if (!node || node->getParentJoint()->getNumDofs() != 1) {
+      row.skipped = "no one-coordinate DART joint to link '" + name + "'";
+      return row;
+    }
+    const auto i = static_cast<size_t>(tree.speed_offset(k));
+    q_index[i] = tree.coordinate_offset(k);
+    dart_index[i] = static_cast<Eigen::Index>(node->getParentJoint()->getIndexInSkeleton(0));
+  }
+  skel->setGravity(model.gravity());
+
+  kanedyn::JointDynamics ws(model, tree);
+  kanedyn::Data data(model, kanedyn::DataOptions{});
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  for (int s = 0; s < opt.states; ++s) {
+    VectorX q = file.joint_q, z = VectorX::Zero(n), zdot(n);
+    Eigen::VectorXd dq(n), dz(n);
+    for (int i = 0; i < n; ++i) {
+      q[q_index[static_cast<size_t>(i)]] = uniform(rng);
+      z[i] = uniform(rng);
+      dq[dart_index[static_cast<size_t>(i)]] = q[q_index[static_cast<size_t>(i)]];
+      dz[dart_index[static_cast<size_t>(i)]] = z[i];
+    }
+    ws.evaluate(q, z, kanedyn::Route::recursive, zdot);
+    const MatrixX A = kanedyn::projected_equations(model, tree, q, z, data).A_z;
+
+    skel->setPositions(dq);
+    skel->setVelocities(dz);
+    skel->resetForces();
+    skel->computeForwardDynamics();
+    const Eigen::MatrixXd& dart_mass = skel->getMassMatrix();
+    const Eigen::VectorXd dart_acc = skel->getAccelerations();
+    MatrixX M(n, n);
+    VectorX a(n);
+    for (int i = 0; i < n; ++i) {
+      a[i] = dart_acc[dart_index[static_cast<size_t>(i)]];
+      for (int j = 0; j < n; ++j)
+        M(i, j) = dart_mass(dart_index[static_cast<size_t>(i)], dart_index[static_cast<size_t>(j)]);
+    }
+    const Eigen::SelfAdjointEigenSolver<MatrixX> eigen(A, Eigen::EigenvaluesOnly);
+    const double cond = eigen.eigenvalues().maxCoeff() / eigen.eigenvalues().minCoeff();
+    const double acc_tol = std::max(opt.tolerance, 10 * cond * eps);
+    const double dm = relative_difference(M, A), da = relative_difference(a, zdot);
+    row.mass_matrix = std::max(row.mass_matrix, dm);
+    row.accelerations = std::max(row.accelerations, da);
+    row.of_tolerance = std::max({row.of_tolerance, dm / opt.tolerance, da / acc_tol});
+  }
+  return row;
+}
+
+}  // namespace
+
+bool run_urdf_section(const UrdfOptions& opt) {
+  std::cout << "\n## URDF files: kanedyn's importer against DART's loader\n\n"
+            << "Largest relative differences over " << opt.states
+            << " random states (joint positions and velocities in [-1, 1]): the joint-space "
+               "mass matrix (kanedyn's projected A_z against Skeleton::getMassMatrix) and the "
+               "joint accelerations (JointDynamics::evaluate(Route::recursive) against "
+               "computeForwardDynamics); tolerance "
+            << opt.tolerance << " (accelerations: 10 cond(M) eps where larger).\n\n"
+            << "| file | n | mass matrix | accelerations | of tolerance |\n"
+            << "|---|---:|---:|---:|---:|\n";
+  std::mt19937 rng(opt.seed);
+  bool agree = true;
+  for (const std::string& path : opt.files) {
+    Row row;
+    try {
+      row = compare_file(path, opt, rng);
+    } catch (const std::exception& e) {
+      row.file = std::filesystem::path(path).filename().string();
+      row.skipped = std::string("kanedyn could not load it: ") + e.what();
+    }
+    if (!row.skipped.empty()) {
+      std::cout << "| " << row.file << " | | skipped: " << row.skipped << " | | |\n";
+      continue;
+    }
+    const bool ok = row.of_tolerance <= 1;
+    agree = agree && ok;
+    std::cout << "| " << row.file << " | " << row.n << " | " << std::setprecision(2)
+              << row.mass_matrix << " | " << row.accelerations << " | " << row.of_tolerance
+              << (ok ? "" : " DISAGREE") << " |\n";
+  }
+  std::cout << std::flush;
+  return agree;
+}
+
+}  // namespace peers
