@@ -14,7 +14,7 @@ struct UrdfOptions {
   int states = 4;  ///< random states per file
   /// Largest accepted relative difference of the mass matrices, and of the accelerations where
   /// the mass matrix is well conditioned (10 cond(M) eps where that is larger).
-  double tolerance = 1e-10;
+  double tolerance = 1e-12;
 };
 
 /// Prints one table row per file (or why it was skipped). Returns false when DART's mass
