@@ -31,6 +31,9 @@
 #include "kanedyn/testing/generate.hpp"
 #include "peer.hpp"
 #include "timing.hpp"
+#ifdef KANEDYN_PEERS_HAVE_DART_URDF
+#include "urdf_section.hpp"
+#endif
 
 namespace {
 
@@ -58,11 +61,23 @@ struct Options {
   double max_memory_gb = 0;      // 0: half of MemAvailable
   double tolerance = 1e-8;
   double backward_tolerance = 1e-10;
+#ifdef KANEDYN_PEERS_HAVE_DART_URDF
+  std::vector<std::string> sections{"free", "jointed", "scaling", "urdf"};
+#else
   std::vector<std::string> sections{"free", "jointed", "scaling"};
+#endif
   int jointed_chain = 512;
   int jointed_states = 4;
   std::vector<int> scaling_sizes{64, 512, 4096};
   double joint_tolerance = 1e-10;
+  std::vector<std::string> urdf_files{KANEDYN_SOURCE_DIR "/examples/urdf/arm.urdf",
+                                      KANEDYN_SOURCE_DIR "/tests/data/urdf/flange.urdf",
+                                      KANEDYN_SOURCE_DIR "/tests/data/urdf/joints.urdf",
+                                      KANEDYN_SOURCE_DIR "/tests/data/urdf/floating.urdf",
+                                      KANEDYN_SOURCE_DIR "/bench/peers/urdf/joints_welded.urdf",
+                                      KANEDYN_SOURCE_DIR "/bench/peers/urdf/branches.urdf"};
+  int urdf_states = 8;
+  double urdf_tolerance = 1e-12;
 };
 
 struct Case {
@@ -457,7 +472,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--sections", opt.sections,
                  "free (the free-body tables), jointed (jointed models: accelerations and "
-                 "timing), scaling (kanedyn's time per body on revolute chains)")
+                 "timing), scaling (kanedyn's time per body on revolute chains), urdf "
+                 "(kanedyn's URDF import against DART's URDF loader; needs "
+                 "libdart-utils-urdf-dev)")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--jointed-chain", opt.jointed_chain,
@@ -474,10 +491,21 @@ int main(int argc, char** argv) {
                  "Largest accepted relative difference of joint accelerations (raised to 10 "
                  "cond(M) eps where the joint-space mass matrix is ill-conditioned)")
       ->capture_default_str();
+  app.add_option("--urdf-files", opt.urdf_files, "URDF files of the urdf section")->delimiter(',');
+  app.add_option("--urdf-states", opt.urdf_states,
+                 "Random states per URDF file at which mass matrices and accelerations are "
+                 "compared")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--urdf-tolerance", opt.urdf_tolerance,
+                 "Largest accepted relative difference of the URDF files' mass matrices and "
+                 "joint accelerations (accelerations: raised to 10 cond(M) eps where larger)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   for (const std::string& section : opt.sections)
-    if (section != "free" && section != "jointed" && section != "scaling") {
-      std::cerr << "kanedyn_peers: unknown section '" << section << "' (free, jointed, scaling)\n";
+    if (section != "free" && section != "jointed" && section != "scaling" && section != "urdf") {
+      std::cerr << "kanedyn_peers: unknown section '" << section
+                << "' (free, jointed, scaling, urdf)\n";
       return 1;
     }
   if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
@@ -539,6 +567,19 @@ int main(int argc, char** argv) {
     j.compare = selected("jointed");
     j.scaling = selected("scaling");
     if (!peers::run_jointed_sections(j) && rc == 0) rc = 2;
+  }
+  if (selected("urdf")) {
+#ifdef KANEDYN_PEERS_HAVE_DART_URDF
+    peers::UrdfOptions u;
+    u.files = opt.urdf_files;
+    u.seed = opt.seed;
+    u.states = opt.urdf_states;
+    u.tolerance = opt.urdf_tolerance;
+    if (!peers::run_urdf_section(u) && rc == 0) rc = 2;
+#else
+    std::cerr << "kanedyn_peers: built without DART's URDF loader (libdart-utils-urdf-dev) or "
+                 "without kanedyn's URDF import; section urdf skipped\n";
+#endif
   }
   return rc;
 }
