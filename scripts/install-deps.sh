@@ -2,7 +2,8 @@
 # Installs, with apt-get, the Debian 12 packages kanedyn needs to build and test.
 # Does nothing when everything is already present.
 # Usage: scripts/install-deps.sh [--peers] [--clang] [--fuzz]
-#   --peers  also the peer engines for bench/peers (Simbody, MuJoCo, DART); never needed for tests.
+#   --peers  also the peer engines for bench/peers (Simbody, MuJoCo, DART and its URDF loader);
+#            never needed for tests.
 #   --clang  also clang 14 and clang-format 14 (CI's clang build and format check).
 #   --fuzz   also clang 14 and libFuzzer, for the fuzz target (scripts/fuzz.sh).
 set -euo pipefail
@@ -11,7 +12,7 @@ pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev liburdfdom-
       python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib)
 for arg in "$@"; do
   case "$arg" in
-    --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev) ;;
+    --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev libdart-utils-urdf-dev) ;;
     --clang) pkgs+=(clang-14 clang-format-14 libclang-rt-14-dev) ;;
     --fuzz) pkgs+=(clang-14 libfuzzer-14-dev libclang-rt-14-dev) ;;
     *) echo "install-deps: unknown option $arg (expected --peers, --clang or --fuzz)" >&2; exit 2 ;;
