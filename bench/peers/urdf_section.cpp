@@ -60,7 +60,7 @@ class QuietCerr {
 struct Row {
   std::string file;
   int n = 0;
-  double mass_matrix = 0, accelerations = 0, of_tolerance = 0;
+  double mass_matrix = 0, accelerations = 0, of_tolerance = 0, condition = 0;
   std::string skipped;  // why the file was not compared
 };
 
@@ -165,6 +165,7 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
     const double acc_tol = std::max(opt.tolerance, 10 * cond * eps);
     const double dm = relative_difference(M, A),
                  da = relative_difference(a, zdot, kAccelerationFloor);
+    row.condition = std::max(row.condition, cond);
     row.mass_matrix = std::max(row.mass_matrix, dm);
     row.accelerations = std::max(row.accelerations, da);
     row.of_tolerance = std::max({row.of_tolerance, dm / opt.tolerance, da / acc_tol});
@@ -185,8 +186,8 @@ bool run_urdf_section(const UrdfOptions& opt) {
             << opt.tolerance
             << " (accelerations: 10 cond(M) eps where larger). Fixed roots "
                "only: a file with a floating joint is skipped.\n\n"
-            << "| file | n | mass matrix | accelerations | of tolerance |\n"
-            << "|---|---:|---:|---:|---:|\n";
+            << "| file | n | cond(M) | mass matrix | accelerations | of tolerance |\n"
+            << "|---|---:|---:|---:|---:|---:|\n";
   std::mt19937 rng(opt.seed);
   bool agree = true;
   for (const std::string& path : opt.files) {
@@ -198,14 +199,14 @@ bool run_urdf_section(const UrdfOptions& opt) {
       row.skipped = std::string("kanedyn could not load it: ") + e.what();
     }
     if (!row.skipped.empty()) {
-      std::cout << "| " << row.file << " | | skipped: " << row.skipped << " | | |\n";
+      std::cout << "| " << row.file << " | | | skipped: " << row.skipped << " | | |\n";
       continue;
     }
     const bool ok = row.of_tolerance <= 1;
     agree = agree && ok;
     std::cout << "| " << row.file << " | " << row.n << " | " << std::setprecision(2)
-              << row.mass_matrix << " | " << row.accelerations << " | " << row.of_tolerance
-              << (ok ? "" : " DISAGREE") << " |\n";
+              << row.condition << " | " << row.mass_matrix << " | " << row.accelerations << " | "
+              << row.of_tolerance << (ok ? "" : " DISAGREE") << " |\n";
   }
   std::cout << std::flush;
   return agree;

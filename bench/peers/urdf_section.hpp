@@ -1,6 +1,7 @@
 // kanedyn_peers' urdf section: URDF files loaded by kanedyn's importer and by DART's own
 // loader (dart::utils::DartLoader), the joint-space mass matrices and forward-dynamics joint
-// accelerations compared at random states (docs/performance.md, "URDF against DART's loader").
+// accelerations compared at random states (docs/performance.md, "URDF files against DART's
+// loader").
 #pragma once
 
 #include <string>
