@@ -62,6 +62,9 @@ struct Row {
   int n = 0;
   double mass_matrix = 0, accelerations = 0, of_tolerance = 0, condition = 0;
   std::string skipped;  // why the file was not compared
+  /// The skip is a failure: a file one side cannot read, or that the two read as different
+  /// joints (not a floating joint or a file without joints, which are skipped on purpose).
+  bool failed = false;
 };
 
 // One file: kanedyn's speed i is DART's generalized coordinate dart_index[i].
@@ -92,11 +95,13 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
       dart::common::Uri::createFromPath(std::filesystem::absolute(path).string()));
   if (!skel) {
     row.skipped = "DART's loader could not read it";
+    row.failed = true;
     return row;
   }
   if (static_cast<int>(skel->getNumDofs()) != n) {
     row.skipped = "DART has " + std::to_string(skel->getNumDofs()) + " coordinates, kanedyn " +
                   std::to_string(n);
+    row.failed = true;
     return row;
   }
 
@@ -117,6 +122,7 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
     const dart::dynamics::BodyNode* node = skel->getBodyNode(name);
     if (!node || node->getParentJoint()->getNumDofs() != 1) {
       row.skipped = "no one-coordinate DART joint to link '" + name + "'";
+      row.failed = true;
       return row;
     }
     const auto i = static_cast<size_t>(tree.speed_offset(k));
@@ -197,9 +203,12 @@ bool run_urdf_section(const UrdfOptions& opt) {
     } catch (const std::exception& e) {
       row.file = std::filesystem::path(path).filename().string();
       row.skipped = std::string("kanedyn could not load it: ") + e.what();
+      row.failed = true;
     }
     if (!row.skipped.empty()) {
-      std::cout << "| " << row.file << " | | | skipped: " << row.skipped << " | | |\n";
+      std::cout << "| " << row.file << " | | | " << (row.failed ? "FAILED: " : "skipped: ")
+                << row.skipped << " | | |\n";
+      agree = agree && !row.failed;
       continue;
     }
     const bool ok = row.of_tolerance <= 1;

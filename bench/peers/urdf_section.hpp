@@ -19,7 +19,9 @@ struct UrdfOptions {
 };
 
 /// Prints one table row per file (or why it was skipped). Returns false when DART's mass
-/// matrix or accelerations disagree with kanedyn's beyond the tolerance.
+/// matrix or accelerations disagree with kanedyn's beyond the tolerance, or when a file could
+/// not be compared for another reason than a floating joint or having no joints (one side
+/// cannot read it, or the two read different joints).
 bool run_urdf_section(const UrdfOptions& options);
 
 }  // namespace peers
