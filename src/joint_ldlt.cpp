@@ -99,6 +99,7 @@ bool JointTreeLdlt::compute() {
     const int len = row_length(k);
     double* d = block(k, 0);
     ok = invert_spd(d, m) && ok;
+    if (len == 1) continue;  // no ancestor with a block: nothing below to update or to read
     const Eigen::Map<const Eigen::MatrixXd> d_inv(d, m, m);
     if (scalar_row_[at(k)]) {
       // Every node on k's row has one unknown (a chain of revolute or prismatic joints): the

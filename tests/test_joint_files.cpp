@@ -732,3 +732,60 @@ TEST(JointFiles, TheJointedExamplesRunWithTheirJointsHeld) {
 
 }  // namespace
 }  // namespace kanedyn
+
+namespace kanedyn {
+namespace {
+
+TEST(JointFiles, InspectShowsTheJointsAndTheJointedYdot) {
+  const std::filesystem::path dir = test::temp_dir("joint_inspect");
+  const std::string model = "'" + test::kExamples + "/cart_pendulum.yaml'";
+  const double h = 1e-4;
+  ASSERT_EQ(test::run_in(dir, "simulate " + model +
+                                  " -o run.csv --t-end 2e-4 --dt-out 1e-4 --integrator rk4 "
+                                  "--step 1e-5")
+                .exit_code,
+            0);
+  const test::ToolRun run =
+      test::run_in(dir, "inspect --json " + model + " --trajectory run.csv --t 1e-4");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  ASSERT_TRUE(j.contains("joints"));
+  const auto& joints = j["joints"];
+  EXPECT_EQ(joints["n"], 2);
+  EXPECT_EQ(joints["bodies"][1]["type"], "revolute");
+  // Each body's w' is its rows of [C] times z.
+  for (int k = 0; k < 2; ++k)
+    for (int r = 0; r < 3; ++r) {
+      double w = 0.0;
+      for (int c = 0; c < 2; ++c)
+        w += double(joints["bodies"][k]["C_w"][r][c]) * double(joints["z"][c]);
+      EXPECT_NEAR(w, double(j["bodies"][k]["w"][r]), 1e-15);
+    }
+  // The jointed y dot against central differences of the CSV's y columns: truncation
+  // h^2 / 6 |y'''| with |y'''| of order 100 here, 2e-7.
+  const auto rows = test::read_csv(dir / "run.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  const std::vector<std::string>& header = rows[0];
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const char* names[] = {"w1", "w2", "w3"};
+  for (int k = 0; k < 2; ++k)
+    for (int r = 0; r < 3; ++r) {
+      const std::size_t c = column((k == 0 ? "cart." : "pendulum.") + std::string(names[r]));
+      const double fd = (test::parse(rows[3][c]) - test::parse(rows[1][c])) / (2 * h);
+      EXPECT_NEAR(fd, double(joints["ydot"][3 * k + r]), 1e-6) << k << " " << r;
+    }
+  for (int r = 0; r < 3; ++r) {
+    const std::size_t c = column("cart.sd" + std::to_string(r + 1));
+    const double fd = (test::parse(rows[3][c]) - test::parse(rows[1][c])) / (2 * h);
+    EXPECT_NEAR(fd, double(joints["ydot"][6 + r]), 1e-6) << r;
+  }
+  // The text names every joint.
+  const test::ToolRun text = test::run_in(dir, "inspect " + model);
+  EXPECT_NE(text.out.find("body 2 'pendulum': revolute joint, q =  0.5"), std::string::npos)
+      << text.out;
+}
+
+}  // namespace
+}  // namespace kanedyn
