@@ -236,7 +236,8 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
       if (type == JointType::prismatic) {
         s.topRows<3>().setZero();
       } else {
-        s.topRows<3>() = rk.transpose() * jm.G.leftCols(w_count);
+        for (int col = 0; col < w_count; ++col)
+          s.col(col).head<3>() = rk.transpose() * jm.G.col(col).head<3>();
       }
       if (type == JointType::free || type == JointType::prismatic ||
           type == JointType::cylindrical) {
@@ -244,7 +245,8 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
         if (root)
           s.bottomRows<3>() = t.leftCols(w_count);
         else
-          s.bottomRows<3>() = kin.R[at(j)].transpose() * t.leftCols(w_count);
+          for (int col = 0; col < w_count; ++col)
+            s.col(col).tail<3>() = kin.R[at(j)].transpose() * t.col(col).head<3>();
       } else {
         s.bottomRows<3>().setZero();  // [T_K] = 0: the joint does not translate
       }
@@ -303,7 +305,9 @@ void JointDynamics::Impl::recursive_inward(int k) {
     d_inv = inverse_spd<M>(d);
     auto uu = u.segment<M>(off);
     uu = joint_force.segment<M>(off) - s.transpose() * p[i];
-    if (j == kGround) return;
+    // A root passes nothing on; nor does a free joint: its [S] (M = 6) is invertible, so
+    // IA - [U] D^-1 [U]^T = 0 and p + [U] D^-1 u = [S]^-T Q = 0 (no joint loads on a free body).
+    if (j == kGround || M == 6) return;
     const Eigen::Matrix<double, 6, M> ud = uk * d_inv;
     articulated.noalias() -= ud * uk.transpose();
     passed.noalias() += ud * uu;
