@@ -2,13 +2,13 @@
 // tree: the two routes"): an articulated-body recursion (Route::recursive, O(N)) and the projected
 // Kane equations [C]^T [A] [C] {z dot} = [C]^T ({f} - [A][C dot]{z}) + Q assembled by joint blocks
 // and solved by a tree-ordered LDL^T of variable block size (Route::assembled). Both work with each
-// body's velocity V_K = (w'_K, v'_O_K) in body-K components and the map of Eqs. (14)-(15) and
-// joint_state,
+// body's velocity V_K = (w_K, v_O_K) in inertial components about its own O_K and the map of
+// Eqs. (14)-(15) and joint_state,
 //   V_K = [P_K] V_J + [S_K] z_K,
 // from which every partial velocity with respect to z is a product of [P]s and one [S]:
-// [S_K] = ([G_K]; [X_K][T_K]) is the joint's motion subspace, made of the same [G_c] and s_block
-// as ConstraintMatrix. Per-body loads come from compute_resultants, at the state joint_state
-// gives, with the kinematics of compute_kinematics.
+// [S_K] = ([R_K]^T [G_K]; [R_J]^T [T_K]) is the joint's motion subspace, made of the same [G_c]
+// and s_block as ConstraintMatrix. Per-body loads come from compute_resultants, at the state
+// joint_state gives, with the kinematics of compute_kinematics.
 #include "kanedyn/joint_dynamics.hpp"
 
 #include <Eigen/LU>
