@@ -14,6 +14,7 @@
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/kinematic_equations.hpp"
+#include "kanedyn/simulate.hpp"
 #include "options.hpp"
 
 namespace kanedyn::cli {
@@ -110,15 +111,11 @@ void print_tables(const io::ModelFile& file, const Data& data, const std::string
 }
 
 /// Label of independent speed i: NAME.jdN of a jointed body, NAME.wC / NAME.sdC of a free one.
+// "NAME.COLUMN" of independent speed i, as the trajectory CSV names it.
 std::string independent_speed_label(const Model& model, const JointTree& tree, int i) {
-  for (int k = 0; k < model.num_bodies(); ++k) {
-    if (i >= tree.speed_offset(k + 1)) continue;
-    const int r = i - tree.speed_offset(k);
-    if (tree.joint(k).type == JointType::free)
-      return model.body(k).name + (r < 3 ? ".w" : ".sd") + std::to_string(r % 3 + 1);
-    return model.body(k).name + ".jd" + std::to_string(r + 1);
-  }
-  return "?";
+  int k = -1;
+  const std::string column = joint_state_column(tree, tree.num_coordinates() + i, &k);
+  return k < 0 ? "?" : model.body(k).name + "." + column;
 }
 
 void print_projected(const io::ModelFile& file, const ProjectedEquations& e, bool full) {

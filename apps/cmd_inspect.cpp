@@ -72,53 +72,28 @@ Json body_json(const BodyInspection& b, const std::set<std::string>& wanted) {
   return o;
 }
 
-/// A jointed model's terms at the inspected state: (q, z), [C], the projected equations, and
-/// the jointed system's y dot = [C]{z dot} + [C dot]{z}.
-struct JointTerms {
-  const JointTree* tree = nullptr;
-  VectorX q, z;
-  ProjectedEquations e;
-  VectorX ydot;
-};
-
-JointTerms joint_terms(const io::ModelFile& file, const VectorX& q, const VectorX& z) {
-  JointTerms j;
-  if (!file.jointed()) return j;
-  j.tree = &*file.joints;
-  j.q = q;
-  j.z = z;
-  Data data(file.model, DataOptions{.partials = false});
-  j.e = projected_equations(file.model, *j.tree, q, z, data);
-  j.ydot = j.e.C * j.e.zdot + j.e.Cdot_z;
-  return j;
-}
-
 /// The "joints" object of inspect --json (docs/cli.md): per body its joint, q and z slices
 /// and its rows of [C]; the projected equations.
-Json joints_json(const Model& model, const JointTerms& j, const Inspection& in) {
-  const JointTree& tree = *j.tree;
-  const int n = model.num_bodies();
+Json joints_json(const JointInspection& j) {
   Json o;
-  o["n"] = tree.num_speeds();
+  o["n"] = j.n;
   o["q"] = vec(j.q);
   o["z"] = vec(j.z);
-  o["C"] = mat(j.e.C);
-  o["Cdot_z"] = vec(j.e.Cdot_z);
-  o["A_z"] = mat(j.e.A_z);
-  o["f_z"] = vec(j.e.f_z);
-  o["zdot"] = vec(j.e.zdot);
+  o["C"] = mat(j.C);
+  o["Cdot_z"] = vec(j.Cdot_z);
+  o["A_z"] = mat(j.A_z);
+  o["f_z"] = vec(j.f_z);
+  o["zdot"] = vec(j.zdot);
   o["ydot"] = vec(j.ydot);
   o["bodies"] = Json::array();
-  for (const BodyInspection& b : in.bodies) {
-    const int k = b.K - 1;
-    const JointType type = tree.joint(k).type;
+  for (const JointBodyInspection& b : j.bodies) {
     Json jb;
     jb["K"] = b.K;
-    jb["type"] = to_string(type);
-    jb["q"] = vec(j.q.segment(tree.coordinate_offset(k), coordinate_count(type)));
-    jb["z"] = vec(j.z.segment(tree.speed_offset(k), speed_count(type)));
-    jb["C_w"] = mat(j.e.C.middleRows(3 * k, 3));
-    jb["C_sd"] = mat(j.e.C.middleRows(3 * n + 3 * k, 3));
+    jb["type"] = to_string(b.type);
+    jb["q"] = vec(b.q);
+    jb["z"] = vec(b.z);
+    jb["C_w"] = mat(b.C_w);
+    jb["C_sd"] = mat(b.C_sd);
     o["bodies"].push_back(std::move(jb));
   }
   return o;
@@ -126,38 +101,31 @@ Json joints_json(const Model& model, const JointTerms& j, const Inspection& in) 
 
 std::string v3(const Vector3& v);
 
-void print_joints_text(const Model& model, const JointTerms& j, const Inspection& in) {
-  const JointTree& tree = *j.tree;
-  const int n = model.num_bodies();
+void print_joints_text(const JointInspection& j, const Inspection& in) {
   std::printf(
       "\njoints: y = [C] z, n = %d independent speeds; [C]^T [A] [C] {z dot} = "
       "[C]^T ({f} - [A][C dot]{z}) + Q\n",
-      tree.num_speeds());
-  for (const BodyInspection& b : in.bodies) {
-    const int k = b.K - 1;
-    const JointType type = tree.joint(k).type;
-    const int p = tree.speed_offset(k), m = speed_count(type);
-    std::printf("  body %d '%s': %s joint, q =", b.K, io::printable(b.name).c_str(),
-                to_string(type));
-    for (int i = 0; i < coordinate_count(type); ++i)
-      std::printf(" % .6g", j.q[tree.coordinate_offset(k) + i]);
+      j.n);
+  for (size_t s = 0; s < j.bodies.size(); ++s) {
+    const JointBodyInspection& b = j.bodies[s];
+    std::printf("  body %d '%s': %s joint, q =", b.K, io::printable(in.bodies[s].name).c_str(),
+                to_string(b.type));
+    for (const double v : b.q) std::printf(" % .6g", v);
     std::printf(", z =");
-    for (int i = 0; i < m; ++i) std::printf(" % .6g", j.z[p + i]);
+    for (const double v : b.z) std::printf(" % .6g", v);
     std::printf("\n");
     // The nonzero columns of K's rows of [C]: the speeds of the joints on its chain.
-    for (int c = 0; c < tree.num_speeds(); ++c) {
-      const Vector3 w = j.e.C.block<3, 1>(3 * k, c), sd = j.e.C.block<3, 1>(3 * n + 3 * k, c);
+    for (int c = 0; c < j.n; ++c) {
+      const Vector3 w = b.C_w.col(c), sd = b.C_sd.col(c);
       if (w.isZero(0.0) && sd.isZero(0.0)) continue;
       std::printf("    [C] column z%-4d w' %s  s' dot %s\n", c + 1, v3(w).c_str(), v3(sd).c_str());
     }
   }
   std::printf("  %-6s %18s %18s\n", "z", "f_z", "z dot");
-  for (int i = 0; i < tree.num_speeds(); ++i)
-    std::printf("  z%-5d % .10e % .10e\n", i + 1, j.e.f_z[i], j.e.zdot[i]);
+  for (int i = 0; i < j.n; ++i) std::printf("  z%-5d % .10e % .10e\n", i + 1, j.f_z[i], j.zdot[i]);
 }
 
-void print_json(const Inspection& in, const std::set<std::string>& wanted, const Model& model,
-                const JointTerms& joints) {
+void print_json(const Inspection& in, const std::set<std::string>& wanted) {
   Json out;
   out["N"] = in.N;
   out["t"] = in.t;
@@ -166,7 +134,7 @@ void print_json(const Inspection& in, const std::set<std::string>& wanted, const
   out["ydot"] = vec(in.ydot);
   out["bodies"] = Json::array();
   for (const BodyInspection& b : in.bodies) out["bodies"].push_back(body_json(b, wanted));
-  if (joints.tree) out["joints"] = joints_json(model, joints, in);
+  if (in.joints) out["joints"] = joints_json(*in.joints);
   std::cout << out.dump() << "\n";
 }
 
@@ -416,7 +384,8 @@ void add_inspect(CLI::App& app) {
     const State state = chosen_state(file, opt->state, t, where, q, z);
     const int row_index =
         opt->row.empty() ? -1 : parse_row(opt->path, opt->row, file.model.num_bodies());
-    const Inspection in = inspect(file.model, state, t, bodies);
+    const Inspection in = file.jointed() ? inspect(file.model, *file.joints, q, z, t, bodies)
+                                         : inspect(file.model, state, t, bodies);
     if (!in.ydot.allFinite())
       throw std::runtime_error(opt->path + ": the equations of motion are not finite");
     if (row_index >= 0) {
@@ -426,12 +395,11 @@ void add_inspect(CLI::App& app) {
       return;
     }
     const std::set<std::string> wanted(opt->quantities.begin(), opt->quantities.end());
-    const JointTerms joints = joint_terms(file, q, z);
     if (opt->json) {
-      print_json(in, wanted, file.model, joints);
+      print_json(in, wanted);
     } else {
       print_text(file, in, where, wanted);
-      if (joints.tree) print_joints_text(file.model, joints, in);
+      if (in.joints) print_joints_text(*in.joints, in);
     }
   });
 }

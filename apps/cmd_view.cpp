@@ -35,7 +35,8 @@ void run(const Options& o) {
   if (out.empty()) out = std::filesystem::path(input).filename().replace_extension(".html");
   const std::string text = view::page(
       file.model, file.path, traj,
-      have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state");
+      have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state",
+      file.jointed() ? &*file.joints : nullptr);
   view::write_page(out, input, text);
   std::printf("wrote %s (%.1f kB; ", io::printable(out).c_str(), text.size() / 1000.0);
   if (have_traj)

@@ -6,6 +6,7 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 
 namespace kanedyn {
@@ -181,6 +182,39 @@ std::vector<std::vector<int>> mass_matrix_structure(const Model& model) {
   }
   for (std::vector<int>& row : rows) std::sort(row.begin(), row.end());
   return rows;
+}
+
+Inspection inspect(const Model& model, const JointTree& tree, const VectorX& q, const VectorX& z,
+                   double t, const std::vector<int>& bodies) {
+  const int n = model.num_bodies();
+  State state(model);
+  joint_state(tree, q, z, state);
+  Inspection out = inspect(model, state, t, bodies);
+  Data data(model, DataOptions{.partials = false});
+  ProjectedEquations e = projected_equations(model, tree, q, z, data);
+  JointInspection j;
+  j.n = tree.num_speeds();
+  j.q = q;
+  j.z = z;
+  j.ydot = e.C * e.zdot + e.Cdot_z;
+  for (const BodyInspection& b : out.bodies) {
+    const int k = b.K - 1;
+    JointBodyInspection jb;
+    jb.K = b.K;
+    jb.type = tree.joint(k).type;
+    jb.q = q.segment(tree.coordinate_offset(k), coordinate_count(jb.type));
+    jb.z = z.segment(tree.speed_offset(k), speed_count(jb.type));
+    jb.C_w = e.C.middleRows(3 * k, 3);
+    jb.C_sd = e.C.middleRows(3 * n + 3 * k, 3);
+    j.bodies.push_back(std::move(jb));
+  }
+  j.C = std::move(e.C);
+  j.Cdot_z = std::move(e.Cdot_z);
+  j.A_z = std::move(e.A_z);
+  j.f_z = std::move(e.f_z);
+  j.zdot = std::move(e.zdot);
+  out.joints = std::move(j);
+  return out;
 }
 
 }  // namespace kanedyn

@@ -2,17 +2,17 @@
 // tree: the two routes"): an articulated-body recursion (Route::recursive, O(N)) and the projected
 // Kane equations [C]^T [A] [C] {z dot} = [C]^T ({f} - [A][C dot]{z}) + Q assembled by joint blocks
 // and solved by a tree-ordered LDL^T of variable block size (Route::assembled). Both work with each
-// body's velocity V_K = (w'_K, v'_O_K) in body-K components and the map of Eqs. (14)-(15) and
-// joint_state,
+// body's velocity V_K = (w_K, v_O_K) in inertial components about its own O_K and the map of
+// Eqs. (14)-(15) and joint_state,
 //   V_K = [P_K] V_J + [S_K] z_K,
 // from which every partial velocity with respect to z is a product of [P]s and one [S]:
-// [S_K] = ([G_K]; [X_K][T_K]) is the joint's motion subspace, made of the same [G_c] and s_block
-// as ConstraintMatrix. Per-body loads come from compute_resultants, at the state joint_state
-// gives, with the kinematics of compute_kinematics.
+// [S_K] = ([R_K]^T [G_K]; [R_J]^T [T_K]) is the joint's motion subspace, made of the same [G_c]
+// and s_block as ConstraintMatrix. Per-body loads come from compute_resultants, at the state
+// joint_state gives, with the kinematics of compute_kinematics.
 #include "kanedyn/joint_dynamics.hpp"
 
-#include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <cmath>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -21,6 +21,7 @@
 #include "kanedyn/kinematics.hpp"
 
 #include "joint_ldlt.hpp"
+#include "joint_motion.hpp"
 
 namespace kanedyn {
 
@@ -31,78 +32,97 @@ size_t at(int i) { return static_cast<size_t>(i); }
 // 6 x (speeds of one joint): fixed storage, no heap.
 using Block = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
 
-// The spatial inertia of body K about O_K, body-K components, for V = (w', v'_O): the kinetic
+// The spatial inertia of body K about O_K for V = (w, v_O), inertial components: the kinetic
 // energy is 1/2 V^T [I_O] V, and [I_O] V = (angular momentum about O_K, linear momentum).
-//   [I_O] = | [I'_G] - m [r~][r~]   m [r~] |
-//           | -m [r~]               m [I]  |       r = r'_K (O_K to G_K)
-Matrix6 spatial_inertia(const BodySpec& b) {
-  const Matrix3 rx = skew(b.com);
+//   [I_O] = | [I_G] - m [c~][c~]   m [c~] |     c = G_K - O_K, [I_G] = [R_K]^T [I'_G] [R_K]
+//           | -m [c~]              m [I]  |
+Matrix6 spatial_inertia(double mass, const Vector3& c, const Matrix3& inertia_g) {
+  const Matrix3 cx = skew(c);
   Matrix6 i;
-  i.topLeftCorner<3, 3>() = b.inertia - b.mass * rx * rx;
-  i.topRightCorner<3, 3>() = b.mass * rx;
-  i.bottomLeftCorner<3, 3>() = -b.mass * rx;
-  i.bottomRightCorner<3, 3>() = b.mass * Matrix3::Identity();
+  i.topLeftCorner<3, 3>() = inertia_g - mass * cx * cx;
+  i.topRightCorner<3, 3>() = mass * cx;
+  i.bottomLeftCorner<3, 3>() = -mass * cx;
+  i.bottomRightCorner<3, 3>() = mass * Matrix3::Identity();
   return i;
 }
 
-// The inverse of the joint-space inertia block D (M x M, symmetric positive definite).
+// The inverse of the joint-space inertia block D (M x M, symmetric positive definite): the
+// cofactor formula for M <= 3; above it D = [L][L]^T (Cholesky, fixed-size loops that the
+// compiler unrolls: Eigen's LLT solve of a fixed 6x6 runs its general blocked kernels) and
+// D^-1 = [L]^-T [L]^-1.
 template <int M>
 Eigen::Matrix<double, M, M> inverse_spd(const Eigen::Matrix<double, M, M>& d) {
   if constexpr (M <= 3) {
-    return d.inverse();  // closed form (cofactors) for fixed sizes up to 4
+    return d.inverse();
   } else {
-    return d.llt().solve(Eigen::Matrix<double, M, M>::Identity());
+    Eigen::Matrix<double, M, M> l = Eigen::Matrix<double, M, M>::Zero();
+    for (int c = 0; c < M; ++c) {
+      double diag = d(c, c);
+      for (int e = 0; e < c; ++e) diag -= l(c, e) * l(c, e);
+      l(c, c) = std::sqrt(diag);
+      for (int r = c + 1; r < M; ++r) {
+        double v = d(r, c);
+        for (int e = 0; e < c; ++e) v -= l(r, e) * l(c, e);
+        l(r, c) = v / l(c, c);
+      }
+    }
+    Eigen::Matrix<double, M, M> li = Eigen::Matrix<double, M, M>::Zero();  // [L]^-1
+    for (int c = 0; c < M; ++c) {
+      li(c, c) = 1.0 / l(c, c);
+      for (int r = c + 1; r < M; ++r) {
+        double v = 0.0;
+        for (int e = c; e < r; ++e) v -= l(r, e) * li(e, c);
+        li(r, c) = v / l(r, r);
+      }
+    }
+    return li.transpose() * li;
   }
 }
 
-// [P_K] = diag([X], [X]) | a [I]     0   |  (a = 1; a = 0 for a free body), applied by blocks
-//                       | -[Q~]   [I] |
-// with Q = q'_K + s'_K (body J): fewer flops than the dense 6x6 products.
+// [P_K] = | a [I]     0   |  (a = 1; a = 0 for a free body), applied by blocks, with
+//          | -[r~]   [I] |
+// r = O_K - O_J = [R_J]^T (q'_K + s'_K) in inertial components: every spatial quantity here is
+// in inertial axes about the body's own O_K, so carrying one from K to J shifts its point and
+// turns nothing.
 struct BodyMap {
-  const Matrix3& X;
-  const Vector3& Q;
-  bool angular;  // a = 1: w'_K carries [X] w'_J
+  const Vector3& r;
+  bool angular;  // a = 1: w_K carries w_J
 };
 
-// [P] V_J: ([X] a w, [X] (v - Q x w)).
+// [P] V_J: (a w, v + w x r).
 Vector6 map_velocity(const BodyMap& m, const Vector6& v) {
   Vector6 out;
-  out.head<3>() = m.angular ? Vector3(m.X * v.head<3>()) : Vector3::Zero();
-  out.tail<3>() = m.X * (v.tail<3>() - m.Q.cross(v.head<3>()));
+  out.head<3>() = m.angular ? Vector3(v.head<3>()) : Vector3::Zero();
+  out.tail<3>() = v.tail<3>() + v.head<3>().cross(m.r);
   return out;
 }
 
-// [P]^T f for f = (moment about O_K, force), body K: the same about O_J in body J,
-// (a [X]^T n + Q x [X]^T F, [X]^T F).
+// [P]^T f for f = (moment about O_K, force): the same about O_J, (a n + r x F, F).
 template <typename Column>
 Vector6 carry_force(const BodyMap& m, const Column& f) {
-  const Vector3 force = m.X.transpose() * f.template tail<3>();
+  const Vector3 force = f.template tail<3>();
   Vector6 out;
-  out.template head<3>() = m.Q.cross(force);
-  if (m.angular) out.template head<3>() += m.X.transpose() * f.template head<3>();
+  out.template head<3>() = m.r.cross(force);
+  if (m.angular) out.template head<3>() += f.template head<3>();
   out.template tail<3>() = force;
   return out;
 }
 
-// target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with A', B', C' = [X]^T (A, B, C) [X]
-// and W = C' [Q~], the result is [a A' - a (B'[Q~] + (B'[Q~])^T) - [Q~] W,  a B' - W^T;
-// (a B' - W^T)^T, C'] ([Q~]^T = -[Q~], C' symmetric).
+// target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with W = C [r~], the result is
+// [a A - a (B[r~] + (B[r~])^T) - [r~] W,  a B - W^T;  (a B - W^T)^T, C] ([r~]^T = -[r~]).
 void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
-  const Matrix3 xt = m.X.transpose();
-  const Matrix3 b = xt * M.topRightCorner<3, 3>() * m.X;
-  const Matrix3 cc = xt * M.bottomRightCorner<3, 3>() * m.X;
-  const Matrix3 q = skew(m.Q);
-  const Matrix3 w = cc * q;
+  const Matrix3 q = skew(m.r);
+  const Matrix3 w = M.bottomRightCorner<3, 3>() * q;
   Matrix3 tl = -q * w, tr = -w.transpose();
   if (m.angular) {
-    const Matrix3 bq = b * q;
-    tl += xt * M.topLeftCorner<3, 3>() * m.X - bq - bq.transpose();
-    tr += b;
+    const Matrix3 bq = M.topRightCorner<3, 3>() * q;
+    tl += M.topLeftCorner<3, 3>() - bq - bq.transpose();
+    tr += M.topRightCorner<3, 3>();
   }
   target.topLeftCorner<3, 3>() += tl;
   target.topRightCorner<3, 3>() += tr;
   target.bottomLeftCorner<3, 3>() += tr.transpose();
-  target.bottomRightCorner<3, 3>() += cc;
+  target.bottomRightCorner<3, 3>() += M.bottomRightCorner<3, 3>();
 }
 
 }  // namespace
@@ -121,7 +141,9 @@ struct JointDynamics::Impl {
     const int n = m.num_bodies();
     if (t.num_bodies() != n)
       throw std::invalid_argument("JointDynamics: the JointTree is not of this Model");
-    X.assign(at(n), Matrix3::Identity());
+    r.assign(at(n), Vector3::Zero());
+    w_inertial.assign(at(n), Vector3::Zero());
+    motion.resize(at(n));
     speeds.assign(at(n), 0);
     offset.assign(at(n), 0);
     free_joint.assign(at(n), 0);
@@ -161,7 +183,9 @@ struct JointDynamics::Impl {
   // of V_K at z dot = 0 and A_J = 0; the acceleration A_K. prepare() writes them in its one pass
   // (the routes' passes read each body's tables once more each way).
   std::vector<Matrix6> IA;
-  std::vector<Matrix3> X;
+  std::vector<Vector3> r;           // O_K - O_J, inertial components (BodyMap)
+  std::vector<Vector3> w_inertial;  // w_K, inertial components
+  std::vector<detail::JointMotion> motion;
   std::vector<Vector6> p, c, A;
   // Pools by speed: [S_K] and [U_K] = IA_K [S_K], 6 doubles a column, at 6 speed_offset(K);
   // D_K^-1 (speed_count^2 doubles at d_offset[K]).
@@ -173,9 +197,7 @@ struct JointDynamics::Impl {
   void prepare(const VectorX& qq, const VectorX& zz);
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
-  BodyMap body_map(int k) const {
-    return {X[at(k)], data.kinematics.qs_b[at(k)], free_joint[at(k)] == 0};
-  }
+  BodyMap body_map(int k) const { return {r[at(k)], free_joint[at(k)] == 0}; }
   template <int M>
   void recursive_inward(int k);
   template <int M>
@@ -183,9 +205,9 @@ struct JointDynamics::Impl {
 };
 
 // The state, kinematics and loads at (q, z), and per body [P_K], [S_K], c_K and the force
-// b_K - F_ext,K; the joint loads' Q.
+// b_K - F_ext,K, all in inertial components about O_K; the joint loads' Q.
 void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
-  joint_state(tree, qq, zz, state);
+  detail::joint_state(tree, qq, zz, state, &motion);
   compute_kinematics(model, state, data);
   compute_resultants(model, state, data);
   joint_force.setZero();
@@ -198,49 +220,68 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const bool root = j == kGround;
     const bool is_free = free_joint[i] != 0;
     const BodySpec& body = model.body(k);
-    // [X_K] = [R_K][R_J]^T maps body-J to body-K components ([R_K] for a root: J is R).
-    Matrix3& x = X[i];
-    x = root ? kin.R[i] : Matrix3(kin.R[i] * kin.R[at(j)].transpose());
-    const Vector3 w = state.angular_velocity(k);
-    const Vector3 v = kin.R[i] * kin.v_O[i];
-    // Eqs. (14)-(15) in body-K components: v'_K = [X](v'_J + w'_J x (q'_K + s'_K) + s'_K dot),
-    // and w'_K = w_rel + [X] w'_J (a free body: w'_K = z_K itself, no [X] w'_J term).
-    // [P_K] (BodyMap) is made of [X_K] and q'_K + s'_K (kin.qs_b).
-    // [S_K] = ([G_K]; [X_K][T_K]): the coefficient of z_K in V_K.
+    const Matrix3& rk = kin.R[i];
+    // Eqs. (14)-(15) in inertial components: w_K = a w_J + [R_K]^T [G_K] z_K (a = 0 for a free
+    // body, whose w'_K is z_K itself) and v_O,K = v_O,J + w_J x r + [R_J]^T [T_K] z_K, with
+    // r = [R_J]^T (q'_K + s'_K). The coefficients of z_K are the columns of [S_K].
+    const detail::JointMotion& jm = motion[i];
+    const Vector3 w = rk.transpose() * state.angular_velocity(k);
+    w_inertial[i] = w;
+    const Vector3 w_j = root ? Vector3::Zero() : w_inertial[at(j)];
+    r[i] = root ? kin.qs_b[i] : Vector3(kin.R[at(j)].transpose() * kin.qs_b[i]);
+    const JointType type = tree.joint(k).type;
     const int w_count = speeds[i], off = offset[i];
     if (w_count > 0) {
       Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
-      s.topRows<3>() = joint_rotation_block(tree, k, qq).leftCols(w_count);
-      const JointType type = tree.joint(k).type;
-      if (type == JointType::free || type == JointType::prismatic || type == JointType::cylindrical)
-        s.bottomRows<3>() = (x * joint_translation_block(tree, k)).leftCols(w_count);
-      else
+      if (type == JointType::prismatic) {
+        s.topRows<3>().setZero();
+      } else {
+        for (int col = 0; col < w_count; ++col)
+          s.col(col).head<3>() = rk.transpose() * jm.G.col(col).head<3>();
+      }
+      if (type == JointType::free || type == JointType::prismatic ||
+          type == JointType::cylindrical) {
+        const Matrix36 t = joint_translation_block(tree, k);
+        if (root)
+          s.bottomRows<3>() = t.leftCols(w_count);
+        else
+          for (int col = 0; col < w_count; ++col)
+            s.col(col).tail<3>() = kin.R[at(j)].transpose() * t.col(col).head<3>();
+      } else {
         s.bottomRows<3>().setZero();  // [T_K] = 0: the joint does not translate
+      }
     }
-    // c_K = d/dt V_K at z dot = 0 with J's acceleration zero: d[X]/dt = -[w_rel~][X] (README,
-    // d[R]/dt = -[w'~][R] for K and J), w_rel = w'_K - [X] w'_J, d(q' + s')/dt = s'_K dot:
-    //   angular  [G_K dot] z_K - w_rel x [X] w'_J             (0 for a free body)
-    //   linear   [X](w'_J x s'_K dot) - w_rel x v'_K
-    const Vector3 xw_j = root ? Vector3::Zero() : Vector3(x * state.angular_velocity(j));
-    const Vector3 w_rel = w - xw_j;
+    // c_K = d/dt V_K at z dot = 0 with J's acceleration zero. With d/dt ([R]^T u) = w x [R]^T u
+    // + [R]^T du/dt, w_rel = w_K - a w_J and the slide rate sd = [R_J]^T [T_K] z_K
+    // (dr/dt = w_J x r + sd):
+    //   angular  w_K x w_rel + [R_K]^T [G_K dot] z_K        (0 for a free body: w_rel = w_K)
+    //   linear   w_J x (w_J x r) + 2 w_J x sd
     Vector6& ck = c[i];
-    ck.head<3>() =
-        is_free ? Vector3::Zero()
-                : Vector3(joint_rotation_rate_times_speeds(tree, k, qq, zz) - w_rel.cross(xw_j));
-    ck.tail<3>() = -w_rel.cross(v);
-    if (!root) ck.tail<3>() += x * state.angular_velocity(j).cross(state.translation_rate(k));
-    // Newton-Euler about O_K in body-K components: with A = d/dt V (component rates),
-    // [I_O] A + b equals the force needed, b = (w x [I'_G] w + m r x (w x v_G), m w x v_G),
-    // v_G = v + w x r (a'_O = dv/dt + w x v). The external force about O_K is
-    // ([M'_K] + r x F'_K, F'_K), F'_K = [R_K] F_K: gravity and every force element.
-    const Vector3 r = body.com;
-    const Vector3 v_g = v + w.cross(r);
-    const Vector3 f_b = kin.R[i] * data.loads.force[i];
-    IA[i] = spatial_inertia(body);
+    if (is_free) {
+      ck.head<3>().setZero();
+    } else {
+      ck.head<3>() = w.cross(w - w_j);
+      if (type == JointType::universal) ck.head<3>() += rk.transpose() * jm.g_dot_z;
+    }
+    if (root) {
+      ck.tail<3>().setZero();
+    } else {
+      const Vector3 sd = kin.R[at(j)].transpose() * jm.slide_rate;
+      ck.tail<3>() = w_j.cross(w_j.cross(r[i]) + 2.0 * sd);
+    }
+    // Newton-Euler about O_K in inertial components, with A = d/dt V (a_O the acceleration of
+    // the material point O_K): [I_O] A + b is the force needed, b = (w x [I_G] w + m c x
+    // (w x (w x c)), m w x (w x c)), c = [R_K]^T r'_K. The external force about O_K is
+    // ([R_K]^T M'_K + c x F_K, F_K): gravity and every force element.
+    const Vector3 cg = rk.transpose() * body.com;
+    const Matrix3 inertia_g = rk.transpose() * body.inertia * rk;
+    const Vector3 f = data.loads.force[i];
+    const Vector3 wwc = w.cross(w.cross(cg));
+    IA[i] = spatial_inertia(body.mass, cg, inertia_g);
     Vector6& bk = p[i];
-    bk.head<3>() = w.cross(body.inertia * w) + body.mass * r.cross(w.cross(v_g)) -
-                   (data.loads.moment_b[i] + r.cross(f_b));
-    bk.tail<3>() = body.mass * w.cross(v_g) - f_b;
+    bk.head<3>() = w.cross(inertia_g * w) + body.mass * cg.cross(wwc) -
+                   (rk.transpose() * data.loads.moment_b[i] + cg.cross(f));
+    bk.tail<3>() = body.mass * wwc - f;
   }
 }
 
@@ -264,7 +305,9 @@ void JointDynamics::Impl::recursive_inward(int k) {
     d_inv = inverse_spd<M>(d);
     auto uu = u.segment<M>(off);
     uu = joint_force.segment<M>(off) - s.transpose() * p[i];
-    if (j == kGround) return;
+    // A root passes nothing on; nor does a free joint: its [S] (M = 6) is invertible, so
+    // IA - [U] D^-1 [U]^T = 0 and p + [U] D^-1 u = [S]^-T Q = 0 (no joint loads on a free body).
+    if (j == kGround || M == 6) return;
     const Eigen::Matrix<double, 6, M> ud = uk * d_inv;
     articulated.noalias() -= ud * uk.transpose();
     passed.noalias() += ud * uu;

@@ -9,6 +9,8 @@
 #include "kanedyn/kane.hpp"
 #include "kanedyn/rotation.hpp"
 
+#include "joint_motion.hpp"
+
 namespace kanedyn {
 
 namespace {
@@ -169,67 +171,104 @@ JointTree::JointTree(const Model& model, std::vector<Joint> joints, std::vector<
   }
 }
 
-Vector4 joint_relative_rotation(const JointTree& tree, int k, const VectorX& q) {
+namespace detail {
+
+JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k) {
   const Joint& jt = tree.joint(k);
   const int o = tree.coordinate_offset(k);
+  const auto rate = [z_k](int c) { return z_k ? z_k[c] : 0.0; };
+  JointMotion m;
+  m.G.setZero();
+  m.w_rel.setZero();
+  m.slide.setZero();
+  m.slide_rate.setZero();
+  m.g_dot_z.setZero();
   Vector4 joint_rel{0.0, 0.0, 0.0, 1.0};  // K relative to F
   switch (jt.type) {
-    case JointType::revolute:
+    case JointType::free:  // the notes' own: w'_K = z_K, s'_K dot = the next three
+      m.rel = jt.frame;
+      m.G.leftCols<3>().setIdentity();
+      m.w_rel = Vector3(rate(0), rate(1), rate(2));
+      m.slide = q.segment<3>(o + 4);
+      m.slide_rate = Vector3(rate(3), rate(4), rate(5));
+      return m;
+    case JointType::weld:
+      m.slide = jt.translation;
+      break;
+    case JointType::revolute:  // n is fixed by the turn about n
+      joint_rel = euler_parameters_from_axis_angle(jt.axis, q[o]);
+      m.G.col(0) = jt.axis;
+      m.w_rel = rate(0) * jt.axis;
+      break;
+    case JointType::prismatic:
+      m.slide = q[o] * tree.axis_in_j(k);
+      m.slide_rate = rate(0) * tree.axis_in_j(k);
+      break;
     case JointType::cylindrical:
       joint_rel = euler_parameters_from_axis_angle(jt.axis, q[o]);
+      m.G.col(0) = jt.axis;
+      m.w_rel = rate(0) * jt.axis;
+      m.slide = q[o + 1] * tree.axis_in_j(k);
+      m.slide_rate = rate(1) * tree.axis_in_j(k);
       break;
-    case JointType::universal:  // a1 first, then a2 as the first turn carried it
-      joint_rel = compose_euler_parameters(euler_parameters_from_axis_angle(jt.axes[0], q[o]),
-                                           euler_parameters_from_axis_angle(jt.axes[1], q[o + 1]));
+    case JointType::universal: {
+      // a1 first, then a2 as the first turn carried it: a1 (fixed in F and in the intermediate
+      // frame) in K components is [R(a2, q2)] a1, and a2 is fixed in K; d/dt [R(a2, q2)] a1 =
+      // -(q2 dot a2) x [R(a2, q2)] a1.
+      const Vector4 second = euler_parameters_from_axis_angle(jt.axes[1], q[o + 1]);
+      joint_rel =
+          compose_euler_parameters(euler_parameters_from_axis_angle(jt.axes[0], q[o]), second);
+      const Vector3 a1_k = rotation_matrix(second) * jt.axes[0];
+      m.G.col(0) = a1_k;
+      m.G.col(1) = jt.axes[1];
+      m.w_rel = rate(0) * a1_k + rate(1) * jt.axes[1];
+      m.g_dot_z = -rate(0) * rate(1) * jt.axes[1].cross(a1_k);
       break;
+    }
     case JointType::spherical:
       joint_rel = q.segment<4>(o);
-      break;
-    default:
+      m.G.leftCols<3>().setIdentity();
+      m.w_rel = Vector3(rate(0), rate(1), rate(2));
       break;
   }
-  return compose_euler_parameters(jt.frame, joint_rel);
+  m.rel = compose_euler_parameters(jt.frame, joint_rel);
+  return m;
+}
+
+void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state,
+                 std::vector<JointMotion>* motion) {
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    const int j = tree.lower_body(k);
+    const int o = tree.coordinate_offset(k);
+    const JointMotion m = joint_motion(tree, k, q, z.data() + tree.speed_offset(k));
+    if (motion) (*motion)[at(k)] = m;
+    if (is_free(tree.joint(k).type)) {
+      state.euler_parameters(k) = q.segment<4>(o);
+      state.angular_velocity(k) = m.w_rel;
+    } else if (j == kGround) {  // J is R: eps_J the identity, w'_J = 0
+      state.euler_parameters(k) = m.rel;
+      state.angular_velocity(k) = m.w_rel;
+    } else {  // w'_K = w_rel + [R(rel)] w'_J, [R(rel)] = [R_K][R_J]^T
+      state.euler_parameters(k) = compose_euler_parameters(state.euler_parameters(j), m.rel);
+      state.angular_velocity(k) = m.w_rel + rotation_matrix(m.rel) * state.angular_velocity(j);
+    }
+    state.translation(k) = m.slide;
+    state.translation_rate(k) = m.slide_rate;
+  }
+}
+
+}  // namespace detail
+
+Vector4 joint_relative_rotation(const JointTree& tree, int k, const VectorX& q) {
+  return detail::joint_motion(tree, k, q, nullptr).rel;
 }
 
 Vector3 joint_translation(const JointTree& tree, int k, const VectorX& q) {
-  const Joint& jt = tree.joint(k);
-  const int o = tree.coordinate_offset(k);
-  switch (jt.type) {
-    case JointType::weld:
-      return jt.translation;
-    case JointType::prismatic:
-      return q[o] * tree.axis_in_j(k);
-    case JointType::cylindrical:
-      return q[o + 1] * tree.axis_in_j(k);
-    default:
-      return Vector3::Zero();
-  }
+  return detail::joint_motion(tree, k, q, nullptr).slide;
 }
 
 Matrix36 joint_rotation_block(const JointTree& tree, int k, const VectorX& q) {
-  const Joint& jt = tree.joint(k);
-  const int o = tree.coordinate_offset(k);
-  Matrix36 g = Matrix36::Zero();
-  switch (jt.type) {
-    case JointType::free:
-      g.leftCols<3>().setIdentity();
-      break;
-    case JointType::revolute:
-    case JointType::cylindrical:
-      g.col(0) = jt.axis;
-      break;  // n is fixed by the turn about n
-    case JointType::universal:
-      // a1 (fixed in F and in the intermediate frame) in K components, then a2 (fixed in K).
-      g.col(0) = axis_angle_rotation(jt.axes[1], q[o + 1]) * jt.axes[0];
-      g.col(1) = jt.axes[1];
-      break;
-    case JointType::spherical:
-      g.leftCols<3>().setIdentity();
-      break;
-    default:
-      break;
-  }
-  return g;
+  return detail::joint_motion(tree, k, q, nullptr).G;
 }
 
 Matrix36 joint_translation_block(const JointTree& tree, int k) {
@@ -252,12 +291,16 @@ Matrix36 joint_translation_block(const JointTree& tree, int k) {
 
 Vector3 joint_rotation_rate_times_speeds(const JointTree& tree, int k, const VectorX& q,
                                          const VectorX& z) {
-  const Joint& jt = tree.joint(k);
-  if (jt.type != JointType::universal) return Vector3::Zero();  // [G_K] constant in K
-  const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
-  // d/dt [R(a2, q2)] a1 = -(q2 dot a2) x [R(a2, q2)] a1
-  return -z[p] * z[p + 1] *
-         jt.axes[1].cross(axis_angle_rotation(jt.axes[1], q[o + 1]) * jt.axes[0]);
+  return detail::joint_motion(tree, k, q, z.data() + tree.speed_offset(k)).g_dot_z;
+}
+
+Vector3 joint_relative_angular_velocity(const JointTree& tree, int k, const VectorX& q,
+                                        const VectorX& z) {
+  return detail::joint_motion(tree, k, q, z.data() + tree.speed_offset(k)).w_rel;
+}
+
+void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state) {
+  detail::joint_state(tree, q, z, state, nullptr);
 }
 
 namespace {
@@ -267,39 +310,6 @@ Eigen::Ref<const VectorX> speeds_of(const JointTree& tree, const VectorX& z, int
 }
 
 }  // namespace
-
-Vector3 joint_relative_angular_velocity(const JointTree& tree, int k, const VectorX& q,
-                                        const VectorX& z) {
-  const int m = speed_count(tree.joint(k).type);
-  return joint_rotation_block(tree, k, q).leftCols(m) * speeds_of(tree, z, k);
-}
-
-void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state) {
-  for (int k = 0; k < tree.num_bodies(); ++k) {
-    const int j = tree.lower_body(k);
-    const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
-    if (is_free(tree.joint(k).type)) {
-      state.euler_parameters(k) = q.segment<4>(o);
-      state.translation(k) = q.segment<3>(o + 4);
-      state.angular_velocity(k) = z.segment<3>(p);
-      state.translation_rate(k) = z.segment<3>(p + 3);
-      continue;
-    }
-    const Vector4 rel = joint_relative_rotation(tree, k, q);
-    const Vector3 w_rel = joint_relative_angular_velocity(tree, k, q, z);
-    if (j == kGround) {  // J is R: eps_J the identity, w'_J = 0
-      state.euler_parameters(k) = rel;
-      state.angular_velocity(k) = w_rel;
-    } else {  // w'_K = w_rel + [R(rel)] w'_J, [R(rel)] = [R_K][R_J]^T
-      state.euler_parameters(k) = compose_euler_parameters(state.euler_parameters(j), rel);
-      state.angular_velocity(k) = w_rel + rotation_matrix(rel) * state.angular_velocity(j);
-    }
-    state.translation(k) = joint_translation(tree, k, q);
-    const int m = speed_count(tree.joint(k).type);
-    state.translation_rate(k) =
-        joint_translation_block(tree, k).leftCols(m) * speeds_of(tree, z, k);
-  }
-}
 
 double normalize_joint_coordinates(const JointTree& tree, Eigen::Ref<VectorX> q) {
   double worst = 0.0;

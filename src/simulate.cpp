@@ -57,13 +57,12 @@ std::string describe_state_component(const Model& model, int component, int* bod
   return text;
 }
 
-std::string describe_joint_state_component(const Model& model, const JointTree& tree, int component,
-                                           int* body) {
+std::string joint_state_column(const JointTree& tree, int component, int* body) {
   // (q; z) body by body: a free body's q is (eps_K, s'_K) and z (w'_K, s'_K dot), the notes'
   // columns; the other joints' are j1.. and jd1...
   static const char* const kFreeQ[7] = {"e1", "e2", "e3", "e4", "s1", "s2", "s3"};
   static const char* const kFreeZ[6] = {"w1", "w2", "w3", "sd1", "sd2", "sd3"};
-  const int n = model.num_bodies(), nq = tree.num_coordinates();
+  const int n = tree.num_bodies(), nq = tree.num_coordinates();
   int k = -1;
   std::string column;
   const bool speed = component >= nq;
@@ -79,6 +78,14 @@ std::string describe_joint_state_component(const Model& model, const JointTree& 
     else
       column = (speed ? "jd" : "j") + std::to_string(r + 1);
   }
+  if (body) *body = k;
+  return column;
+}
+
+std::string describe_joint_state_component(const Model& model, const JointTree& tree, int component,
+                                           int* body) {
+  int k = -1;
+  const std::string column = joint_state_column(tree, component, &k);
   if (body) *body = k;
   if (k < 0) return "no body";
   return "body '" + model.body(k).name + "' (" + column + ")";

@@ -149,6 +149,39 @@ TEST(Inspect, SelectsBodiesButSumsOverAll) {
   EXPECT_THROW(inspect(model, state, 0.0, {8}), std::out_of_range);
 }
 
+// A jointed model: the inspection at (q, z) is the free tree's at joint_state(q, z) plus the
+// joints, whose [C] rows per body are the rows of the whole [C], and whose jointed y dot is the
+// velocities' rate [C]{z dot} + [C dot]{z}; the y dot [C]{z dot} would give alone differs.
+TEST(Inspect, JointedModelAddsTheJointsAtItsJointState) {
+  const io::ModelFile file = io::load_model_file(kExamples + "/human_jointed.yaml");
+  ASSERT_TRUE(file.jointed());
+  const JointTree& tree = *file.joints;
+  const Inspection in = inspect(file.model, tree, file.joint_q, file.joint_z, 0.25, {1, 7});
+  const Inspection free = inspect(file.model, file.initial, 0.25, {1, 7});
+  EXPECT_EQ(in.ydot, free.ydot);
+  EXPECT_EQ(in.bodies[1].v_G_y, free.bodies[1].v_G_y);
+  EXPECT_FALSE(free.joints);
+  ASSERT_TRUE(in.joints);
+  const JointInspection& j = *in.joints;
+  EXPECT_EQ(j.n, tree.num_speeds());
+  EXPECT_EQ(j.q, file.joint_q);
+  ASSERT_EQ(j.bodies.size(), 2u);
+  const int n = file.model.num_bodies();
+  for (const JointBodyInspection& b : j.bodies) {
+    const int k = b.K - 1;
+    EXPECT_EQ(b.type, tree.joint(k).type);
+    EXPECT_EQ(b.q.size(), coordinate_count(b.type));
+    EXPECT_EQ(b.z, file.joint_z.segment(tree.speed_offset(k), speed_count(b.type)));
+    EXPECT_EQ(b.C_w, j.C.middleRows(3 * k, 3));
+    EXPECT_EQ(b.C_sd, j.C.middleRows(3 * n + 3 * k, 3));
+  }
+  EXPECT_EQ(j.bodies[0].K, 2);
+  EXPECT_EQ(j.bodies[1].K, 8);
+  EXPECT_LT((j.A_z * j.zdot - j.f_z).norm(), 1e-10 * j.f_z.norm());
+  EXPECT_EQ(j.ydot, VectorX(j.C * j.zdot + j.Cdot_z));
+  EXPECT_GT(j.Cdot_z.norm(), 0.0);  // a moving figure: [C dot]{z} is not zero
+}
+
 // [A]'s structure from L(K) alone against the numbers of Eq. (37): a block the structure
 // leaves out is exactly zero, and every block it lists is nonzero at a generic state.
 TEST(Inspect, MassMatrixStructureIsWhereTheBlocksAre) {

@@ -25,6 +25,7 @@
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/kinematics.hpp"
+#include "kanedyn/rotation.hpp"
 
 #ifdef KANEDYN_HAVE_VIEWER
 namespace kanedyn::view {
@@ -127,6 +128,35 @@ Json body_json(const Model& model, int k) {
   return o;
 }
 
+/// The joint of body k as the page draws it: each axis as a unit vector in the components of
+/// the body it is fixed in, "parent" (J, or the inertial frame for a root) or "body" (K). A
+/// revolute, prismatic or cylindrical axis is fixed in both and given in J, where Q_K is too;
+/// a universal joint's a1 is fixed in J and its a2, about which K turns last, in K (at zero
+/// angles K's axes are F's, so a2's K components are its F components).
+void add_joint_json(const JointTree& tree, int k, Json& o) {
+  const Joint& jt = tree.joint(k);
+  o["joint_type"] = to_string(jt.type);
+  Json axes = Json::array();
+  const auto axis = [&](const Vector3& v, const char* in) {
+    axes.push_back(Json{{"axis", vec(v.normalized())}, {"in", in}});
+  };
+  switch (jt.type) {
+    case JointType::revolute:
+    case JointType::prismatic:
+    case JointType::cylindrical:
+      axis(tree.axis_in_j(k), "parent");
+      break;
+    case JointType::universal:
+      // [R(frame)] maps J components to F components.
+      axis(rotation_matrix(jt.frame).transpose() * jt.axes[0], "parent");
+      axis(jt.axes[1], "body");
+      break;
+    default:
+      break;
+  }
+  o["joint_axes"] = std::move(axes);
+}
+
 }  // namespace
 
 io::Trajectory initial_trajectory(const Model& model, const State& initial) {
@@ -177,7 +207,8 @@ io::Trajectory body_columns(const Model& model, const io::Trajectory& traj) {
 }
 
 std::string page_data(const Model& model, const std::string& model_file,
-                      const io::Trajectory& given, const std::string& source) {
+                      const io::Trajectory& given, const std::string& source,
+                      const JointTree* joints) {
   const bool plain = given.columns == io::trajectory_columns(model);
   const io::Trajectory filtered = plain ? io::Trajectory{} : body_columns(model, given);
   const io::Trajectory& traj = plain ? given : filtered;
@@ -212,7 +243,11 @@ std::string page_data(const Model& model, const std::string& model_file,
   m["file"] = model_file;
   m["gravity"] = vec(model.gravity());
   m["bodies"] = Json::array();
-  for (int k = 0; k < model.num_bodies(); ++k) m["bodies"].push_back(body_json(model, k));
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    Json b = body_json(model, k);
+    if (joints) add_joint_json(*joints, k, b);
+    m["bodies"].push_back(std::move(b));
+  }
   d["model"] = std::move(m);
   d["source"] = source;
   d["rows_in_file"] = rows;
@@ -233,13 +268,13 @@ std::string page_data(const Model& model, const std::string& model_file,
 }  // namespace
 
 std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
-                 const std::string& source) {
+                 const std::string& source, const JointTree* joints) {
   require_available();
   const std::string page = viewer_template();
   const std::size_t at = page.find(kDataMarker);
   if (at == std::string::npos)
     throw std::logic_error("the viewer bundle has no data marker: the build is broken");
-  const std::string data = page_data(model, model_file, traj, source);
+  const std::string data = page_data(model, model_file, traj, source, joints);
   std::string text;
   text.reserve(page.size() + data.size());
   text.append(page, 0, at);

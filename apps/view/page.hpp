@@ -7,6 +7,7 @@
 #include <string>
 
 #include "kanedyn/io/trajectory.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
 
@@ -30,9 +31,10 @@ io::Trajectory initial_trajectory(const Model& model, const State& initial);
 
 /// The page's text. `traj` must have io::trajectory_columns(model) and at least one row
 /// (std::invalid_argument otherwise); `model_file` and `source` (the trajectory's name, or
-/// "initial state") are shown on the page. Throws std::runtime_error when !available().
+/// "initial state") are shown on the page. `joints`, when given, adds each body's joint type
+/// and axes for the page to draw. Throws std::runtime_error when !available().
 std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
-                 const std::string& source);
+                 const std::string& source, const JointTree* joints = nullptr);
 
 /// Writes `text` to PATH.partial and renames it to PATH (io::check_output_path first, with
 /// `input` the file it must not overwrite); on failure removes the partial file (a page cut

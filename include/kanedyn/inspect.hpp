@@ -5,9 +5,11 @@
 // which depends on L(K) only.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/partials.hpp"
 #include "kanedyn/state.hpp"
@@ -39,6 +41,28 @@ struct BodyInspection {
   VectorX F_y_star;
 };
 
+/// One body's joint at the inspected (q, z) of a jointed model.
+struct JointBodyInspection {
+  int K = 0;  ///< body number of the notes (1-based)
+  JointType type = JointType::free;
+  VectorX q, z;       ///< the body's slices of q and z
+  MatrixX C_w, C_sd;  ///< its rows of [C]: w'_K and s'_K dot, 3 x n each
+};
+
+/// The joints of a jointed model at (q, z): y = [C] z and the projected equations
+/// [C]^T [A] [C] {z dot} = [C]^T ({f} - [A][C dot]{z}) + Q (projected_equations).
+struct JointInspection {
+  int n = 0;       ///< independent speeds
+  VectorX q, z;    ///< the joint coordinates and independent speeds
+  MatrixX C;       ///< 6N x n
+  VectorX Cdot_z;  ///< [C dot]{z}, 6N
+  MatrixX A_z;     ///< [C]^T [A] [C], n x n
+  VectorX f_z;     ///< [C]^T ({f} - [A][C dot]{z}) + the joint loads' Q, n
+  VectorX zdot;    ///< the solution of A_z {z dot} = f_z
+  VectorX ydot;    ///< the jointed system's {y dot} = [C]{z dot} + [C dot]{z}, 6N
+  std::vector<JointBodyInspection> bodies;  ///< the selected bodies, in numbering order
+};
+
 /// Every quantity at one state, for the selected bodies; the sums over all bodies.
 struct Inspection {
   int N = 0;
@@ -47,6 +71,8 @@ struct Inspection {
   VectorX F_y_star;  ///< the sum of every body's generalized inertia force, 6N
   VectorX ydot;      ///< the solution of Eq. (36), 6N (forward_dynamics, Route::recursive)
   std::vector<BodyInspection> bodies;  ///< the selected bodies, in numbering order
+  /// A jointed model's joints (the inspect overload with a JointTree); empty otherwise.
+  std::optional<JointInspection> joints;
 };
 
 /// Evaluates the notes' quantities at the state and fills an Inspection: the kinematics, the
@@ -60,6 +86,13 @@ struct Inspection {
 /// (Model::kMaxFlatChainEntries) and std::out_of_range for an index outside 0..N-1.
 Inspection inspect(const Model& model, const State& state, double t = 0.0,
                    const std::vector<int>& bodies = {});
+
+/// The same at the notes' state of joint coordinates q and speeds z (joint_state), with the
+/// joints: Inspection::ydot stays the free tree's Eq. (36) at that state, and joints.ydot is the
+/// jointed system's. Forms the dense projected equations (O(N^2) memory: for inspection). Also
+/// throws ModelError when the tree's angular chains are not stored (has_angular_chains()).
+Inspection inspect(const Model& model, const JointTree& tree, const VectorX& q, const VectorX& z,
+                   double t = 0.0, const std::vector<int>& bodies = {});
 
 /// One nonzero 3x3 block of a partial velocity matrix (or its rate) in the notes' symbols.
 struct SymbolicBlock {

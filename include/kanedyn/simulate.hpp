@@ -129,8 +129,11 @@ SimulationStats simulate(const Model& model, const JointTree& tree, const Vector
                          const VectorX& z0, const SimulationSettings& settings,
                          const JointObserver& observer = {});
 
-/// "body 'NAME' (COLUMN)" for a component of (q; z): a free body's e1..e4, s1..s3, w1..w3,
-/// sd1..sd3, another joint's j1.. and jd1...
+/// The column of a component of (q; z), as the trajectory CSV names it after the body name and
+/// a dot: a free body's e1..e4, s1..s3, w1..w3, sd1..sd3, another joint's j1.. and jd1..; ""
+/// outside (q; z). body (if not null) gets the 0-based body, or -1.
+std::string joint_state_column(const JointTree& tree, int component, int* body = nullptr);
+/// "body 'NAME' (COLUMN)" for a component of (q; z) (joint_state_column), "no body" outside.
 std::string describe_joint_state_component(const Model& model, const JointTree& tree, int component,
                                            int* body = nullptr);
 

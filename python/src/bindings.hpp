@@ -97,6 +97,9 @@ constexpr double kUnitTolerance = 1e-6;
 /// A State from a Python State, or the model's initial state when obj is None; ValueError
 /// for a state of another model size or with a problem of copy_coordinates/copy_speeds.
 State state_argument(const PyModel& m, py::handle obj);
+/// (q; z) of a jointed model from the arguments q and z (None: the initial ones), checked:
+/// shapes, finite, unit Euler parameters (ValueError naming the body).
+VectorX joint_arguments(const PyModel& m, py::object q, py::object z);
 
 /// C-contiguous float64 copies.
 py::array_t<double> to_numpy(const VectorX& v);

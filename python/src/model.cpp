@@ -166,6 +166,47 @@ void register_inspection(py::module_& m) {
         return "<kanedyn.BodyInspection K=" + std::to_string(b.K) + " '" + b.name + "'>";
       });
 
+  py::class_<JointBodyInspection>(m, "JointBodyInspection",
+                                  "One body's joint at the inspected (q, z) (kanedyn inspect "
+                                  "--json, one entry of joints.bodies).")
+      .def_readonly("K", &JointBodyInspection::K, "body number of the notes (1-based)")
+      .def_property_readonly(
+          "type", [](const JointBodyInspection& b) { return std::string(to_string(b.type)); },
+          "the joint type as the model format spells it")
+      .def_property_readonly(
+          "q", [](const JointBodyInspection& b) { return to_numpy(b.q); }, "the body's q slice")
+      .def_property_readonly(
+          "z", [](const JointBodyInspection& b) { return to_numpy(b.z); }, "the body's z slice")
+      .def_property_readonly(
+          "C_w", [](const JointBodyInspection& b) { return to_numpy(b.C_w); },
+          "its rows of [C] for w'_K, 3 x n")
+      .def_property_readonly(
+          "C_sd", [](const JointBodyInspection& b) { return to_numpy(b.C_sd); },
+          "its rows of [C] for s'_K dot, 3 x n")
+      .def("__repr__", [](const JointBodyInspection& b) {
+        return "<kanedyn.JointBodyInspection K=" + std::to_string(b.K) + " " + to_string(b.type) +
+               ">";
+      });
+
+  py::class_<JointInspection>(m, "JointInspection",
+                              "The joints at (q, z): y = [C] z and [C]^T [A] [C] {z dot} = "
+                              "[C]^T ({f} - [A][C dot]{z}) + Q (kanedyn inspect --json, joints).")
+      .def_readonly("n", &JointInspection::n, "independent speeds")
+#define KANEDYN_FIELD(field, doc) \
+  .def_property_readonly(         \
+      #field, [](const JointInspection& j) { return to_numpy(j.field); }, doc)
+          KANEDYN_FIELD(q, "joint coordinates") KANEDYN_FIELD(z, "independent speeds")
+              KANEDYN_FIELD(C, "[C], 6N x n") KANEDYN_FIELD(Cdot_z, "[C dot]{z}, 6N")
+                  KANEDYN_FIELD(A_z, "[C]^T [A] [C], n x n")
+                      KANEDYN_FIELD(f_z, "[C]^T ({f} - [A][C dot]{z}) + the joint loads, n")
+                          KANEDYN_FIELD(zdot, "{z dot}, n")
+                              KANEDYN_FIELD(ydot, "the jointed {y dot} = [C]{z dot} + [C dot]{z}")
+#undef KANEDYN_FIELD
+      .def_readonly("bodies", &JointInspection::bodies, "the selected bodies' joints")
+      .def("__repr__", [](const JointInspection& j) {
+        return "<kanedyn.JointInspection n=" + std::to_string(j.n) + ">";
+      });
+
   py::class_<Inspection>(m, "Inspection",
                          "Every quantity of the notes at one state (kanedyn inspect --json). "
                          "Index by body number K or name: q[8], q['head'].")
@@ -180,6 +221,8 @@ void register_inspection(py::module_& m) {
       .def_property_readonly(
           "ydot", [](const Inspection& q) { return to_numpy(q.ydot); }, "{y dot} (Eq. 36), 6N")
       .def_readonly("bodies", &Inspection::bodies, "the selected bodies, in numbering order")
+      .def_readonly("joints", &Inspection::joints,
+                    "a jointed model's JointInspection ([C], the projected equations), else None")
       .def(
           "__getitem__",
           [](const Inspection& q, py::object key) -> const BodyInspection& {
@@ -394,20 +437,37 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
            "`kanedyn eom --json`. At most 1000 bodies (the dense [A]).")
       .def(
           "inspect",
-          [](const PyModel& p, py::object state_obj, double t, py::object bodies) {
-            const State state = state_argument(p, state_obj);
+          [](const PyModel& p, py::object state_obj, double t, py::object bodies, py::object q_obj,
+             py::object z_obj) {
             const std::vector<int> selected = body_indices(p.model(), bodies);
-            try {
+            const JointTree* tree = p.joints();
+            if (!tree) {
+              if (!q_obj.is_none() || !z_obj.is_none())
+                throw py::value_error("inspect(q=..., z=...): this model has no joints");
+              const State state = state_argument(p, state_obj);
               py::gil_scoped_release release;
               return inspect(p.model(), state, t, selected);
+            }
+            if (!state_obj.is_none())
+              throw py::value_error(
+                  "inspect(state) of a jointed model: its state is the joint coordinates; give "
+                  "q= and z= (default: the initial ones)");
+            const VectorX qz = joint_arguments(p, q_obj, z_obj);
+            const VectorX q = qz.head(tree->num_coordinates()), z = qz.tail(tree->num_speeds());
+            try {
+              py::gil_scoped_release release;
+              return inspect(p.model(), *tree, q, z, t, selected);
             } catch (const ModelError& e) {
               throw py::value_error(e.what());
             }
           },
           py::arg("state") = py::none(), py::arg("t") = 0.0, py::arg("bodies") = py::none(),
+          py::kw_only(), py::arg("q") = py::none(), py::arg("z") = py::none(),
           "Every quantity of the notes at a state (default: the initial state), as `kanedyn "
           "inspect --json` gives them: bodies is None (all), a body number K, a name, or a list "
-          "of them; t is only reported.")
+          "of them; t is only reported. A jointed model is inspected at joint coordinates q and "
+          "speeds z (default: the initial ones; state is refused) and the result's joints holds "
+          "[C] and the projected equations.")
       .def(
           "symbolic_partial",
           [](const PyModel& p, py::object body, const std::string& point, bool rate) {

@@ -282,20 +282,11 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
 }
 
 /// (q dot, z dot) of a jointed model at (q, z) (default: the initial ones), by the route.
-py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
-                            const std::string& route_name) {
+}  // namespace
+
+VectorX joint_arguments(const PyModel& m, py::object q_obj, py::object z_obj) {
   const JointTree* tree = m.joints();
-  if (!tree)
-    throw py::value_error(
-        "joint_derivatives(): this model has no joints (every body is free); use "
-        "derivatives(x, y)");
   const int nq = tree->num_coordinates(), nz = tree->num_speeds();
-  Route route = Route::recursive;
-  try {
-    route = parse_route(route_name);
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
   VectorX qz(nq + nz);
   qz << m.file().joint_q, m.file().joint_z;
   if (!q_obj.is_none()) {
@@ -318,6 +309,26 @@ py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj
       throw py::value_error("q: body '" + m.model().body(k).name + "': " + problem);
     }
   }
+  return qz;
+}
+
+namespace {
+
+py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
+                            const std::string& route_name) {
+  const JointTree* tree = m.joints();
+  if (!tree)
+    throw py::value_error(
+        "joint_derivatives(): this model has no joints (every body is free); use "
+        "derivatives(x, y)");
+  const int nq = tree->num_coordinates(), nz = tree->num_speeds();
+  Route route = Route::recursive;
+  try {
+    route = parse_route(route_name);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(e.what());
+  }
+  const VectorX qz = joint_arguments(m, q_obj, z_obj);
   VectorX d(nq + nz);
   {
     py::gil_scoped_release release;

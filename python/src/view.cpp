@@ -28,7 +28,7 @@ size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
   for (py::ssize_t r = 0; r < table.shape(0); ++r)
     for (py::ssize_t c = 0; c < columns; ++c)
       traj.values.push_back(doubles(table)[r * stride(table, 0) + c * stride(table, 1)]);
-  const std::string text = view::page(model, m.file().path, traj, source);
+  const std::string text = view::page(model, m.file().path, traj, source, m.joints());
   view::write_page(path, input, text);
   return text.size();
 #else

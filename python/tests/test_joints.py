@@ -79,6 +79,43 @@ def test_eom_has_the_tools_projected_equations(name: str) -> None:
     assert kanedyn.load(EXAMPLES / "eight_body.yaml").eom().n is None
 
 
+@pytest.mark.parametrize("name", JOINTED)
+def test_inspect_has_the_tools_joints(name: str) -> None:
+    m = kanedyn.load(EXAMPLES / name)
+    printed = tool_json(["inspect", EXAMPLES / name, "--json"])["joints"]
+    j = m.inspect().joints
+    assert printed["n"] == j.n == len(m.initial_joint_speeds)
+    for key in ("q", "z", "C", "Cdot_z", "A_z", "f_z", "zdot", "ydot"):
+        assert same_bits(np.array(printed[key]), getattr(j, key)), key
+    assert [b["K"] for b in printed["bodies"]] == [b.K for b in j.bodies] == list(range(1, m.N + 1))
+    for p, b in zip(printed["bodies"], j.bodies):
+        assert p["type"] == b.type == m.joint_types[b.K - 1]
+        for key in ("q", "z", "C_w", "C_sd"):
+            assert same_bits(np.array(p[key]).reshape(getattr(b, key).shape), getattr(b, key)), key
+    one = m.inspect(bodies=[2]).joints
+    assert [b.K for b in one.bodies] == [2] and same_bits(one.A_z, j.A_z)
+    assert kanedyn.load(EXAMPLES / "eight_body.yaml").inspect().joints is None
+
+
+def test_inspect_at_a_runs_joint_state_gives_its_rates() -> None:
+    m = kanedyn.load(EXAMPLES / "cart_pendulum.yaml")
+    h = 1e-4
+    r = m.simulate(t_end=2 * h, dt_out=h, integrator="rk4", step=h / 10)
+    j = m.inspect(q=r.q[1], z=r.z[1]).joints
+    assert same_bits(j.q, r.q[1]) and same_bits(j.z, r.z[1])
+    _, zdot = m.joint_derivatives(r.q[1], r.z[1], route="assembled")
+    assert np.allclose(j.zdot, zdot, rtol=1e-10, atol=1e-12)
+    # The jointed y dot against central differences of the run's y (truncation ~h^2/6 times the
+    # third derivative, O(100) here: 2e-7).
+    assert np.allclose((r.y[2] - r.y[0]) / (2 * h), j.ydot, atol=1e-6)
+    with pytest.raises(ValueError, match="joint coordinates"):
+        m.inspect(m.initial_state())
+    with pytest.raises(ValueError, match="has no joints"):
+        kanedyn.load(EXAMPLES / "eight_body.yaml").inspect(q=[1.0])
+    with pytest.raises(ValueError):
+        m.inspect(q=[0.0])
+
+
 def test_joint_derivatives_match_finite_differences_of_a_run() -> None:
     m = kanedyn.load(EXAMPLES / "cart_pendulum.yaml")
     h = 1e-4

@@ -41,3 +41,15 @@ def test_a_model_not_from_a_file_needs_a_path(tmp_path) -> None:
     assert (tmp_path / "dict.html").stat().st_size > 100_000
     with pytest.raises(RuntimeError, match="folder"):
         r.view(tmp_path / "no" / "such.html")
+
+
+def test_a_jointed_model_s_page_has_its_joints_as_the_tool_s(tmp_path) -> None:
+    path = EXAMPLES / "cart_pendulum.yaml"
+    m = kanedyn.load(path)
+    r = m.simulate(t_end=0.5, output=tmp_path / "cart.csv")
+    r.view(tmp_path / "py.html")
+    done = run_tool(["view", path, tmp_path / "cart.csv", "-o", tmp_path / "tool.html"])
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "py.html").read_bytes() == (tmp_path / "tool.html").read_bytes()
+    text = (tmp_path / "py.html").read_text()
+    assert '"joint_type":"prismatic"' in text and '"joint_type":"revolute"' in text

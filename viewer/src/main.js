@@ -113,6 +113,7 @@ function start() {
     dirty = true;
   });
   ui.axes.addEventListener('change', () => { view.setAxesVisible(ui.axes.checked); dirty = true; });
+  ui.joints.addEventListener('change', () => { view.setJointsVisible(ui.joints.checked); dirty = true; });
   ui.fit.addEventListener('click', fitCamera);
   controls.addEventListener('change', () => { dirty = true; });
 
@@ -190,6 +191,12 @@ function start() {
     bodyPositions: () => view.drawnCentres(),
     /** Where the drawn mass centres are on the page (CSS pixels). */
     projectedCentres: () => view.drawnCentres().map((p) => ({ name: p.name, ...project(p) })),
+    /** The joint axis lines as drawn now: end points inertial (m) and on the page (CSS pixels). */
+    jointAxes: () => view.drawnJoints().map((j) => ({
+      ...j,
+      pageFrom: project({ x: j.from[0], y: j.from[1], z: j.from[2] }),
+      pageTo: project({ x: j.to[0], y: j.to[1], z: j.to[2] }),
+    })),
     /** Page x (CSS pixels) of time `time` on plot i, and the vertical middle of its plot area. */
     plotPoint: (i, time) => {
       const p = plots[i];

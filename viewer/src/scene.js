@@ -1,12 +1,16 @@
 // The three.js scene: an inertia-equivalent ellipsoid per body in its body frame, the links
-// O_J -> Q_K -> O_K, body axes, a ground grid and the gravity direction.
+// O_J -> Q_K -> O_K, body axes, the joints of a jointed model, a ground grid and the gravity
+// direction.
 import {
-  AmbientLight, ArrowHelper, AxesHelper, BufferAttribute, BufferGeometry, Color,
-  DirectionalLight, GridHelper, Group, LineBasicMaterial, LineSegments, Mesh,
+  AmbientLight, ArrowHelper, AxesHelper, BoxGeometry, BufferAttribute, BufferGeometry, Color,
+  DirectionalLight, GridHelper, Group, LineBasicMaterial, LineSegments, Mesh, MeshBasicMaterial,
   MeshStandardMaterial, PerspectiveCamera, Quaternion, Scene, SphereGeometry, Vector3,
   WebGLRenderer,
 } from 'three';
 import { fitView } from './fit.js';
+import {
+  JOINT_HEX, MARKER_HEX, axisHalfLength, hasJoints, jointLines, jointMarkers, lineSegments, segmentCount,
+} from './joints.js';
 
 export const BACKGROUND = 0xf4f5f7;
 /** Body axes x, y, z: red, green, blue (darker than pure, to read on the light background). */
@@ -90,6 +94,65 @@ export function createScene(canvas, model, motion) {
     scene.add(arrow);
   }
 
+  // The joints: axis lines through Q_K and markers at it, drawn over the ellipsoids (a joint
+  // point usually lies inside one).
+  const joints = new Group();
+  joints.visible = hasJoints(model);
+  scene.add(joints);
+  const lines = jointLines(model);
+  const halves = lines.map((l) => axisHalfLength(model.bodies[l.body], fit.radius));
+  const jointSegments = lines.reduce((s, l) => s + segmentCount(l), 0);
+  const jointPositions = new Float32Array(jointSegments * 6);
+  const jointColours = new Float32Array(jointSegments * 6);
+  {
+    const turn = new Color(JOINT_HEX.turn);
+    const slide = new Color(JOINT_HEX.slide);
+    let s = 0;
+    for (const l of lines) {
+      for (let i = 0; i < segmentCount(l); ++i, ++s) {
+        const c = i === 0 && l.turn ? turn : slide;
+        for (let end = 0; end < 2; ++end) c.toArray(jointColours, s * 6 + end * 3);
+      }
+    }
+  }
+  const jointGeometry = new BufferGeometry();
+  jointGeometry.setAttribute('position', new BufferAttribute(jointPositions, 3));
+  jointGeometry.setAttribute('color', new BufferAttribute(jointColours, 3));
+  const jointLinesObject = new LineSegments(jointGeometry,
+    new LineBasicMaterial({ vertexColors: true, depthTest: false, depthWrite: false }));
+  jointLinesObject.frustumCulled = false;
+  jointLinesObject.renderOrder = 2;
+  joints.add(jointLinesObject);
+  const marks = jointMarkers(model).map((m) => {
+    // The same size for every marker: 1.5% of the view's radius (a cube's half edge).
+    const r = 0.015 * fit.radius;
+    const geometry = m.type === 'weld' ? new BoxGeometry(2 * r, 2 * r, 2 * r) : new SphereGeometry(r, 16, 8);
+    const mesh = new Mesh(geometry, new MeshBasicMaterial({ color: MARKER_HEX[m.type], depthTest: false, depthWrite: false }));
+    mesh.renderOrder = 2;
+    joints.add(mesh);
+    return { ...m, mesh };
+  });
+
+  /** The joint lines' segments at `frame`, in inertial coordinates, into the line buffer. */
+  function placeJoints(frame) {
+    let s = 0;
+    lines.forEach((l, i) => {
+      for (const [a, b] of lineSegments(model, l, frame, halves[i])) {
+        jointPositions.set(a, s * 6);
+        jointPositions.set(b, s * 6 + 3);
+        ++s;
+      }
+    });
+    jointGeometry.attributes.position.needsUpdate = true;
+    for (const m of marks) {
+      const qk = frame[m.body].q;
+      m.mesh.position.set(qk[0], qk[1], qk[2]);
+      // A weld's cube turns with the body.
+      const e = frame[m.body].e;
+      if (m.type === 'weld') m.mesh.quaternion.set(e[0], e[1], e[2], e[3]);
+    }
+  }
+
   const q = new Quaternion();
   const v = new Vector3();
   /** Places every body at the configuration `frame` (motion.at(t)). */
@@ -111,6 +174,7 @@ export function createScene(canvas, model, motion) {
       }
     }
     linkGeometry.attributes.position.needsUpdate = true;
+    if (lines.length || marks.length) placeJoints(frame);
     scene.updateMatrixWorld();
   }
 
@@ -126,5 +190,22 @@ export function createScene(canvas, model, motion) {
     for (const b of bodies) b.axes.visible = on;
   }
 
-  return { software, renderer, scene, camera, bodies, fit, place, drawnCentres, setAxesVisible, sun };
+  function setJointsVisible(on) {
+    joints.visible = on;
+  }
+
+  /** The joint lines as drawn: per axis its body, type and end points (inertial). */
+  function drawnJoints() {
+    let s = 0;
+    return lines.map((l) => {
+      const p = jointPositions;
+      const r = { body: l.body, name: l.name, type: l.type, in: l.in, from: [...p.subarray(s * 6, s * 6 + 3)], to: [...p.subarray(s * 6 + 3, s * 6 + 6)] };
+      s += segmentCount(l);
+      return r;
+    });
+  }
+
+  return {
+    software, renderer, scene, camera, bodies, fit, place, drawnCentres, setAxesVisible, setJointsVisible, drawnJoints, sun,
+  };
 }

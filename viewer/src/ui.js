@@ -1,4 +1,5 @@
 // The page's elements: the 3D stage, the playback bar and the side panel with the plots.
+import { hasJoints } from './joints.js';
 
 /** document.createElement with attributes (on* as listeners) and children. */
 export function h(tag, attrs = {}, ...children) {
@@ -33,6 +34,9 @@ export function layout(body, d) {
   const follow = h('select', { id: 'follow' }, h('option', { value: '-1' }, 'none'),
     ...m.bodies.map((b, k) => h('option', { value: String(k) }, `${k + 1} ${b.name}`)));
   const axes = h('input', { type: 'checkbox', id: 'axes' });
+  // Shown (and on) for a jointed model only.
+  const jointed = hasJoints(m);
+  const joints = h('input', { type: 'checkbox', id: 'joints', checked: jointed });
   const fit = h('button', { id: 'fit' }, 'Fit view');
   const listId = 'kanedyn-columns';
   const picker = h('input', { type: 'text', id: 'picker', list: listId, placeholder: 'add a column, e.g. ' + (d.columns[1] || 't'), autocomplete: 'off' });
@@ -50,10 +54,12 @@ export function layout(body, d) {
     h('p', {}, `${n} ${n === 1 ? 'body' : 'bodies'}, ${d.source === 'initial state' ? 'the initial state' : `${d.source}, ${d.rows_in_file} rows`}`),
     note,
     h('p', { class: 'controls' }, h('label', {}, 'follow ', follow), ' ',
-      h('label', {}, axes, ' body axes'), ' ', fit),
-    h('p', { class: 'hint' }, 'Drag: orbit; wheel: zoom; right-drag: pan. Space: play/pause; arrows: step a row. Click a plot to seek. Blue arrow: gravity; lines: O_J \u2192 Q_K \u2192 O_K.'));
+      h('label', {}, axes, ' body axes'), ' ',
+      jointed ? h('label', {}, joints, ' joints') : '', jointed ? ' ' : '', fit),
+    h('p', { class: 'hint' }, 'Drag: orbit; wheel: zoom; right-drag: pan. Space: play/pause; arrows: step a row. Click a plot to seek. Blue arrow: gravity; lines: O_J \u2192 Q_K \u2192 O_K.',
+      jointed ? ' Violet: joint axes and balls at Q_K; orange arrowheads: sliding.' : ''));
   const side = h('div', { class: 'side' }, about, plots);
   const main = h('div', { class: 'main' }, h('div', { class: 'left' }, stage, bar), side);
   body.append(main);
-  return { canvas, tip, stage, play, speed, loop, slider, time, follow, axes, fit, picker, chips, energyPlot, pickedPlot, plots };
+  return { canvas, tip, stage, play, speed, loop, slider, time, follow, axes, joints, fit, picker, chips, energyPlot, pickedPlot, plots };
 }

@@ -45,7 +45,8 @@ test('names on hover, and following a body', async () => {
   await checkFollow(ctx.page, 0, 0, 1.0);
 });
 
-test('the body axes toggle on and off', async () => {
+test('the body axes toggle on and off; no joints toggle for free bodies', async () => {
+  assert.equal(await ctx.page.$('#joints'), null);
   const r = await checkAxes(ctx.page);
   console.log(`axis-coloured pixels: ${r.before} without the axes, ${r.after} with them`);
 });

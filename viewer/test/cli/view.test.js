@@ -8,11 +8,14 @@ import { EXAMPLES, kanedyn, pageData, readCsv, workDir } from '../support.js';
 import { decodeTrajectory } from '../../src/data.js';
 import { createMotion } from '../../src/motion.js';
 import { rotationMatrix } from '../../src/interp.js';
+import { jointLines, lineSegments } from '../../src/joints.js';
 
 const dir = workDir('cli');
 const eight = join(EXAMPLES, 'eight_body.yaml');
 const chain = join(EXAMPLES, 'chain64.yaml');
 const racket = join(EXAMPLES, 'tennis_racket.yaml');
+const human = join(EXAMPLES, 'human_jointed.yaml');
+const cart = join(EXAMPLES, 'cart_pendulum.yaml');
 
 const sim = kanedyn(dir, 'simulate', eight, '-o', 'eight.csv');
 assert.equal(sim.code, 0, sim.err);
@@ -41,6 +44,59 @@ test('the eight-body 10 s page holds every row: t and G exactly, the rest as flo
   assert.deepEqual(d.model.bodies[0].joint, [0, 0, 1]); // the waist, examples/eight_body.yaml
   assert.deepEqual(d.model.bodies[2].joint, [0, -0.09, -0.12]); // right hip, in pelvis axes
   assert.deepEqual(d.model.gravity, [0, 0, -9.81]);
+});
+
+test("a jointed model's page has each body's joint type and axes", () => {
+  // examples/human_jointed.yaml: the axes as written there, in J for the hinges and a1, in K
+  // for a universal joint's a2 (at zero angles K's axes are F's, here J's).
+  let r = kanedyn(dir, 'view', human, '-o', 'human.html');
+  assert.equal(r.code, 0, r.err);
+  const y = { axis: [0, 1, 0], in: 'parent' };
+  const hip = [y, { axis: [1, 0, 0], in: 'body' }];
+  const joints = (d) => d.model.bodies.map((b) => [b.name, b.joint_type, b.joint_axes]);
+  assert.deepEqual(joints(pageData(join(dir, 'human.html'))), [
+    ['torso', 'free', []],
+    ['pelvis', 'revolute', [y]],
+    ['right_leg', 'universal', hip],
+    ['left_leg', 'universal', hip],
+    ['head', 'spherical', []],
+    ['right_arm', 'spherical', []],
+    ['left_upper_arm', 'spherical', []],
+    ['left_forearm', 'revolute', [y]],
+  ]);
+  r = kanedyn(dir, 'view', cart, '-o', 'cart.html');
+  assert.equal(r.code, 0, r.err);
+  const d = pageData(join(dir, 'cart.html'));
+  assert.deepEqual(joints(d), [
+    ['cart', 'prismatic', [{ axis: [1, 0, 0], in: 'parent' }]],
+    ['pendulum', 'revolute', [y]],
+  ]);
+  // The joint point the axes pass through: Q_K, q'_K in J (the origin, for both).
+  assert.deepEqual(d.model.bodies.map((b) => [b.L, b.joint]), [[-1, [0, 0, 0]], [0, [0, 0, 0]]]);
+  // A model of free bodies has neither key.
+  const eightBody = pageData(join(dir, 'eight.html')).model.bodies[0];
+  assert.ok(!('joint_type' in eightBody) && !('joint_axes' in eightBody));
+});
+
+test("a jointed model's page draws its axes from its trajectory", () => {
+  const r = kanedyn(dir, 'simulate', cart, '--t-end', '1', '-o', 'cart.csv');
+  assert.equal(r.code, 0, r.err);
+  assert.equal(kanedyn(dir, 'view', cart, 'cart.csv').code, 0);
+  const d = pageData(join(dir, 'cart.html'));
+  const frame = createMotion(d.model, decodeTrajectory(d)).at(1);
+  const [rail, hinge] = jointLines(d.model);
+  // The rail is the inertial x axis through the origin; the hinge turns with the cart and
+  // passes through O_cart, where the cart has slid to (cart.q1 in the CSV, x of G).
+  const csv = readCsv(join(dir, 'cart.csv'));
+  const last = csv.rows[csv.rows.length - 1];
+  const [[from, to]] = lineSegments(d.model, rail, frame, 0.1);
+  assert.deepEqual([from, to], [[-0.1, 0, 0], [0.1, 0, 0]]);
+  const [[a, b]] = lineSegments(d.model, hinge, frame, 0.1);
+  const x = last[csv.header.indexOf('cart.x')];
+  for (const [p, s] of [[a, -1], [b, 1]]) {
+    assert.ok(Math.abs(p[0] - x) < 1e-6 && Math.abs(p[2]) < 1e-6, `hinge end ${p}`);
+    assert.ok(Math.abs(p[1] - s * 0.1) < 1e-6, `hinge end ${p} along y`);
+  }
 });
 
 test('the page is self-contained: no external script, style, link or frame', () => {

@@ -1,0 +1,98 @@
+// The jointed human figure (revolute, universal and spherical joints) in headless chromium:
+// its joint axes drawn where the page's data and motion put them, and the joints toggle.
+import { test, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { join } from 'node:path';
+import { EXAMPLES, kanedyn, pageData, readCsv, workDir } from '../support.js';
+import { openPage, checkPositions, checkScreenshot, checkQuiet } from './check_page.js';
+import { decodePng } from './png.js';
+import { decodeTrajectory } from '../../src/data.js';
+import { createMotion } from '../../src/motion.js';
+import { axisHalfLength, jointLines, lineSegments } from '../../src/joints.js';
+import { fitView } from '../../src/fit.js';
+
+const dir = workDir('browser-human-jointed');
+const model = join(EXAMPLES, 'human_jointed.yaml');
+// 0.3 s: the figure falls 0.44 m, and stays large in the fitted view.
+assert.equal(kanedyn(dir, 'simulate', model, '--t-end', '0.3', '-o', 'human.csv').code, 0);
+assert.equal(kanedyn(dir, 'view', model, 'human.csv').code, 0);
+const csv = readCsv(join(dir, 'human.csv'));
+const data = pageData(join(dir, 'human.html'));
+const ctx = await openPage(join(dir, 'human.html'));
+after(() => ctx.close());
+
+// The joint lines' colour (src/joints.js, JOINT_HEX.turn); lines are drawn unlit, in it.
+const TURN = [0x6a, 0x0d, 0xc8];
+const isTurn = ([r, g, b]) => Math.abs(r - TURN[0]) + Math.abs(g - TURN[1]) + Math.abs(b - TURN[2]) < 12;
+const shot = async () => decodePng(await ctx.page.screenshot({ type: 'png' }));
+
+test('the drawn mass centres are the CSV interpolated, between rows', async () => {
+  const r = await checkPositions(ctx.page, csv, 0.1234);
+  assert.equal(r.bodies, 8);
+});
+
+test('the joints toggle is there and on', async () => {
+  assert.equal(await ctx.page.$eval('#joints', (e) => e.checked), true);
+});
+
+test('each joint axis is drawn through Q_K along the axis of the body it is fixed in', async () => {
+  const t = 0.2345;
+  const drawn = await ctx.page.evaluate((time) => { window.kanedynViewer.seek(time); return window.kanedynViewer.jointAxes(); }, t);
+  const motion = createMotion(data.model, decodeTrajectory(data));
+  const radius = fitView(data.model, motion).radius;
+  const frame = motion.at(t);
+  const lines = jointLines(data.model);
+  // The pelvis's and the forearm's hinges, a1 and a2 of each hip.
+  assert.deepEqual(drawn.map((j) => [j.name, j.type, j.in]), lines.map((l) => [l.name, l.type, l.in]));
+  assert.equal(drawn.length, 6);
+  let worst = 0;
+  lines.forEach((l, i) => {
+    const [[from, to]] = lineSegments(data.model, l, frame, axisHalfLength(data.model.bodies[l.body], radius));
+    for (let a = 0; a < 3; ++a) {
+      // The scene keeps them as float32: 6e-8 relative, of coordinates below 2 m.
+      worst = Math.max(worst, Math.abs(drawn[i].from[a] - from[a]), Math.abs(drawn[i].to[a] - to[a]));
+    }
+  });
+  assert.ok(worst < 1e-6, `largest difference from the axes computed here: ${worst} m`);
+  // On the screen: the axis colour along every projected line (most of it: a body's own
+  // lines, the links, may cross it).
+  const img = await shot();
+  for (const j of drawn) {
+    let hits = 0;
+    for (let s = 1; s <= 9; ++s) {
+      const x0 = Math.round(j.pageFrom.x + (s / 10) * (j.pageTo.x - j.pageFrom.x));
+      const y0 = Math.round(j.pageFrom.y + (s / 10) * (j.pageTo.y - j.pageFrom.y));
+      let hit = false;
+      for (let dy = -1; dy <= 1 && !hit; ++dy) for (let dx = -1; dx <= 1 && !hit; ++dx) hit = isTurn(img.rgb(x0 + dx, y0 + dy));
+      if (hit) ++hits;
+    }
+    assert.ok(hits >= 6, `${j.name} (${j.in}): the axis colour at ${hits} of 9 points along it`);
+  }
+});
+
+test('the joints toggle off and on', async () => {
+  const count = async () => {
+    const img = await shot();
+    let n = 0;
+    for (let y = 0; y < img.height; ++y) for (let x = 0; x < img.width; ++x) if (isTurn(img.rgb(x, y))) ++n;
+    return n;
+  };
+  const on = await count();
+  await ctx.page.click('#joints');
+  await ctx.page.evaluate(() => window.kanedynViewer.seek(window.kanedynViewer.time()));
+  const off = await count();
+  await ctx.page.click('#joints');
+  await ctx.page.evaluate(() => window.kanedynViewer.seek(window.kanedynViewer.time()));
+  const again = await count();
+  console.log(`joint-coloured pixels: ${on} with the joints, ${off} without`);
+  assert.ok(on > off + 100, `joint-coloured pixels: ${on} with the joints, ${off} without`);
+  assert.equal(again, on);
+});
+
+test('the screenshot has the bodies where their mass centres project', async () => {
+  await checkScreenshot(ctx.page, join(dir, 'human_jointed.png'));
+});
+
+test('no console error and no network request', () => {
+  checkQuiet(ctx);
+});
