@@ -213,7 +213,8 @@ void warn_rk4_stability(const Model& model, const SimulationSettings& s) {
 }
 
 /// A trajectory larger than the free space of its folder fails when the disk fills.
-void warn_disk_space(const Model& model, const SimulationSettings& s, const std::string& out) {
+void warn_disk_space(const io::ModelFile& file, const SimulationSettings& s,
+                     const std::string& out) {
   const std::filesystem::path folder = std::filesystem::path(out).has_parent_path()
                                            ? std::filesystem::path(out).parent_path()
                                            : std::filesystem::path(".");
@@ -222,7 +223,9 @@ void warn_disk_space(const Model& model, const SimulationSettings& s, const std:
   const double free_bytes = static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
   const double rows = std::floor((s.t_end - s.t_start) / s.dt_out) + 2;
   // A number takes 18-22 characters in its shortest form, with its separator.
-  const double bytes = rows * (2 + 16.0 * model.num_bodies()) * 20.0;
+  const double columns = static_cast<double>(
+      io::trajectory_columns(file.model, file.jointed() ? &*file.joints : nullptr).size());
+  const double bytes = rows * columns * 20.0;
   if (bytes > free_bytes)
     warn("the trajectory will take about " + format("%.3g", bytes / 1e9) + " GB (" +
          format("%.3g", rows) + " rows), more than the " + format("%.3g", free_bytes / 1e9) +
@@ -293,7 +296,7 @@ int run(const Options& o) {
   }
   io::check_output_path(out, o.model);
   warn_rk4_stability(model, base);
-  warn_disk_space(model, base, out);
+  warn_disk_space(file, base, out);
 
   // The handlers first: from the moment OUT.partial exists, a signal leaves it whole.
   SignalGuard signals;
