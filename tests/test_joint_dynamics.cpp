@@ -24,24 +24,6 @@
 namespace kanedyn {
 namespace {
 
-constexpr JointType kAllTypes[] = {
-    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
-    JointType::cylindrical, JointType::universal, JointType::spherical};
-
-Vector3 random_unit(std::mt19937& rng) { return test::random_vector(rng, -1, 1).normalized(); }
-
-// A random joint of the given type: random frame, unnormalized axes (JointTree normalizes).
-Joint random_joint(std::mt19937& rng, JointType type) {
-  Joint j;
-  j.type = type;
-  j.frame = test::random_euler_parameters(rng);
-  j.axis = test::uniform(rng, 0.5, 2.0) * random_unit(rng);
-  const Vector3 a1 = random_unit(rng);
-  j.axes = {2.0 * a1, a1.cross(random_unit(rng)).normalized()};
-  j.translation = test::random_vector(rng, -0.3, 0.3);
-  return j;
-}
-
 bool takes_joint_loads(JointType t) {
   return t == JointType::revolute || t == JointType::prismatic || t == JointType::cylindrical ||
          t == JointType::universal;
@@ -67,42 +49,6 @@ std::vector<JointLoad> random_joint_loads(std::mt19937& rng, const std::vector<J
   return loads;
 }
 
-// Random coordinates: angles in [-3, 3], slides in [-0.5, 0.5], Euler parameters uniform;
-// speeds in [-1, 1].
-void randomize(const JointTree& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
-  q = VectorX::Zero(tree.num_coordinates());
-  z = VectorX::Zero(tree.num_speeds());
-  for (int k = 0; k < tree.num_bodies(); ++k) {
-    const int o = tree.coordinate_offset(k);
-    switch (tree.joint(k).type) {
-      case JointType::free:
-        q.segment<4>(o) = test::random_euler_parameters(rng);
-        q.segment<3>(o + 4) = test::random_vector(rng, -0.3, 0.3);
-        break;
-      case JointType::spherical:
-        q.segment<4>(o) = test::random_euler_parameters(rng);
-        break;
-      case JointType::revolute:
-        q[o] = test::uniform(rng, -3, 3);
-        break;
-      case JointType::prismatic:
-        q[o] = test::uniform(rng, -0.5, 0.5);
-        break;
-      case JointType::cylindrical:
-        q[o] = test::uniform(rng, -3, 3);
-        q[o + 1] = test::uniform(rng, -0.5, 0.5);
-        break;
-      case JointType::universal:
-        q[o] = test::uniform(rng, -3, 3);
-        q[o + 1] = test::uniform(rng, -3, 3);
-        break;
-      case JointType::weld:
-        break;
-    }
-  }
-  for (int i = 0; i < z.size(); ++i) z[i] = test::uniform(rng, -1, 1);
-}
-
 // A model, its joints (JointTree keeps a copy of what it needs of the Model, but JointDynamics
 // keeps references to both: they live here together) and a random (q, z).
 struct Case {
@@ -115,18 +61,18 @@ struct Case {
 Case make_case(std::string name, Model model, const std::vector<JointType>& types,
                std::mt19937& rng, bool joint_loads = true) {
   std::vector<Joint> joints;
-  for (JointType t : types) joints.push_back(random_joint(rng, t));
+  for (JointType t : types) joints.push_back(test::random_joint(rng, t));
   std::vector<JointLoad> loads;
   if (joint_loads) loads = random_joint_loads(rng, joints);
   JointTree tree(model, joints, loads);
   Case c{std::move(name), std::move(model), std::move(tree), {}, {}};
-  randomize(c.tree, rng, c.q, c.z);
+  test::random_joint_state(c.tree, rng, c.q, c.z);
   return c;
 }
 
 std::vector<JointType> random_types(std::mt19937& rng, int n) {
   std::vector<JointType> types;
-  for (int k = 0; k < n; ++k) types.push_back(kAllTypes[test::uniform_int(rng, 0, 6)]);
+  for (int k = 0; k < n; ++k) types.push_back(test::kAllJointTypes[test::uniform_int(rng, 0, 6)]);
   return types;
 }
 
@@ -146,7 +92,7 @@ Model loaded_model(std::mt19937& rng, const std::vector<int>& lower) {
 std::vector<Case> comparison_cases(unsigned seed) {
   std::mt19937 rng(seed);
   std::vector<Case> out;
-  for (JointType type : kAllTypes) {
+  for (JointType type : test::kAllJointTypes) {
     Model m = test::random_loaded_model(rng, 4, true);
     out.push_back(make_case(std::string("chain of ") + to_string(type), std::move(m),
                             std::vector<JointType>(4, type), rng));
@@ -249,7 +195,7 @@ TEST(JointDynamics, AllFreeIsForwardDynamicsOfTheFreeModel) {
     const int n = model.num_bodies();
     const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(n)));
     VectorX q, z;
-    randomize(tree, rng, q, z);
+    test::random_joint_state(tree, rng, q, z);
     JointDynamics dyn(model, tree);
     Data free(model);
     for (Route route : {Route::recursive, Route::assembled}) {
@@ -369,7 +315,7 @@ TEST(JointDynamics, CopiesAreIndependentWorkspaces) {
   std::mt19937 rng(10);
   Case c = make_case("forest", test::random_loaded_model(rng, 10), random_types(rng, 10), rng);
   VectorX q2, z2;
-  randomize(c.tree, rng, q2, z2);
+  test::random_joint_state(c.tree, rng, q2, z2);
   for (Route route : {Route::recursive, Route::assembled}) {
     JointDynamics dyn(c.model, c.tree);
     VectorX zdot(c.tree.num_speeds()), copied(c.tree.num_speeds()), fresh(c.tree.num_speeds());
@@ -492,11 +438,11 @@ TEST(JointDynamics, EnergyIsConservedOnTheJointedEightBody) {
   for (JointType t :
        {JointType::free, JointType::spherical, JointType::revolute, JointType::universal,
         JointType::cylindrical, JointType::prismatic, JointType::weld, JointType::revolute})
-    joints.push_back(random_joint(rng, t));
+    joints.push_back(test::random_joint(rng, t));
   const JointTree tree(model, joints, random_joint_loads(rng, joints, false));
   ASSERT_FALSE(tree.loads().empty());
   VectorX q, z;
-  randomize(tree, rng, q, z);
+  test::random_joint_state(tree, rng, q, z);
   JointDynamics dyn(model, tree);
   const int nq = tree.num_coordinates(), size = nq + tree.num_speeds();
   Data data(model, DataOptions::recursive_only());

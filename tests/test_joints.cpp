@@ -21,29 +21,11 @@ namespace {
 
 using test::reference_rotation;
 
-constexpr JointType kAllTypes[] = {
-    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
-    JointType::cylindrical, JointType::universal, JointType::spherical};
-
 // "F turned by angle about the unit n": the matrix from F components to the turned frame's
 // (Rodrigues, passive): cos [I] + (1 - cos) n n^T - sin [n~]. Written here, independently.
 Matrix3 turn(const Vector3& n, double angle) {
   return std::cos(angle) * Matrix3::Identity() + (1.0 - std::cos(angle)) * n * n.transpose() -
          std::sin(angle) * skew(n);
-}
-
-Vector3 random_unit(std::mt19937& rng) { return test::random_vector(rng, -1, 1).normalized(); }
-
-// A random joint of the given type: random frame, unnormalized axes (JointTree normalizes).
-Joint random_joint(std::mt19937& rng, JointType type) {
-  Joint j;
-  j.type = type;
-  j.frame = test::random_euler_parameters(rng);
-  j.axis = test::uniform(rng, 0.5, 2.0) * random_unit(rng);
-  const Vector3 a1 = random_unit(rng);
-  j.axes = {2.0 * a1, a1.cross(random_unit(rng)).normalized()};
-  j.translation = test::random_vector(rng, -0.3, 0.3);
-  return j;
 }
 
 struct Jointed {
@@ -52,46 +34,12 @@ struct Jointed {
   VectorX q, z;
 };
 
-// Random coordinates: angles in [-3, 3], slides in [-0.5, 0.5], Euler parameters uniform;
-// speeds in [-1, 1].
-void randomize(const JointTree& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
-  q = VectorX::Zero(tree.num_coordinates());
-  z = VectorX::Zero(tree.num_speeds());
-  for (int k = 0; k < tree.num_bodies(); ++k) {
-    const int o = tree.coordinate_offset(k);
-    switch (tree.joint(k).type) {
-      case JointType::free:
-        q.segment<4>(o) = test::random_euler_parameters(rng);
-        q.segment<3>(o + 4) = test::random_vector(rng, -0.3, 0.3);
-        break;
-      case JointType::spherical:
-        q.segment<4>(o) = test::random_euler_parameters(rng);
-        break;
-      case JointType::revolute:
-        q[o] = test::uniform(rng, -3, 3);
-        break;
-      case JointType::prismatic:
-        q[o] = test::uniform(rng, -0.5, 0.5);
-        break;
-      case JointType::cylindrical:
-      case JointType::universal:
-        q[o] = test::uniform(rng, -3, 3);
-        q[o + 1] = tree.joint(k).type == JointType::universal ? test::uniform(rng, -3, 3)
-                                                              : test::uniform(rng, -0.5, 0.5);
-        break;
-      case JointType::weld:
-        break;
-    }
-  }
-  for (int i = 0; i < z.size(); ++i) z[i] = test::uniform(rng, -1, 1);
-}
-
 Jointed make_jointed(Model model, const std::vector<JointType>& types, std::mt19937& rng) {
   std::vector<Joint> joints;
-  for (JointType t : types) joints.push_back(random_joint(rng, t));
+  for (JointType t : types) joints.push_back(test::random_joint(rng, t));
   JointTree tree(model, joints);
   Jointed j{std::move(model), std::move(tree), {}, {}};
-  randomize(j.tree, rng, j.q, j.z);
+  test::random_joint_state(j.tree, rng, j.q, j.z);
   return j;
 }
 
@@ -111,7 +59,7 @@ std::vector<Jointed> test_trees(unsigned seed) {
   std::mt19937 rng(seed);
   std::vector<Jointed> out;
   out.push_back(eight_body_jointed(rng));
-  for (JointType type : kAllTypes) {
+  for (JointType type : test::kAllJointTypes) {
     test::RandomTreeOptions opt;
     opt.min_bodies = opt.max_bodies = 3;
     opt.chain = true;
@@ -123,7 +71,7 @@ std::vector<Jointed> test_trees(unsigned seed) {
     Model model = test::random_tree(rng, opt);
     std::vector<JointType> types;
     for (int k = 0; k < model.num_bodies(); ++k)
-      types.push_back(kAllTypes[test::uniform_int(rng, 0, 6)]);
+      types.push_back(test::kAllJointTypes[test::uniform_int(rng, 0, 6)]);
     out.push_back(make_jointed(std::move(model), types, rng));
   }
   return out;
@@ -213,8 +161,9 @@ void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
 TEST(Joints, CountsOfTheSpecTable) {
   const int q[] = {7, 0, 1, 1, 2, 2, 4}, z[] = {6, 0, 1, 1, 2, 2, 3};
   for (int i = 0; i < 7; ++i) {
-    EXPECT_EQ(coordinate_count(kAllTypes[i]), q[i]) << to_string(kAllTypes[i]);
-    EXPECT_EQ(speed_count(kAllTypes[i]), z[i]) << to_string(kAllTypes[i]);
+    EXPECT_EQ(coordinate_count(test::kAllJointTypes[i]), q[i])
+        << to_string(test::kAllJointTypes[i]);
+    EXPECT_EQ(speed_count(test::kAllJointTypes[i]), z[i]) << to_string(test::kAllJointTypes[i]);
   }
 }
 
@@ -533,7 +482,7 @@ TEST(JointsProjected, AllFreeIsTheUnconstrainedTree) {
     if (model.num_bodies() > 30) continue;
     const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(model.num_bodies())));
     VectorX q, z;
-    randomize(tree, rng, q, z);
+    test::random_joint_state(tree, rng, q, z);
     Data data(model);
     const ProjectedEquations e = projected_equations(model, tree, q, z, data);
     // [C] only reorders: z is body by body, y is (w', s' dot); [C]^T [C] = [I] exactly.

@@ -13,6 +13,7 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/partials.hpp"
@@ -289,6 +290,62 @@ inline MatrixX angular_velocity_selection(int num_bodies, int k) {
   MatrixX m = MatrixX::Zero(3, 6 * num_bodies);
   m.block<3, 3>(0, 3 * k).setIdentity();
   return m;
+}
+
+// ---- Jointed trees (joints.hpp) ----
+
+inline constexpr JointType kAllJointTypes[] = {
+    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
+    JointType::cylindrical, JointType::universal, JointType::spherical};
+
+inline Vector3 random_unit(std::mt19937& rng) { return random_vector(rng, -1, 1).normalized(); }
+
+// A random joint of the given type: random frame, unnormalized axes (JointTree normalizes).
+inline Joint random_joint(std::mt19937& rng, JointType type) {
+  Joint j;
+  j.type = type;
+  j.frame = random_euler_parameters(rng);
+  j.axis = uniform(rng, 0.5, 2.0) * random_unit(rng);
+  const Vector3 a1 = random_unit(rng);
+  j.axes = {2.0 * a1, a1.cross(random_unit(rng)).normalized()};
+  j.translation = random_vector(rng, -0.3, 0.3);
+  return j;
+}
+
+// Random joint coordinates and speeds: angles in [-3, 3], slides in [-0.5, 0.5], Euler
+// parameters uniform (free bodies' s'_K in [-0.3, 0.3]); speeds in [-1, 1].
+inline void random_joint_state(const JointTree& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
+  q = VectorX::Zero(tree.num_coordinates());
+  z = VectorX::Zero(tree.num_speeds());
+  for (int k = 0; k < tree.num_bodies(); ++k) {
+    const int o = tree.coordinate_offset(k);
+    switch (tree.joint(k).type) {
+      case JointType::free:
+        q.segment<4>(o) = random_euler_parameters(rng);
+        q.segment<3>(o + 4) = random_vector(rng, -0.3, 0.3);
+        break;
+      case JointType::spherical:
+        q.segment<4>(o) = random_euler_parameters(rng);
+        break;
+      case JointType::revolute:
+        q[o] = uniform(rng, -3, 3);
+        break;
+      case JointType::prismatic:
+        q[o] = uniform(rng, -0.5, 0.5);
+        break;
+      case JointType::cylindrical:
+        q[o] = uniform(rng, -3, 3);
+        q[o + 1] = uniform(rng, -0.5, 0.5);
+        break;
+      case JointType::universal:
+        q[o] = uniform(rng, -3, 3);
+        q[o + 1] = uniform(rng, -3, 3);
+        break;
+      case JointType::weld:
+        break;
+    }
+  }
+  for (int i = 0; i < z.size(); ++i) z[i] = uniform(rng, -1, 1);
 }
 
 }  // namespace kanedyn::test
