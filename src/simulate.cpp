@@ -236,6 +236,7 @@ class Run {
     jd_.emplace(model, tree);
     nq_ = tree.num_coordinates();
     out_q_ = q0;
+    drift_q_ = q0;
     normalize_joint_coordinates(tree, out_q_);
     z_ << out_q_, z0;
     out_z_ = z0;
@@ -325,8 +326,8 @@ class Run {
     if (tree_) {
       auto q = z.head(nq_);
       if (s_.project_euler_parameters) return normalize_joint_coordinates(*tree_, q);
-      VectorX copy_q = q;
-      return normalize_joint_coordinates(*tree_, copy_q);
+      drift_q_ = q;  // the drift alone: normalize a copy (sized once, no allocation)
+      return normalize_joint_coordinates(*tree_, drift_q_);
     }
     if (!s_.project_euler_parameters) {
       double drift = 0.0;
@@ -553,6 +554,7 @@ class Run {
   std::optional<JointDynamics> jd_;
   int n_, size_, nq_ = 0;
   VectorX out_q_, out_z_;
+  VectorX drift_q_;  // project()'s copy of q when the Euler parameters are not projected
   Data data_;
   State work_, out_state_;
   VectorX z_, z_out_, z_prev_;
