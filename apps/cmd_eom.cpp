@@ -110,8 +110,8 @@ void print_tables(const io::ModelFile& file, const Data& data, const std::string
   print_column("{x dot} (Eqs. 39-40)", data.xdot, coordinate_label, n);
 }
 
-/// Label of independent speed i: NAME.jdN of a jointed body, NAME.wC / NAME.sdC of a free one.
-// "NAME.COLUMN" of independent speed i, as the trajectory CSV names it.
+/// Label of independent speed i as the trajectory CSV names its column: NAME.jdN of a jointed
+/// body, NAME.wC / NAME.sdC of a free one.
 std::string independent_speed_label(const Model& model, const JointTree& tree, int i) {
   int k = -1;
   const std::string column = joint_state_column(tree, tree.num_coordinates() + i, &k);

@@ -281,7 +281,6 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
   return d;
 }
 
-/// (q dot, z dot) of a jointed model at (q, z) (default: the initial ones), by the route.
 }  // namespace
 
 VectorX joint_arguments(const PyModel& m, py::object q_obj, py::object z_obj) {
@@ -314,6 +313,7 @@ VectorX joint_arguments(const PyModel& m, py::object q_obj, py::object z_obj) {
 
 namespace {
 
+/// (q dot, z dot) of a jointed model at (q, z) (default: the initial ones), by the route.
 py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
                             const std::string& route_name) {
   const JointTree* tree = m.joints();
