@@ -1,8 +1,10 @@
 // Google Benchmark entries of JointDynamics::evaluate(): chains of revolute links (the
 // generated chain's links, gravity and bushings, every joint revolute about the link's x axis)
 // by the articulated-body route (joints_recursive) and the block-sparse projected route
-// (joints_assembled, O(N d^2): only the shorter chains). The counter `per_body` is the time
-// per evaluation divided by N: flat in N for the recursive route. Run e.g.
+// (joints_assembled, O(N d^2): only the shorter chains), and the jointed human figure of
+// examples/human_jointed.yaml (a free torso, revolute, universal and spherical joints) by both.
+// The counter `per_body` is the time per evaluation divided by N: flat in N for the recursive
+// route. Run e.g.
 //   build/bench/kanedyn_bench_joints --benchmark_repetitions=3
 // and read `per_body` (the "_min" aggregate is the least disturbed on a shared machine).
 #include <benchmark/benchmark.h>
@@ -14,6 +16,7 @@
 #include <vector>
 
 #include "kanedyn/dynamics.hpp"
+#include "kanedyn/io/model_file.hpp"
 #include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/testing/generate.hpp"
@@ -42,10 +45,20 @@ JointedChain revolute_chain(int n) {
   return c;
 }
 
-void evaluate(benchmark::State& bench, int n, Route route) {
-  const JointedChain c = revolute_chain(n);
+JointedChain human_jointed() {
+  io::ModelFile f = io::load_model_file(KANEDYN_SOURCE_DIR "/examples/human_jointed.yaml");
+  JointedChain c;
+  c.model = std::make_unique<Model>(std::move(f.model));
+  c.tree = std::make_unique<JointTree>(std::move(*f.joints));  // holds no reference to the Model
+  c.q = f.joint_q;
+  c.z = f.joint_z;
+  return c;
+}
+
+void run(benchmark::State& bench, const JointedChain& c, Route route) {
+  const int n = c.model->num_bodies();
   JointDynamics dyn(*c.model, *c.tree);
-  VectorX zdot(n);
+  VectorX zdot(c.tree->num_speeds());
   dyn.evaluate(c.q, c.z, route, zdot);  // the assembled route builds its blocks once
   for (auto _ : bench) {
     dyn.evaluate(c.q, c.z, route, zdot);
@@ -60,7 +73,7 @@ void register_all() {
   const auto add = [](Route route, int n) {
     benchmark::RegisterBenchmark(
         ("joints_" + to_string(route) + "/chain-" + std::to_string(n)).c_str(),
-        [route, n](benchmark::State& b) { evaluate(b, n, route); })
+        [route, n](benchmark::State& b) { run(b, revolute_chain(n), route); })
         ->Unit(benchmark::kMicrosecond)
         ->ComputeStatistics("min", [](const std::vector<double>& v) {
           return *std::min_element(v.begin(), v.end());
@@ -68,6 +81,10 @@ void register_all() {
   };
   for (const int n : {64, 512, 4096, 100000}) add(Route::recursive, n);
   for (const int n : {64, 512}) add(Route::assembled, n);
+  for (const Route route : {Route::recursive, Route::assembled})
+    benchmark::RegisterBenchmark(("joints_" + to_string(route) + "/human_jointed").c_str(),
+                                 [route](benchmark::State& b) { run(b, human_jointed(), route); })
+        ->Unit(benchmark::kMicrosecond);
 }
 
 }  // namespace

@@ -36,47 +36,61 @@ using Block = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
 // energy is 1/2 V^T [I_O] V, and [I_O] V = (angular momentum about O_K, linear momentum).
 //   [I_O] = | [I_G] - m [c~][c~]   m [c~] |     c = G_K - O_K, [I_G] = [R_K]^T [I'_G] [R_K]
 //           | -m [c~]              m [I]  |
-Matrix6 spatial_inertia(double mass, const Vector3& c, const Matrix3& inertia_g) {
-  const Matrix3 cx = skew(c);
-  Matrix6 i;
-  i.topLeftCorner<3, 3>() = inertia_g - mass * cx * cx;
-  i.topRightCorner<3, 3>() = mass * cx;
-  i.bottomLeftCorner<3, 3>() = -mass * cx;
+// With [c~][c~] = c c^T - (c.c)[I].
+void spatial_inertia(double mass, const Vector3& c, const Matrix3& inertia_g, Matrix6& i) {
+  const Vector3 mc = mass * c;
+  const Matrix3 mcx = skew(mc);
+  auto tl = i.topLeftCorner<3, 3>();
+  tl = inertia_g;
+  tl.noalias() -= mc * c.transpose();
+  tl.diagonal().array() += mc.dot(c);
+  i.topRightCorner<3, 3>() = mcx;
+  i.bottomLeftCorner<3, 3>() = -mcx;
   i.bottomRightCorner<3, 3>() = mass * Matrix3::Identity();
-  return i;
 }
 
-// The inverse of the joint-space inertia block D (M x M, symmetric positive definite): the
-// cofactor formula for M <= 3; above it D = [L][L]^T (Cholesky, fixed-size loops that the
-// compiler unrolls: Eigen's LLT solve of a fixed 6x6 runs its general blocked kernels) and
-// D^-1 = [L]^-T [L]^-1.
+// The lower Cholesky factor [L] of a symmetric positive definite M x M matrix, D = [L][L]^T, by
+// fixed-size loops that the compiler unrolls (Eigen's LLT of a fixed 6x6 runs its general
+// blocked kernels).
+template <int M>
+Eigen::Matrix<double, M, M> cholesky(const Eigen::Matrix<double, M, M>& d) {
+  Eigen::Matrix<double, M, M> l = Eigen::Matrix<double, M, M>::Zero();
+  for (int c = 0; c < M; ++c) {
+    double diag = d(c, c);
+    for (int e = 0; e < c; ++e) diag -= l(c, e) * l(c, e);
+    l(c, c) = std::sqrt(diag);
+    for (int r = c + 1; r < M; ++r) {
+      double v = d(r, c);
+      for (int e = 0; e < c; ++e) v -= l(r, e) * l(c, e);
+      l(r, c) = v / l(c, c);
+    }
+  }
+  return l;
+}
+
+// The inverse of the joint-space inertia block D (M x M, symmetric positive definite, M <= 3:
+// a free joint's M = 6 takes solve_spd instead), by the cofactor formula.
 template <int M>
 Eigen::Matrix<double, M, M> inverse_spd(const Eigen::Matrix<double, M, M>& d) {
-  if constexpr (M <= 3) {
-    return d.inverse();
-  } else {
-    Eigen::Matrix<double, M, M> l = Eigen::Matrix<double, M, M>::Zero();
-    for (int c = 0; c < M; ++c) {
-      double diag = d(c, c);
-      for (int e = 0; e < c; ++e) diag -= l(c, e) * l(c, e);
-      l(c, c) = std::sqrt(diag);
-      for (int r = c + 1; r < M; ++r) {
-        double v = d(r, c);
-        for (int e = 0; e < c; ++e) v -= l(r, e) * l(c, e);
-        l(r, c) = v / l(c, c);
-      }
-    }
-    Eigen::Matrix<double, M, M> li = Eigen::Matrix<double, M, M>::Zero();  // [L]^-1
-    for (int c = 0; c < M; ++c) {
-      li(c, c) = 1.0 / l(c, c);
-      for (int r = c + 1; r < M; ++r) {
-        double v = 0.0;
-        for (int e = c; e < r; ++e) v -= l(r, e) * li(e, c);
-        li(r, c) = v / l(r, r);
-      }
-    }
-    return li.transpose() * li;
+  static_assert(M >= 1 && M <= 3);
+  return d.inverse();
+}
+
+// x = D^-1 b for a symmetric positive definite 6x6 D, by its Cholesky factor.
+Vector6 solve_spd(const Matrix6& d, const Vector6& b) {
+  const Matrix6 l = cholesky<6>(d);
+  Vector6 x;
+  for (int r = 0; r < 6; ++r) {  // [L] y = b
+    double v = b[r];
+    for (int e = 0; e < r; ++e) v -= l(r, e) * x[e];
+    x[r] = v / l(r, r);
   }
+  for (int r = 5; r >= 0; --r) {  // [L]^T x = y
+    double v = x[r];
+    for (int e = r + 1; e < 6; ++e) v -= l(e, r) * x[e];
+    x[r] = v / l(r, r);
+  }
+  return x;
 }
 
 // [P_K] = | a [I]     0   |  (a = 1; a = 0 for a free body), applied by blocks, with
@@ -127,6 +141,9 @@ void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
 
 }  // namespace
 
+// Where [S_K] = ([S_w]; [S_v]) has nonzero rows: the products with it skip the zero half.
+enum class Subspace { none, angular, linear, general, free };
+
 struct JointDynamics::Impl {
   Impl(const Model& m, const JointTree& t)
       : model(m),
@@ -147,10 +164,12 @@ struct JointDynamics::Impl {
     speeds.assign(at(n), 0);
     offset.assign(at(n), 0);
     free_joint.assign(at(n), 0);
+    type.assign(at(n), JointType::free);
     for (int k = 0; k < n; ++k) {
       speeds[at(k)] = speed_count(t.joint(k).type);
       offset[at(k)] = t.speed_offset(k);
       free_joint[at(k)] = t.joint(k).type == JointType::free ? 1 : 0;
+      type[at(k)] = t.joint(k).type;
     }
     IA.assign(at(n), Matrix6::Zero());
     p.assign(at(n), Vector6::Zero());
@@ -162,7 +181,7 @@ struct JointDynamics::Impl {
     for (int k = 0; k < n; ++k) {
       d_offset[at(k)] = doubles;
       const int w = speeds[at(k)];
-      doubles += w * w;
+      if (w < 6) doubles += w * w;  // a free joint needs no D^-1 (solve_spd)
     }
     D_inv.assign(at(doubles), 0.0);
   }
@@ -177,6 +196,7 @@ struct JointDynamics::Impl {
   // Per body: the joint's speed count, speed offset and whether it is free (constant).
   std::vector<int> speeds, offset;
   std::vector<unsigned char> free_joint;
+  std::vector<JointType> type;
   // Per body: [X_K] of [P_K] (BodyMap); IA_K, [I_O,K] after prepare(), then the articulated
   // (recursive) or composite (assembled) inertia; p_K, the velocity-product force b_K minus the
   // external force about O_K after prepare(), then the force passed inwards; the acceleration c_K
@@ -198,9 +218,9 @@ struct JointDynamics::Impl {
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
   BodyMap body_map(int k) const { return {r[at(k)], free_joint[at(k)] == 0}; }
-  template <int M>
+  template <int M, Subspace Shape>
   void recursive_inward(int k);
-  template <int M>
+  template <int M, Subspace Shape>
   void recursive_outward(int k, Eigen::Ref<VectorX> zdot);
 };
 
@@ -239,17 +259,15 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
         for (int col = 0; col < w_count; ++col)
           s.col(col).head<3>() = rk.transpose() * jm.G.col(col).head<3>();
       }
-      if (type == JointType::free || type == JointType::prismatic ||
-          type == JointType::cylindrical) {
-        const Matrix36 t = joint_translation_block(tree, k);
-        if (root)
-          s.bottomRows<3>() = t.leftCols(w_count);
-        else
-          for (int col = 0; col < w_count; ++col)
-            s.col(col).tail<3>() = kin.R[at(j)].transpose() * t.col(col).head<3>();
-      } else {
-        s.bottomRows<3>().setZero();  // [T_K] = 0: the joint does not translate
-      }
+      // [T_K] (joint_translation_block): the slide axis in J components for the prismatic
+      // speed and the cylindrical one's second, [0 I] for a free body; zero otherwise.
+      s.bottomRows<3>().setZero();
+      const Matrix3 identity = Matrix3::Identity();
+      const Matrix3& rj_t = root ? identity : kin.R[at(j)];
+      if (type == JointType::free)
+        s.bottomRightCorner<3, 3>() = rj_t.transpose();
+      else if (type == JointType::prismatic || type == JointType::cylindrical)
+        s.col(w_count - 1).tail<3>().noalias() = rj_t.transpose() * tree.axis_in_j(k);
     }
     // c_K = d/dt V_K at z dot = 0 with J's acceleration zero. With d/dt ([R]^T u) = w x [R]^T u
     // + [R]^T du/dt, w_rel = w_K - a w_J and the slide rate sd = [R_J]^T [T_K] z_K
@@ -274,10 +292,11 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     // (w x (w x c)), m w x (w x c)), c = [R_K]^T r'_K. The external force about O_K is
     // ([R_K]^T M'_K + c x F_K, F_K): gravity and every force element.
     const Vector3 cg = rk.transpose() * body.com;
-    const Matrix3 inertia_g = rk.transpose() * body.inertia * rk;
+    Matrix3 inertia_g;
+    inertia_g.noalias() = rk.transpose() * (body.inertia * rk);
     const Vector3 f = data.loads.force[i];
     const Vector3 wwc = w.cross(w.cross(cg));
-    IA[i] = spatial_inertia(body.mass, cg, inertia_g);
+    spatial_inertia(body.mass, cg, inertia_g, IA[i]);
     Vector6& bk = p[i];
     bk.head<3>() = w.cross(inertia_g * w) + body.mass * cg.cross(wwc) -
                    (rk.transpose() * data.loads.moment_b[i] + cg.cross(f));
@@ -285,99 +304,136 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
   }
 }
 
-// Inward step of the articulated-body recursion at body k with M = speed_count: the joint's
-// [U] = IA [S], D = [S]^T [U], u = Q - [S]^T p, and what K's subtree passes to J:
+// Inward step of the articulated-body recursion at body k with M = speed_count and the shape of
+// [S_K]: the joint's [U] = IA [S], D = [S]^T [U], u = Q - [S]^T p, and what K's subtree passes
+// to J:
 //   IA_J += [P]^T (IA - [U] D^-1 [U]^T) [P],   p_J += [P]^T (p + Ia c + [U] D^-1 u).
-template <int M>
+// A revolute, universal or spherical joint has [S] = (S_w; 0) and a prismatic one (0; S_v): the
+// products with [S] then take three columns of IA (three entries of p) only.
+template <int M, Subspace Shape>
 void JointDynamics::Impl::recursive_inward(int k) {
   const auto i = at(k);
   const int j = model.lower_body(k);
   const Matrix6& ia = IA[i];
-  Matrix6 articulated = ia;
-  Vector6 passed = p[i];
-  if constexpr (M > 0) {
-    const int off = offset[i];
-    const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
-    Eigen::Map<Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
-    Eigen::Map<Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
-    uk.noalias() = ia * s;
-    const Eigen::Matrix<double, M, M> d = s.transpose() * uk;
-    d_inv = inverse_spd<M>(d);
-    auto uu = u.segment<M>(off);
-    uu = joint_force.segment<M>(off) - s.transpose() * p[i];
-    // A root passes nothing on; nor does a free joint: its [S] (M = 6) is invertible, so
-    // IA - [U] D^-1 [U]^T = 0 and p + [U] D^-1 u = [S]^-T Q = 0 (no joint loads on a free body).
-    if (j == kGround || M == 6) return;
-    const Eigen::Matrix<double, 6, M> ud = uk * d_inv;
-    articulated.noalias() -= ud * uk.transpose();
-    passed.noalias() += ud * uu;
+  if constexpr (Shape == Subspace::free) {
+    // [S] (M = 6) is invertible: IA - [U] D^-1 [U]^T = 0 and p + [U] D^-1 u = [S]^-T Q = 0 (no
+    // joint loads on a free body), so K passes nothing on, and its acceleration is the free
+    // body's, A_K = -IA^-1 p (then z dot_K = [S]^-1 (A_K - [P] A_J - c), outward).
+    A[i] = -solve_spd(ia, p[i]);
+    return;
+  } else {
+    Matrix6 articulated = ia;
+    Vector6 passed = p[i];
+    if constexpr (M > 0) {
+      const int off = offset[i];
+      const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+      Eigen::Map<Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
+      Eigen::Map<Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
+      auto uu = u.segment<M>(off);
+      Eigen::Matrix<double, M, M> d;
+      if constexpr (Shape == Subspace::angular) {
+        const auto sw = s.template topRows<3>();
+        uk.noalias() = ia.leftCols<3>() * sw;
+        d.noalias() = sw.transpose() * uk.template topRows<3>();
+        uu = joint_force.segment<M>(off) - sw.transpose() * p[i].head<3>();
+      } else if constexpr (Shape == Subspace::linear) {
+        const auto sv = s.template bottomRows<3>();
+        uk.noalias() = ia.rightCols<3>() * sv;
+        d.noalias() = sv.transpose() * uk.template bottomRows<3>();
+        uu = joint_force.segment<M>(off) - sv.transpose() * p[i].tail<3>();
+      } else {
+        uk.noalias() = ia * s;
+        d.noalias() = s.transpose() * uk;
+        uu = joint_force.segment<M>(off) - s.transpose() * p[i];
+      }
+      d_inv = inverse_spd<M>(d);
+      if (j == kGround) return;  // a root passes nothing on
+      const Eigen::Matrix<double, 6, M> ud = uk * d_inv;
+      articulated.noalias() -= ud * uk.transpose();
+      passed.noalias() += ud * uu;
+    }
+    if (j == kGround) return;
+    passed.noalias() += articulated * c[i];
+    const BodyMap map = body_map(k);
+    add_carried_inertia(map, articulated, IA[at(j)]);
+    p[at(j)] += carry_force(map, passed);
   }
-  if (j == kGround) return;
-  passed.noalias() += articulated * c[i];
-  const BodyMap map = body_map(k);
-  add_carried_inertia(map, articulated, IA[at(j)]);
-  p[at(j)] += carry_force(map, passed);
 }
 
 // Outward step: A' = [P] A_J + c, z dot_K = D^-1 (u - [U]^T A'), A_K = A' + [S] z dot_K.
-template <int M>
+template <int M, Subspace Shape>
 void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
   const auto i = at(k);
   const int j = model.lower_body(k);
   Vector6 a = c[i];
   if (j != kGround) a += map_velocity(body_map(k), A[at(j)]);
-  if constexpr (M > 0) {
-    const int off = offset[i];
-    const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
-    const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
-    const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
-    auto zk = zdot.segment<M>(off);
-    zk.noalias() = d_inv * (u.segment<M>(off) - uk.transpose() * a);
-    a.noalias() += s * zk;
+  if constexpr (Shape == Subspace::free) {
+    // [S]^-1 = diag([R_K], [R_J]): [S] = diag([R_K]^T, [R_J]^T) for a free joint ([G] = [I], [T] =
+    // [0 I], [R_J] = [I] for a root); A_K is the inward pass's.
+    const Vector6 rel = A[i] - a;
+    auto zk = zdot.segment<6>(offset[i]);
+    zk.head<3>().noalias() = data.kinematics.R[i] * rel.head<3>();
+    if (j == kGround)
+      zk.tail<3>() = rel.tail<3>();
+    else
+      zk.tail<3>().noalias() = data.kinematics.R[at(j)] * rel.tail<3>();
+    return;
+  } else {
+    if constexpr (M > 0) {
+      const int off = offset[i];
+      const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+      const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
+      const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
+      auto zk = zdot.segment<M>(off);
+      zk.noalias() = d_inv * (u.segment<M>(off) - uk.transpose() * a);
+      if constexpr (Shape == Subspace::angular)
+        a.head<3>().noalias() += s.template topRows<3>() * zk;
+      else if constexpr (Shape == Subspace::linear)
+        a.tail<3>().noalias() += s.template bottomRows<3>() * zk;
+      else
+        a.noalias() += s * zk;
+    }
+    A[i] = a;
   }
-  A[i] = a;
+}
+
+// Each joint type's speed count and shape of [S], for the templates above.
+template <typename Step>
+void dispatch_joint_type(JointType type, Step&& step) {
+  switch (type) {
+    case JointType::free:
+      step.template operator()<6, Subspace::free>();
+      break;
+    case JointType::weld:
+      step.template operator()<0, Subspace::none>();
+      break;
+    case JointType::revolute:
+      step.template operator()<1, Subspace::angular>();
+      break;
+    case JointType::prismatic:
+      step.template operator()<1, Subspace::linear>();
+      break;
+    case JointType::cylindrical:
+      step.template operator()<2, Subspace::general>();
+      break;
+    case JointType::universal:
+      step.template operator()<2, Subspace::angular>();
+      break;
+    case JointType::spherical:
+      step.template operator()<3, Subspace::angular>();
+      break;
+  }
 }
 
 void JointDynamics::Impl::recursive(Eigen::Ref<VectorX> zdot) {
   const int n = model.num_bodies();
-  for (int k = n - 1; k >= 0; --k) {
-    switch (speeds[at(k)]) {
-      case 0:
-        recursive_inward<0>(k);
-        break;
-      case 1:
-        recursive_inward<1>(k);
-        break;
-      case 2:
-        recursive_inward<2>(k);
-        break;
-      case 3:
-        recursive_inward<3>(k);
-        break;
-      default:
-        recursive_inward<6>(k);
-        break;
-    }
-  }
-  for (int k = 0; k < n; ++k) {
-    switch (speeds[at(k)]) {
-      case 0:
-        recursive_outward<0>(k, zdot);
-        break;
-      case 1:
-        recursive_outward<1>(k, zdot);
-        break;
-      case 2:
-        recursive_outward<2>(k, zdot);
-        break;
-      case 3:
-        recursive_outward<3>(k, zdot);
-        break;
-      default:
-        recursive_outward<6>(k, zdot);
-        break;
-    }
-  }
+  for (int k = n - 1; k >= 0; --k)
+    dispatch_joint_type(type[at(k)],
+                        [this, k]<int M, Subspace Shape>() { recursive_inward<M, Shape>(k); });
+  for (int k = 0; k < n; ++k)
+    dispatch_joint_type(type[at(k)], [this, k, &zdot]<int M, Subspace Shape>() {
+      recursive_outward<M, Shape>(k, zdot);
+    });
 }
 
 void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {

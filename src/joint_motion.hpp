@@ -18,6 +18,9 @@ struct JointMotion {
 
 /// z_k points at body K's slice of z (speed_count entries), or is null for zero rates.
 JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k);
+/// The same into m (every field written).
+void joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k,
+                  JointMotion& m);
 
 /// joint_state, also storing each body's JointMotion in motion (N entries) when not null.
 void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state,

@@ -9,6 +9,7 @@
 #include "kanedyn/kane.hpp"
 #include "kanedyn/rotation.hpp"
 
+#include "equations.hpp"
 #include "joint_motion.hpp"
 
 namespace kanedyn {
@@ -27,6 +28,17 @@ bool has_axis(JointType t) {
 
 // The Euler-parameter slice of a body's q (spherical q, or a free body's eps_K), if any.
 int euler_slice(JointType t) { return t == JointType::free || t == JointType::spherical ? 4 : 0; }
+
+// Euler parameters of the turn q about a unit axis (the JointTree normalized it): what
+// euler_parameters_from_axis_angle gives without its rescaling of an arbitrary axis.
+Vector4 turn_about_unit_axis(const Vector3& axis, double q) {
+  const double s = std::sin(0.5 * q);
+  return {s * axis.x(), s * axis.y(), s * axis.z(), std::cos(0.5 * q)};
+}
+
+bool is_identity(const Vector4& eps) {
+  return eps[0] == 0.0 && eps[1] == 0.0 && eps[2] == 0.0 && eps[3] == 1.0;
+}
 
 }  // namespace
 
@@ -102,11 +114,18 @@ Matrix3 axis_angle_rotation(const Vector3& axis, double angle) {
   return rotation_matrix(euler_parameters_from_axis_angle(axis, angle));  // Eqs. (3)-(4)
 }
 
+namespace {
+// compose_euler_parameters (below), inlined where this file uses it.
+inline Vector4 compose(const Vector4& eps_j, const Vector4& rel) {
+  const eq::Euler<double> conj_j{{-eps_j[0], -eps_j[1], -eps_j[2], eps_j[3]}};
+  return eq::eigen(eq::relative_euler_parameters(conj_j, eq::euler(rel)));
+}
+}  // namespace
+
 Vector4 compose_euler_parameters(const Vector4& eps_j, const Vector4& rel) {
   // relative_euler_parameters(a, b) = conj(a) b (Hamilton); with a = conj(eps_J) it is
   // eps_J rel, the parameters of K: one implementation of the product.
-  const Vector4 conj_j(-eps_j[0], -eps_j[1], -eps_j[2], eps_j[3]);
-  return relative_euler_parameters(conj_j, rel);
+  return compose(eps_j, rel);
 }
 
 JointTree::JointTree(const Model& model, std::vector<Joint> joints, std::vector<JointLoad> loads)
@@ -173,11 +192,11 @@ JointTree::JointTree(const Model& model, std::vector<Joint> joints, std::vector<
 
 namespace detail {
 
-JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k) {
+void joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k,
+                  JointMotion& m) {
   const Joint& jt = tree.joint(k);
   const int o = tree.coordinate_offset(k);
   const auto rate = [z_k](int c) { return z_k ? z_k[c] : 0.0; };
-  JointMotion m;
   m.G.setZero();
   m.w_rel.setZero();
   m.slide.setZero();
@@ -191,12 +210,12 @@ JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const d
       m.w_rel = Vector3(rate(0), rate(1), rate(2));
       m.slide = q.segment<3>(o + 4);
       m.slide_rate = Vector3(rate(3), rate(4), rate(5));
-      return m;
+      return;
     case JointType::weld:
       m.slide = jt.translation;
       break;
     case JointType::revolute:  // n is fixed by the turn about n
-      joint_rel = euler_parameters_from_axis_angle(jt.axis, q[o]);
+      joint_rel = turn_about_unit_axis(jt.axis, q[o]);
       m.G.col(0) = jt.axis;
       m.w_rel = rate(0) * jt.axis;
       break;
@@ -205,7 +224,7 @@ JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const d
       m.slide_rate = rate(0) * tree.axis_in_j(k);
       break;
     case JointType::cylindrical:
-      joint_rel = euler_parameters_from_axis_angle(jt.axis, q[o]);
+      joint_rel = turn_about_unit_axis(jt.axis, q[o]);
       m.G.col(0) = jt.axis;
       m.w_rel = rate(0) * jt.axis;
       m.slide = q[o + 1] * tree.axis_in_j(k);
@@ -215,9 +234,8 @@ JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const d
       // a1 first, then a2 as the first turn carried it: a1 (fixed in F and in the intermediate
       // frame) in K components is [R(a2, q2)] a1, and a2 is fixed in K; d/dt [R(a2, q2)] a1 =
       // -(q2 dot a2) x [R(a2, q2)] a1.
-      const Vector4 second = euler_parameters_from_axis_angle(jt.axes[1], q[o + 1]);
-      joint_rel =
-          compose_euler_parameters(euler_parameters_from_axis_angle(jt.axes[0], q[o]), second);
+      const Vector4 second = turn_about_unit_axis(jt.axes[1], q[o + 1]);
+      joint_rel = compose(turn_about_unit_axis(jt.axes[0], q[o]), second);
       const Vector3 a1_k = rotation_matrix(second) * jt.axes[0];
       m.G.col(0) = a1_k;
       m.G.col(1) = jt.axes[1];
@@ -231,7 +249,13 @@ JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const d
       m.w_rel = Vector3(rate(0), rate(1), rate(2));
       break;
   }
-  m.rel = compose_euler_parameters(jt.frame, joint_rel);
+  // A product with the identity is exact: skipping it keeps the bits.
+  m.rel = is_identity(jt.frame) ? joint_rel : compose(jt.frame, joint_rel);
+}
+
+JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k) {
+  JointMotion m;
+  joint_motion(tree, k, q, z_k, m);
   return m;
 }
 
@@ -240,8 +264,9 @@ void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, Stat
   for (int k = 0; k < tree.num_bodies(); ++k) {
     const int j = tree.lower_body(k);
     const int o = tree.coordinate_offset(k);
-    const JointMotion m = joint_motion(tree, k, q, z.data() + tree.speed_offset(k));
-    if (motion) (*motion)[at(k)] = m;
+    JointMotion own;
+    JointMotion& m = motion ? (*motion)[at(k)] : own;
+    joint_motion(tree, k, q, z.data() + tree.speed_offset(k), m);
     if (is_free(tree.joint(k).type)) {
       state.euler_parameters(k) = q.segment<4>(o);
       state.angular_velocity(k) = m.w_rel;
@@ -249,8 +274,9 @@ void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, Stat
       state.euler_parameters(k) = m.rel;
       state.angular_velocity(k) = m.w_rel;
     } else {  // w'_K = w_rel + [R(rel)] w'_J, [R(rel)] = [R_K][R_J]^T
-      state.euler_parameters(k) = compose_euler_parameters(state.euler_parameters(j), m.rel);
-      state.angular_velocity(k) = m.w_rel + rotation_matrix(m.rel) * state.angular_velocity(j);
+      state.euler_parameters(k) = compose(state.euler_parameters(j), m.rel);
+      state.angular_velocity(k) =
+          m.w_rel + eq::eigen(eq::rotate(eq::euler(m.rel), eq::vec(state.angular_velocity(j))));
     }
     state.translation(k) = m.slide;
     state.translation_rate(k) = m.slide_rate;
