@@ -122,14 +122,25 @@ Vector6 carry_force(const BodyMap& m, const Column& f) {
   return out;
 }
 
-// target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with W = C [r~], the result is
-// [a A - a (B[r~] + (B[r~])^T) - [r~] W,  a B - W^T;  (a B - W^T)^T, C] ([r~]^T = -[r~]).
+// X [r~] for a 3x3 X, by columns: X [r~] = [X_2 r3 - X_3 r2,  X_3 r1 - X_1 r3,  X_1 r2 - X_2 r1]
+// (X_c the columns): 18 products where a product with the skew matrix takes 27.
+template <typename Block3>
+Matrix3 times_skew(const Block3& x, const Vector3& r) {
+  Matrix3 out;
+  out.col(0) = x.col(1) * r.z() - x.col(2) * r.y();
+  out.col(1) = x.col(2) * r.x() - x.col(0) * r.z();
+  out.col(2) = x.col(0) * r.y() - x.col(1) * r.x();
+  return out;
+}
+
+// target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with W = C [r~] (so W^T = -[r~] C,
+// [r~]^T = -[r~]), the result is
+//   [a A - a (B[r~] + (B[r~])^T) + W^T [r~],  a B - W^T;  (a B - W^T)^T,  C].
 void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
-  const Matrix3 q = skew(m.r);
-  const Matrix3 w = M.bottomRightCorner<3, 3>() * q;
-  Matrix3 tl = -q * w, tr = -w.transpose();
+  const Matrix3 wt = times_skew(M.bottomRightCorner<3, 3>(), m.r).transpose();
+  Matrix3 tl = times_skew(wt, m.r), tr = -wt;
   if (m.angular) {
-    const Matrix3 bq = M.topRightCorner<3, 3>() * q;
+    const Matrix3 bq = times_skew(M.topRightCorner<3, 3>(), m.r);
     tl += M.topLeftCorner<3, 3>() - bq - bq.transpose();
     tr += M.topRightCorner<3, 3>();
   }
