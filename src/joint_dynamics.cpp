@@ -36,6 +36,17 @@ using Block = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
 // energy is 1/2 V^T [I_O] V, and [I_O] V = (angular momentum about O_K, linear momentum).
 //   [I_O] = | [I_G] - m [c~][c~]   m [c~] |     c = G_K - O_K, [I_G] = [R_K]^T [I'_G] [R_K]
 //           | -m [c~]              m [I]  |
+// [R]^T [I'] [R] for a symmetric [I'] (an inertia in body axes, [R] = [R_K]): its six distinct
+// entries, each the dot product of a column of [R] with [I'] times another.
+Matrix3 inertial_axes(const Matrix3& inertia, const Matrix3& r) {
+  Matrix3 ir;
+  ir.noalias() = inertia * r;
+  Matrix3 out;
+  for (int c = 0; c < 3; ++c)
+    for (int row = 0; row <= c; ++row) out(row, c) = out(c, row) = r.col(row).dot(ir.col(c));
+  return out;
+}
+
 // With [c~][c~] = c c^T - (c.c)[I].
 void spatial_inertia(double mass, const Vector3& c, const Matrix3& inertia_g, Matrix6& i) {
   const Vector3 mc = mass * c;
@@ -303,8 +314,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     // (w x (w x c)), m w x (w x c)), c = [R_K]^T r'_K. The external force about O_K is
     // ([R_K]^T M'_K + c x F_K, F_K): gravity and every force element.
     const Vector3 cg = rk.transpose() * body.com;
-    Matrix3 inertia_g;
-    inertia_g.noalias() = rk.transpose() * (body.inertia * rk);
+    const Matrix3 inertia_g = inertial_axes(body.inertia, rk);
     const Vector3 f = data.loads.force[i];
     const Vector3 wwc = w.cross(w.cross(cg));
     spatial_inertia(body.mass, cg, inertia_g, IA[i]);
