@@ -180,8 +180,6 @@ void print_json(const io::ModelFile& file, const Data& data, const ProjectedEqua
   std::cout << out.dump() << "\n";
 }
 
-constexpr int kMaxEomBodies = 1000;
-
 void add_eom(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "eom",
@@ -201,7 +199,7 @@ void add_eom(CLI::App& app) {
   add_state_options(cmd, opt->state);
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
-    // [A] is printed dense: 36 N^2 numbers, about 0.7 GB of JSON at N = 1000.
+    // [A] is printed dense (kMaxEomBodies).
     if (file.model.num_bodies() > kMaxEomBodies)
       throw std::runtime_error(opt->path + ": eom prints the dense 6N x 6N [A], and N = " +
                                std::to_string(file.model.num_bodies()) + " is more than the " +

@@ -18,4 +18,8 @@ namespace kanedyn {
 /// Assumes unit Euler parameters ([R_K] orthogonal).
 void kane_equations(const Model& model, const State& state, Data& data);
 
+/// The largest N for which the `eom` outputs (the tool's and Python's Model.eom) form the dense
+/// 6N x 6N [A]: 36 N^2 doubles, 288 MB (and about 0.7 GB of JSON) at 1000 bodies.
+constexpr int kMaxEomBodies = 1000;
+
 }  // namespace kanedyn

@@ -40,18 +40,15 @@ struct Equations {
   py::object n = py::none(), C = py::none(), A_z = py::none(), f_z = py::none(), zdot = py::none();
 };
 
-/// The largest N whose dense [A] eom computes: 36 N^2 doubles, 288 MB at 1000 bodies.
-constexpr int kMaxDenseBodies = 1000;
-
 Equations equations_of_motion(const PyModel& m, py::object state_obj) {
   if (m.joints() && !state_obj.is_none())
     throw py::value_error(
         "eom(state) of a jointed model: its state is the joint coordinates; eom() evaluates at "
         "the initial ones (joint_derivatives(q, z) at others)");
   const State state = state_argument(m, state_obj);
-  if (m.N() > kMaxDenseBodies)
+  if (m.N() > kMaxEomBodies)
     throw py::value_error("eom() forms the dense 6N x 6N [A], and N = " + std::to_string(m.N()) +
-                          " is more than " + std::to_string(kMaxDenseBodies) +
+                          " is more than " + std::to_string(kMaxEomBodies) +
                           "; derivatives() and simulate() run models of any size");
   Equations e;
   {

@@ -226,3 +226,15 @@ def test_hostile_inputs_do_not_crash_the_interpreter() -> None:
         code = f"import numpy as np, kanedyn\nm = kanedyn.load({str(EXAMPLES / 'eight_body.yaml')!r})\ntry:\n    {call}\nexcept Exception as e:\n    print(type(e).__name__)\n"
         done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
         assert done.returncode == 0, (call, done.returncode, done.stderr[-2000:])
+
+
+def test_eom_refuses_more_bodies_than_the_tool_prints(tmp_path) -> None:
+    path = tmp_path / "chain1001.yaml"
+    subprocess.run(
+        [sys.executable, str(EXAMPLES / "make_chain.py"), "1001", "-o", str(path)], check=True
+    )
+    chain = kanedyn.load(path)
+    with pytest.raises(ValueError, match=r"N = 1001 is more than 1000"):
+        chain.eom()
+    tool = run_tool(["eom", path])
+    assert tool.returncode == 1 and "is more than the 1000 bodies" in tool.stderr
