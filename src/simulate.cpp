@@ -362,17 +362,14 @@ class Run {
         if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
         (*joint_observer_)(t, out_state_, out_q_, out_z_, data_);
       }
-      ++stats_.outputs;
-      if (t >= s_.t_end) done_outputs_ = true;
-      ++next_output_;
-      return;
-    }
-    out_state_.x = z.head(7 * n_);
-    out_state_.y = z.tail(6 * n_);
-    if (s_.project_euler_parameters) out_state_.normalize_euler_parameters();
-    if (*observer_) {
-      if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
-      (*observer_)(t, out_state_, data_);
+    } else {
+      out_state_.x = z.head(7 * n_);
+      out_state_.y = z.tail(6 * n_);
+      if (s_.project_euler_parameters) out_state_.normalize_euler_parameters();
+      if (*observer_) {
+        if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
+        (*observer_)(t, out_state_, data_);
+      }
     }
     ++stats_.outputs;
     if (t >= s_.t_end) done_outputs_ = true;
