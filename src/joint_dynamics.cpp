@@ -185,13 +185,11 @@ struct JointDynamics::Impl {
     motion.resize(at(n));
     speeds.assign(at(n), 0);
     offset.assign(at(n), 0);
-    free_joint.assign(at(n), 0);
-    type.assign(at(n), JointType::free);
+    joint_type.assign(at(n), JointType::free);
     for (int k = 0; k < n; ++k) {
       speeds[at(k)] = speed_count(t.joint(k).type);
       offset[at(k)] = t.speed_offset(k);
-      free_joint[at(k)] = t.joint(k).type == JointType::free ? 1 : 0;
-      type[at(k)] = t.joint(k).type;
+      joint_type[at(k)] = t.joint(k).type;
     }
     IA.assign(at(n), Matrix6::Zero());
     p.assign(at(n), Vector6::Zero());
@@ -215,10 +213,9 @@ struct JointDynamics::Impl {
   VectorX q, z, qdot;
   VectorX joint_force;  // Q of the joint loads, in the order of z
   VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
-  // Per body: the joint's speed count, speed offset and whether it is free (constant).
+  // Per body: the joint's speed count, speed offset and type (constant).
   std::vector<int> speeds, offset;
-  std::vector<unsigned char> free_joint;
-  std::vector<JointType> type;
+  std::vector<JointType> joint_type;
   // Per body: [X_K] of [P_K] (BodyMap); IA_K, [I_O,K] after prepare(), then the articulated
   // (recursive) or composite (assembled) inertia; p_K, the velocity-product force b_K minus the
   // external force about O_K after prepare(), then the force passed inwards; the acceleration c_K
@@ -239,7 +236,7 @@ struct JointDynamics::Impl {
   void prepare(const VectorX& qq, const VectorX& zz);
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
-  BodyMap body_map(int k) const { return {r[at(k)], free_joint[at(k)] == 0}; }
+  BodyMap body_map(int k) const { return {r[at(k)], joint_type[at(k)] != JointType::free}; }
   template <int M, Subspace Shape>
   void recursive_inward(int k);
   template <int M, Subspace Shape>
@@ -260,7 +257,6 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const auto i = at(k);
     const int j = model.lower_body(k);
     const bool root = j == kGround;
-    const bool is_free = free_joint[i] != 0;
     const BodySpec& body = model.body(k);
     const Matrix3& rk = kin.R[i];
     // Eqs. (14)-(15) in inertial components: w_K = a w_J + [R_K]^T [G_K] z_K (a = 0 for a free
@@ -271,7 +267,8 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     w_inertial[i] = w;
     const Vector3 w_j = root ? Vector3::Zero() : w_inertial[at(j)];
     r[i] = root ? kin.qs_b[i] : Vector3(kin.R[at(j)].transpose() * kin.qs_b[i]);
-    const JointType type = tree.joint(k).type;
+    const JointType type = joint_type[i];
+    const bool is_free = type == JointType::free;
     const int w_count = speeds[i], off = offset[i];
     if (w_count > 0) {
       Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
@@ -449,10 +446,10 @@ void dispatch_joint_type(JointType type, Step&& step) {
 void JointDynamics::Impl::recursive(Eigen::Ref<VectorX> zdot) {
   const int n = model.num_bodies();
   for (int k = n - 1; k >= 0; --k)
-    dispatch_joint_type(type[at(k)],
+    dispatch_joint_type(joint_type[at(k)],
                         [this, k]<int M, Subspace Shape>() { recursive_inward<M, Shape>(k); });
   for (int k = 0; k < n; ++k)
-    dispatch_joint_type(type[at(k)], [this, k, &zdot]<int M, Subspace Shape>() {
+    dispatch_joint_type(joint_type[at(k)], [this, k, &zdot]<int M, Subspace Shape>() {
       recursive_outward<M, Shape>(k, zdot);
     });
 }
