@@ -70,24 +70,21 @@ void run(benchmark::State& bench, const JointedChain& c, Route route) {
 }
 
 void register_all() {
-  const auto add = [](Route route, int n) {
-    benchmark::RegisterBenchmark(
-        ("joints_" + to_string(route) + "/chain-" + std::to_string(n)).c_str(),
-        [route, n](benchmark::State& b) { run(b, revolute_chain(n), route); })
+  const auto add = [](Route route, const std::string& model, auto make) {
+    benchmark::RegisterBenchmark(("joints_" + to_string(route) + "/" + model).c_str(),
+                                 [route, make](benchmark::State& b) { run(b, make(), route); })
         ->Unit(benchmark::kMicrosecond)
         ->ComputeStatistics("min", [](const std::vector<double>& v) {
           return *std::min_element(v.begin(), v.end());
         });
   };
-  for (const int n : {64, 512, 4096, 100000}) add(Route::recursive, n);
-  for (const int n : {64, 512}) add(Route::assembled, n);
+  const auto chain = [&add](Route route, int n) {
+    add(route, "chain-" + std::to_string(n), [n] { return revolute_chain(n); });
+  };
+  for (const int n : {64, 512, 4096, 100000}) chain(Route::recursive, n);
+  for (const int n : {64, 512}) chain(Route::assembled, n);
   for (const Route route : {Route::recursive, Route::assembled})
-    benchmark::RegisterBenchmark(("joints_" + to_string(route) + "/human_jointed").c_str(),
-                                 [route](benchmark::State& b) { run(b, human_jointed(), route); })
-        ->Unit(benchmark::kMicrosecond)
-        ->ComputeStatistics("min", [](const std::vector<double>& v) {
-          return *std::min_element(v.begin(), v.end());
-        });
+    add(route, "human_jointed", human_jointed);
 }
 
 }  // namespace
