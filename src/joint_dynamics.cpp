@@ -19,6 +19,7 @@
 
 #include "kanedyn/forces.hpp"
 #include "kanedyn/kinematics.hpp"
+#include "kanedyn/rotation.hpp"
 
 #include "joint_ldlt.hpp"
 #include "joint_motion.hpp"
@@ -161,10 +162,21 @@ void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
   target.bottomRightCorner<3, 3>() += M.bottomRightCorner<3, 3>();
 }
 
-}  // namespace
-
 // Where [S_K] = ([S_w]; [S_v]) has nonzero rows: the products with it skip the zero half.
 enum class Subspace { none, angular, linear, general, free };
+
+// Body K's terms of the recursions, in inertial components about O_K (docs/theory.md).
+struct Link {
+  Matrix6 IA;  // [I_O,K], then the articulated (recursive) or composite (assembled) inertia
+  Matrix3 R;   // [R_K]
+  Vector3 r;   // O_K - O_J = [R_J]^T (q'_K + s'_K)
+  Vector3 w;   // w_K = [R_K]^T w'_K
+  Vector6 c;   // the acceleration of V_K at z dot = 0 and A_J = 0
+  Vector6 p;   // b_K - F_ext,K, then the force passed inwards
+  Vector6 A;   // the acceleration of V_K
+};
+
+}  // namespace
 
 struct JointDynamics::Impl {
   Impl(const Model& m, const JointTree& t)
@@ -175,25 +187,23 @@ struct JointDynamics::Impl {
         q(VectorX::Zero(t.num_coordinates())),
         z(VectorX::Zero(t.num_speeds())),
         qdot(VectorX::Zero(t.num_coordinates())),
+        q_seen(q),
+        z_seen(z),
         joint_force(VectorX::Zero(t.num_speeds())),
         u(VectorX::Zero(t.num_speeds())) {
     const int n = m.num_bodies();
     if (t.num_bodies() != n)
       throw std::invalid_argument("JointDynamics: the JointTree is not of this Model");
-    r.assign(at(n), Vector3::Zero());
-    w_inertial.assign(at(n), Vector3::Zero());
-    motion.resize(at(n));
     speeds.assign(at(n), 0);
     offset.assign(at(n), 0);
     joint_type.assign(at(n), JointType::free);
+    links.resize(at(n));
     for (int k = 0; k < n; ++k) {
-      speeds[at(k)] = speed_count(t.joint(k).type);
-      offset[at(k)] = t.speed_offset(k);
-      joint_type[at(k)] = t.joint(k).type;
+      const auto i = at(k);
+      speeds[i] = speed_count(t.joint(k).type);
+      offset[i] = t.speed_offset(k);
+      joint_type[i] = t.joint(k).type;
     }
-    IA.assign(at(n), Matrix6::Zero());
-    p.assign(at(n), Vector6::Zero());
-    c = A = p;
     S.assign(6 * at(t.num_speeds()), 0.0);
     U = S;
     int doubles = 0;
@@ -210,115 +220,151 @@ struct JointDynamics::Impl {
   const JointTree& tree;
   Data data;
   State state;
-  VectorX q, z, qdot;
+  VectorX q, z, qdot;      // derivative()'s (q; z) and q dot
+  VectorX q_seen, z_seen;  // the (q, z) of the last evaluate(), for state() and data()
+  bool state_current = true;
   VectorX joint_force;  // Q of the joint loads, in the order of z
   VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
+  // The acceleration of the ground: -g when gravity enters as the ground's acceleration (no
+  // force element), zero when compute_resultants supplies it with the other loads.
+  Vector6 ground = Vector6::Zero();
   // Per body: the joint's speed count, speed offset and type (constant).
   std::vector<int> speeds, offset;
   std::vector<JointType> joint_type;
-  // Per body: [X_K] of [P_K] (BodyMap); IA_K, [I_O,K] after prepare(), then the articulated
-  // (recursive) or composite (assembled) inertia; p_K, the velocity-product force b_K minus the
-  // external force about O_K after prepare(), then the force passed inwards; the acceleration c_K
-  // of V_K at z dot = 0 and A_J = 0; the acceleration A_K. prepare() writes them in its one pass
-  // (the routes' passes read each body's tables once more each way).
-  std::vector<Matrix6> IA;
-  std::vector<Vector3> r;           // O_K - O_J, inertial components (BodyMap)
-  std::vector<Vector3> w_inertial;  // w_K, inertial components
-  std::vector<detail::JointMotion> motion;
-  std::vector<Vector6> p, c, A;
-  // Pools by speed: [S_K] and [U_K] = IA_K [S_K], 6 doubles a column, at 6 speed_offset(K);
-  // D_K^-1 (speed_count^2 doubles at d_offset[K]).
+  std::vector<Link> links;
+  detail::JointMotion motion;
+  // Pools by speed: [S_K] and [U_K] = IA_K [S_K] in body-K components, 6 doubles a column, at
+  // 6 speed_offset(K); D_K^-1 (speed_count^2 doubles at d_offset[K]).
   std::vector<double> S, U, D_inv;
   std::vector<int> d_offset;
   // The assembled route's blocks of [C]^T [A] [C] and their factor, made on its first use.
   std::optional<detail::JointTreeLdlt> ldlt;
 
+  void update_state();
   void prepare(const VectorX& qq, const VectorX& zz);
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
-  BodyMap body_map(int k) const { return {r[at(k)], joint_type[at(k)] != JointType::free}; }
+  BodyMap body_map(int k) const { return {links[at(k)].r, joint_type[at(k)] != JointType::free}; }
+  // A'_K = [P_K] A_J + c_K, A_J the ground's for a root.
+  Vector6 carried_acceleration(int k) const {
+    const Link& l = links[at(k)];
+    const int j = model.lower_body(k);
+    return l.c + map_velocity(body_map(k), j == kGround ? ground : links[at(j)].A);
+  }
+  // IA_J += [P_K]^T IA_K [P_K], p_J += [P_K]^T p_K.
+  void pass_inward(int k) {
+    const Link& l = links[at(k)];
+    Link& lower = links[at(model.lower_body(k))];
+    const BodyMap map = body_map(k);
+    add_carried_inertia(map, l.IA, lower.IA);
+    lower.p += carry_force(map, l.p);
+  }
   template <int M, Subspace Shape>
   void recursive_inward(int k);
   template <int M, Subspace Shape>
   void recursive_outward(int k, Eigen::Ref<VectorX> zdot);
 };
 
-// The state, kinematics and loads at (q, z), and per body [P_K], [S_K], c_K and the force
-// b_K - F_ext,K, all in inertial components about O_K; the joint loads' Q.
-void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
-  detail::joint_state(tree, qq, zz, state, &motion);
+// The notes' state at the last (q, z), its kinematics and its loads.
+void JointDynamics::Impl::update_state() {
+  detail::joint_state(tree, q_seen, z_seen, state, nullptr);
   compute_kinematics(model, state, data);
   compute_resultants(model, state, data);
+  state_current = true;
+}
+
+// Per body [P_K], [S_K], c_K and p_K = b_K - F_ext,K in inertial components about O_K, and
+// the joint loads' Q. The notes' state is computed here only when force elements need it.
+void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
   joint_force.setZero();
   add_joint_load_forces(tree, qq, zz, joint_force);
-  const Kinematics& kin = data.kinematics;
+  q_seen = qq;
+  z_seen = zz;
+  const bool loads = !model.forces().empty();
+  if (loads)
+    update_state();
+  else
+    state_current = false;
+  ground.tail<3>() = loads ? Vector3::Zero() : Vector3(-model.gravity());
   const int n = model.num_bodies();
   for (int k = 0; k < n; ++k) {
     const auto i = at(k);
     const int j = model.lower_body(k);
     const bool root = j == kGround;
-    const BodySpec& body = model.body(k);
-    const Matrix3& rk = kin.R[i];
+    const JointType type = joint_type[i];
+    const bool is_free = type == JointType::free;
+    const int off = offset[i];
+    detail::joint_motion(tree, k, qq, zz.data() + off, motion);
+    Link& l = links[i];
+    const Matrix3 identity = Matrix3::Identity();
+    const Matrix3& rj = root ? identity : links[at(j)].R;
+    // [R_K]: the free body's own Euler parameters, else [R(rel)] [R_J].
+    if (is_free)
+      l.R = rotation_matrix(qq.segment<4>(tree.coordinate_offset(k)));
+    else if (root)
+      l.R = rotation_matrix(motion.rel);
+    else
+      l.R.noalias() = rotation_matrix(motion.rel) * rj;
+    const Matrix3& rk = l.R;
     // Eqs. (14)-(15) in inertial components: w_K = a w_J + [R_K]^T [G_K] z_K (a = 0 for a free
     // body, whose w'_K is z_K itself) and v_O,K = v_O,J + w_J x r + [R_J]^T [T_K] z_K, with
     // r = [R_J]^T (q'_K + s'_K). The coefficients of z_K are the columns of [S_K].
-    const detail::JointMotion& jm = motion[i];
-    const Vector3 w = rk.transpose() * state.angular_velocity(k);
-    w_inertial[i] = w;
-    const Vector3 w_j = root ? Vector3::Zero() : w_inertial[at(j)];
-    r[i] = root ? kin.qs_b[i] : Vector3(kin.R[at(j)].transpose() * kin.qs_b[i]);
-    const JointType type = joint_type[i];
-    const bool is_free = type == JointType::free;
-    const int w_count = speeds[i], off = offset[i];
+    const Vector3 w_j = root ? Vector3::Zero() : links[at(j)].w;
+    l.w.noalias() = rk.transpose() * motion.w_rel;
+    if (!is_free) l.w += w_j;
+    l.r.noalias() = rj.transpose() * (model.body(k).joint + motion.slide);
+    const int w_count = speeds[i];
     if (w_count > 0) {
       Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
       if (type == JointType::prismatic) {
         s.topRows<3>().setZero();
       } else {
         for (int col = 0; col < w_count; ++col)
-          s.col(col).head<3>() = rk.transpose() * jm.G.col(col).head<3>();
+          s.col(col).head<3>().noalias() = rk.transpose() * motion.G.col(col);
       }
       // [T_K] (joint_translation_block): the slide axis in J components for the prismatic
       // speed and the cylindrical one's second, [0 I] for a free body; zero otherwise.
       s.bottomRows<3>().setZero();
-      const Matrix3 identity = Matrix3::Identity();
-      const Matrix3& rj_t = root ? identity : kin.R[at(j)];
-      if (type == JointType::free)
-        s.bottomRightCorner<3, 3>() = rj_t.transpose();
+      if (is_free)
+        s.bottomRightCorner<3, 3>() = rj.transpose();
       else if (type == JointType::prismatic || type == JointType::cylindrical)
-        s.col(w_count - 1).tail<3>().noalias() = rj_t.transpose() * tree.axis_in_j(k);
+        s.col(w_count - 1).tail<3>().noalias() = rj.transpose() * tree.axis_in_j(k);
     }
     // c_K = d/dt V_K at z dot = 0 with J's acceleration zero. With d/dt ([R]^T u) = w x [R]^T u
     // + [R]^T du/dt, w_rel = w_K - a w_J and the slide rate sd = [R_J]^T [T_K] z_K
     // (dr/dt = w_J x r + sd):
     //   angular  w_K x w_rel + [R_K]^T [G_K dot] z_K        (0 for a free body: w_rel = w_K)
     //   linear   w_J x (w_J x r) + 2 w_J x sd
-    Vector6& ck = c[i];
     if (is_free) {
-      ck.head<3>().setZero();
+      l.c.head<3>().setZero();
     } else {
-      ck.head<3>() = w.cross(w - w_j);
-      if (type == JointType::universal) ck.head<3>() += rk.transpose() * jm.g_dot_z;
+      l.c.head<3>() = l.w.cross(l.w - w_j);
+      if (type == JointType::universal) l.c.head<3>().noalias() += rk.transpose() * motion.g_dot_z;
     }
     if (root) {
-      ck.tail<3>().setZero();
+      l.c.tail<3>().setZero();
     } else {
-      const Vector3 sd = kin.R[at(j)].transpose() * jm.slide_rate;
-      ck.tail<3>() = w_j.cross(w_j.cross(r[i]) + 2.0 * sd);
+      const Vector3 sd = rj.transpose() * motion.slide_rate;
+      l.c.tail<3>() = w_j.cross(w_j.cross(l.r) + 2.0 * sd);
     }
     // Newton-Euler about O_K in inertial components, with A = d/dt V (a_O the acceleration of
     // the material point O_K): [I_O] A + b is the force needed, b = (w x [I_G] w + m c x
     // (w x (w x c)), m w x (w x c)), c = [R_K]^T r'_K. The external force about O_K is
-    // ([R_K]^T M'_K + c x F_K, F_K): gravity and every force element.
+    // ([R_K]^T M'_K + c x F_K, F_K): every force element and gravity, or, with no force
+    // element, nothing, gravity being the ground's acceleration -g: a uniform -g on every A
+    // shifts [I_O] A by -(c x m g, m g), the weight about O_K.
+    const BodySpec& body = model.body(k);
     const Vector3 cg = rk.transpose() * body.com;
     const Matrix3 inertia_g = inertial_axes(body.inertia, rk);
-    const Vector3 f = data.loads.force[i];
-    const Vector3 wwc = w.cross(w.cross(cg));
-    spatial_inertia(body.mass, cg, inertia_g, IA[i]);
-    Vector6& bk = p[i];
-    bk.head<3>() = w.cross(inertia_g * w) + body.mass * cg.cross(wwc) -
-                   (rk.transpose() * data.loads.moment_b[i] + cg.cross(f));
-    bk.tail<3>() = body.mass * wwc - f;
+    const Vector3 wwc = l.w.cross(l.w.cross(cg));
+    spatial_inertia(body.mass, cg, inertia_g, l.IA);
+    l.p.head<3>() = l.w.cross(inertia_g * l.w) + body.mass * cg.cross(wwc);
+    l.p.tail<3>() = body.mass * wwc;
+    if (loads) {
+      const Vector3& f = data.loads.force[i];
+      l.p.head<3>() -= rk.transpose() * data.loads.moment_b[i] + cg.cross(f);
+      l.p.tail<3>() -= f;
+    }
   }
 }
 
@@ -327,81 +373,75 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
 // to J:
 //   IA_J += [P]^T (IA - [U] D^-1 [U]^T) [P],   p_J += [P]^T (p + Ia c + [U] D^-1 u).
 // A revolute, universal or spherical joint has [S] = (S_w; 0) and a prismatic one (0; S_v): the
-// products with [S] then take three columns of IA (three entries of p) only.
+// products with [S] then take three columns of IA (three entries of p) only. IA_K and p_K are
+// updated in place (the outward pass reads U, D^-1 and u only).
 template <int M, Subspace Shape>
 void JointDynamics::Impl::recursive_inward(int k) {
-  const auto i = at(k);
+  Link& l = links[at(k)];
   const int j = model.lower_body(k);
-  const Matrix6& ia = IA[i];
   if constexpr (Shape == Subspace::free) {
     // [S] (M = 6) is invertible: IA - [U] D^-1 [U]^T = 0 and p + [U] D^-1 u = [S]^-T Q = 0 (no
     // joint loads on a free body), so K passes nothing on, and its acceleration is the free
     // body's, A_K = -IA^-1 p (then z dot_K = [S]^-1 (A_K - [P] A_J - c), outward).
-    A[i] = -solve_spd(ia, p[i]);
+    l.A = -solve_spd(l.IA, l.p);
     return;
   } else {
-    Matrix6 articulated = ia;
-    Vector6 passed = p[i];
     if constexpr (M > 0) {
-      const int off = offset[i];
+      const int off = offset[at(k)];
       const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
       Eigen::Map<Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
-      Eigen::Map<Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
+      Eigen::Map<Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
       auto uu = u.segment<M>(off);
       Eigen::Matrix<double, M, M> d;
       if constexpr (Shape == Subspace::angular) {
         const auto sw = s.template topRows<3>();
-        uk.noalias() = ia.leftCols<3>() * sw;
+        uk.noalias() = l.IA.leftCols<3>() * sw;
         d.noalias() = sw.transpose() * uk.template topRows<3>();
-        uu = joint_force.segment<M>(off) - sw.transpose() * p[i].head<3>();
+        uu = joint_force.segment<M>(off) - sw.transpose() * l.p.head<3>();
       } else if constexpr (Shape == Subspace::linear) {
         const auto sv = s.template bottomRows<3>();
-        uk.noalias() = ia.rightCols<3>() * sv;
+        uk.noalias() = l.IA.rightCols<3>() * sv;
         d.noalias() = sv.transpose() * uk.template bottomRows<3>();
-        uu = joint_force.segment<M>(off) - sv.transpose() * p[i].tail<3>();
+        uu = joint_force.segment<M>(off) - sv.transpose() * l.p.tail<3>();
       } else {
-        uk.noalias() = ia * s;
+        uk.noalias() = l.IA * s;
         d.noalias() = s.transpose() * uk;
-        uu = joint_force.segment<M>(off) - s.transpose() * p[i];
+        uu = joint_force.segment<M>(off) - s.transpose() * l.p;
       }
       d_inv = inverse_spd<M>(d);
       if (j == kGround) return;  // a root passes nothing on
       const Eigen::Matrix<double, 6, M> ud = uk * d_inv;
-      articulated.noalias() -= ud * uk.transpose();
-      passed.noalias() += ud * uu;
+      l.IA.noalias() -= ud * uk.transpose();
+      l.p.noalias() += ud * uu;
     }
     if (j == kGround) return;
-    passed.noalias() += articulated * c[i];
-    const BodyMap map = body_map(k);
-    add_carried_inertia(map, articulated, IA[at(j)]);
-    p[at(j)] += carry_force(map, passed);
+    l.p.noalias() += l.IA * l.c;
+    pass_inward(k);
   }
 }
 
 // Outward step: A' = [P] A_J + c, z dot_K = D^-1 (u - [U]^T A'), A_K = A' + [S] z dot_K.
 template <int M, Subspace Shape>
 void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
-  const auto i = at(k);
-  const int j = model.lower_body(k);
-  Vector6 a = c[i];
-  if (j != kGround) a += map_velocity(body_map(k), A[at(j)]);
+  Link& l = links[at(k)];
+  Vector6 a = carried_acceleration(k);
   if constexpr (Shape == Subspace::free) {
-    // [S]^-1 = diag([R_K], [R_J]): [S] = diag([R_K]^T, [R_J]^T) for a free joint ([G] = [I], [T] =
-    // [0 I], [R_J] = [I] for a root); A_K is the inward pass's.
-    const Vector6 rel = A[i] - a;
-    auto zk = zdot.segment<6>(offset[i]);
-    zk.head<3>().noalias() = data.kinematics.R[i] * rel.head<3>();
-    if (j == kGround)
+    // [S]^-1 = diag([R_K], [R_J]) for a free joint ([G] = [I], [T] = [0 I], [R_J] = [I] for a
+    // root); A_K is the inward pass's.
+    const Vector6 rel = l.A - a;
+    auto zk = zdot.segment<6>(offset[at(k)]);
+    zk.head<3>().noalias() = l.R * rel.head<3>();
+    if (model.lower_body(k) == kGround)
       zk.tail<3>() = rel.tail<3>();
     else
-      zk.tail<3>().noalias() = data.kinematics.R[at(j)] * rel.tail<3>();
+      zk.tail<3>().noalias() = links[at(model.lower_body(k))].R * rel.tail<3>();
     return;
   } else {
     if constexpr (M > 0) {
-      const int off = offset[i];
+      const int off = offset[at(k)];
       const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
       const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
-      const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[i]);
+      const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
       auto zk = zdot.segment<M>(off);
       zk.noalias() = d_inv * (u.segment<M>(off) - uk.transpose() * a);
       if constexpr (Shape == Subspace::angular)
@@ -411,7 +451,7 @@ void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
       else
         a.noalias() += s * zk;
     }
-    A[i] = a;
+    l.A = a;
   }
 }
 
@@ -477,27 +517,25 @@ void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
   // c on K's chain, are [P]..[P] times K's: [C]^T [A] [C] and [C]^T ({f} - [A][C dot] z) are sums
   // over subtrees.
   for (int k = 0; k < n; ++k) {
-    const auto i = at(k);
-    const int j = model.lower_body(k);
-    A[i] = c[i];
-    if (j != kGround) A[i] += map_velocity(body_map(k), A[at(j)]);
-    p[i].noalias() += IA[i] * A[i];  // IA_K is [I_O,K] until the inward pass
+    Link& l = links[at(k)];
+    l.A = carried_acceleration(k);
+    l.p.noalias() += l.IA * l.A;  // IA_K is [I_O,K] until the inward pass
   }
   for (int k = n - 1; k >= 0; --k) {
-    const auto i = at(k);
+    const Link& l = links[at(k)];
     const int j = model.lower_body(k);
     const int m = f.size(k);
     if (m > 0) {
-      const int off = offset[i];
+      const int off = offset[at(k)];
       const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, m);
       // f_z = Q - [S_K]^T (composite force); block (K, K) = [S_K]^T IC_K [S_K]; then up K's
       // chain, F = [P]^T F carries IC_K [S_K] to each ancestor I, block (K, I) = F^T [S_I].
       // Lazy (coefficient-based) products: these blocks are at most 6 x 6, and Eigen's
       // blocked product of dynamic sizes could ask for a workspace.
       zdot.segment(off, m) = joint_force.segment(off, m);
-      zdot.segment(off, m).noalias() -= s.transpose().lazyProduct(p[i]);
+      zdot.segment(off, m).noalias() -= s.transpose().lazyProduct(l.p);
       Block force(6, m);
-      force.noalias() = IA[i].lazyProduct(s);
+      force.noalias() = l.IA.lazyProduct(s);
       Eigen::Map<Eigen::MatrixXd>(f.block(k, 0), m, m).noalias() = s.transpose().lazyProduct(force);
       int r = 1;
       for (int e = k, a = j; a != kGround; e = a, a = model.lower_body(a)) {
@@ -512,10 +550,7 @@ void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
         ++r;
       }
     }
-    if (j == kGround) continue;
-    const BodyMap map = body_map(k);
-    add_carried_inertia(map, IA[i], IA[at(j)]);
-    p[at(j)] += carry_force(map, p[i]);
+    if (j != kGround) pass_inward(k);
   }
   if (!f.compute())
     throw std::runtime_error("JointDynamics: [C]^T [A] [C] is not positive definite");
@@ -528,8 +563,16 @@ JointDynamics::JointDynamics(const JointDynamics& other)
     : impl_(std::make_unique<Impl>(*other.impl_)) {}
 JointDynamics::~JointDynamics() = default;
 
-const State& JointDynamics::state() const { return impl_->state; }
-Data& JointDynamics::data() { return impl_->data; }
+// The state and its kinematics and loads, computed on the first request after an evaluation
+// that did not need them.
+const State& JointDynamics::state() const {
+  if (!impl_->state_current) impl_->update_state();
+  return impl_->state;
+}
+Data& JointDynamics::data() {
+  if (!impl_->state_current) impl_->update_state();
+  return impl_->data;
+}
 const JointTree& JointDynamics::tree() const { return impl_->tree; }
 
 void JointDynamics::evaluate(const VectorX& q, const VectorX& z, Route route,

@@ -88,7 +88,8 @@ Model loaded_model(std::mt19937& rng, const std::vector<int>& lower) {
 // The comparison cases: random forests of 1..12 bodies with random joint types, chains of
 // each single type, deep chains (depth 30 and 40) of mixed types and one of 35 revolute and
 // prismatic joints, wide trees (a star of 30 on one root, two levels of 6 x 5), every one
-// with bushings, forces, torques, joint springs and forces with damping, and gravity.
+// with bushings, forces, torques, joint springs and forces with damping, and gravity; then
+// random trees and a deep chain with gravity and joint loads only.
 std::vector<Case> comparison_cases(unsigned seed) {
   std::mt19937 rng(seed);
   std::vector<Case> out;
@@ -128,6 +129,14 @@ std::vector<Case> comparison_cases(unsigned seed) {
     }
     out.push_back(make_case("two levels of 6 x 5", loaded_model(rng, two_levels),
                             random_types(rng, static_cast<int>(two_levels.size())), rng));
+  }
+  // Gravity and joint loads only: with no force element the routes take gravity as the
+  // ground's acceleration and leave the notes' state until it is asked for.
+  for (int n : {1, 3, 5, 8, 12, 12, 40}) {
+    const Model loaded = test::random_loaded_model(rng, n, n == 40);
+    out.push_back(make_case("gravity and joint loads only, " + std::to_string(n) + " bodies",
+                            Model(loaded.bodies(), loaded.gravity(), {}, "unloaded"),
+                            random_types(rng, n), rng));
   }
   return out;
 }
@@ -181,6 +190,37 @@ TEST(JointDynamics, StateKinematicsAndLoadsAreThoseOfTheJointState) {
         EXPECT_EQ(dyn.data().kinematics.v_G[i], fresh.kinematics.v_G[i]);
         EXPECT_EQ(dyn.data().loads.force[i], fresh.loads.force[i]);
         EXPECT_EQ(dyn.data().loads.moment_b[i], fresh.loads.moment_b[i]);
+      }
+    }
+  }
+}
+
+// With no force element the state is computed when asked for: it must be the last
+// evaluation's, whichever of state() and data() is asked first, and however often.
+TEST(JointDynamics, StateIsTheLastEvaluationsWhenAskedLater) {
+  for (const Case& c : comparison_cases(3)) {
+    if (!c.model.forces().empty()) continue;
+    SCOPED_TRACE(c.name);
+    std::mt19937 rng(7);
+    VectorX q2, z2;
+    test::random_joint_state(c.tree, rng, q2, z2);
+    JointDynamics dyn(c.model, c.tree);
+    VectorX zdot(c.tree.num_speeds());
+    for (const bool data_first : {false, true}) {
+      for (const bool second : {false, true}) {
+        const VectorX& q = second ? q2 : c.q;
+        const VectorX& z = second ? z2 : c.z;
+        dyn.evaluate(q, z, Route::recursive, zdot);
+        State expected(c.model);
+        joint_state(c.tree, q, z, expected);
+        Data fresh(c.model, DataOptions::recursive_only());
+        compute_kinematics(c.model, expected, fresh);
+        if (data_first) {
+          EXPECT_EQ(dyn.data().kinematics.p_O.back(), fresh.kinematics.p_O.back());
+        }
+        EXPECT_EQ(dyn.state().x, expected.x);
+        EXPECT_EQ(dyn.state().y, expected.y);
+        EXPECT_EQ(dyn.data().kinematics.R.back(), fresh.kinematics.R.back());
       }
     }
   }

@@ -24,9 +24,10 @@ class JointDynamics {
   /// {z dot} at (q, z) into zdot (size n): Route::recursive is the O(N) articulated-body
   /// route, Route::assembled the projected Kane equations [C]^T [A] [C] {z dot} =
   /// [C]^T ({f} - [A][C dot]{z}) + Q. Both include the joint loads of the tree. Afterwards
-  /// state() holds the notes' (x, y) at (q, z) and data() its kinematics (compute_kinematics)
-  /// and loads (compute_resultants). Spherical q and free eps_K are used as given (unit norm
-  /// assumed). Route::recursive needs O(N) memory for any tree; Route::assembled builds its
+  /// state() is the notes' (x, y) at (q, z) and data() its kinematics (compute_kinematics)
+  /// and loads (compute_resultants): computed here when the model has force elements (they
+  /// need them), otherwise on the first call of state() or data() after this evaluation.
+  /// Spherical q and free eps_K are used as given (unit norm assumed). Route::recursive needs O(N) memory for any tree; Route::assembled builds its
   /// blocks (one per pair of joints on one chain) on its first call and throws ModelError when
   /// there would be more than Model::kMaxFlatChainEntries. After each route's first call,
   /// evaluate() and derivative() do not allocate.
@@ -36,7 +37,9 @@ class JointDynamics {
   /// at q with its spherical and free Euler parameters normalized, and evaluate() there.
   void derivative(const VectorX& qz, Route route, Eigen::Ref<VectorX> dqz);
 
+  /// The notes' state at the last evaluation's (q, z) (State(model) before the first).
   const State& state() const;
+  /// Its kinematics and loads (see evaluate()).
   Data& data();
   const JointTree& tree() const;
 
