@@ -27,9 +27,10 @@ class JointDynamics {
   /// state() is the notes' (x, y) at (q, z) and data() its kinematics (compute_kinematics)
   /// and loads (compute_resultants): computed here when the model has force elements (they
   /// need them), otherwise on the first call of state() or data() after this evaluation.
-  /// Spherical q and free eps_K are used as given (unit norm assumed). Route::recursive needs O(N) memory for any tree; Route::assembled builds its
-  /// blocks (one per pair of joints on one chain) on its first call and throws ModelError when
-  /// there would be more than Model::kMaxFlatChainEntries. After each route's first call,
+  /// Spherical q and free eps_K are used as given (unit norm assumed). Route::recursive
+  /// needs O(N) memory for any tree; Route::assembled builds its blocks (one per pair of
+  /// joints on one chain) on its first call and throws ModelError when there would be more
+  /// than Model::kMaxFlatChainEntries. After each route's first call,
   /// evaluate() and derivative() do not allocate.
   void evaluate(const VectorX& q, const VectorX& z, Route route, Eigen::Ref<VectorX> zdot);
 
