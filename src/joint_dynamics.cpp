@@ -134,32 +134,49 @@ Vector6 carry_force(const BodyMap& m, const Column& f) {
   return out;
 }
 
-// X [r~] for a 3x3 X, by columns: X [r~] = [X_2 r3 - X_3 r2,  X_3 r1 - X_1 r3,  X_1 r2 - X_2 r1]
-// (X_c the columns): 18 products where a product with the skew matrix takes 27.
-template <typename Block3>
-Matrix3 times_skew(const Block3& x, const Vector3& r) {
-  Matrix3 out;
-  out.col(0) = x.col(1) * r.z() - x.col(2) * r.y();
-  out.col(1) = x.col(2) * r.x() - x.col(0) * r.z();
-  out.col(2) = x.col(0) * r.y() - x.col(1) * r.x();
-  return out;
-}
-
 // target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with W = C [r~] (so W^T = -[r~] C,
 // [r~]^T = -[r~]), the result is
-//   [a A - a (B[r~] + (B[r~])^T) + W^T [r~],  a B - W^T;  (a B - W^T)^T,  C].
+//   [a A - a (B[r~] + (B[r~])^T) + W^T [r~],  a B - W^T;  (a B - W^T)^T,  C],
+// its symmetric blocks from their upper triangles. Each product with [r~] is written out by
+// rows, u [r~] = (u2 r3 - u3 r2, u3 r1 - u1 r3, u1 r2 - u2 r1) for a row u: 18 products where a
+// product with the 3x3 skew matrix takes 27, and 6 entries of W^T [r~] where 9 would be formed.
 void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
-  const Matrix3 wt = times_skew(M.bottomRightCorner<3, 3>(), m.r).transpose();
-  Matrix3 tl = times_skew(wt, m.r), tr = -wt;
-  if (m.angular) {
-    const Matrix3 bq = times_skew(M.topRightCorner<3, 3>(), m.r);
-    tl += M.topLeftCorner<3, 3>() - bq - bq.transpose();
-    tr += M.topRightCorner<3, 3>();
+  const double rx = m.r.x(), ry = m.r.y(), rz = m.r.z();
+  double w[3][3];  // W = C [r~], by rows of C
+  double x[3][3];  // B [r~], by rows of B
+#pragma GCC unroll 3
+  for (int i = 0; i < 3; ++i) {
+    const double c0 = M(3 + i, 3), c1 = M(3 + i, 4), c2 = M(3 + i, 5);
+    w[i][0] = c1 * rz - c2 * ry;
+    w[i][1] = c2 * rx - c0 * rz;
+    w[i][2] = c0 * ry - c1 * rx;
+    const double b0 = M(i, 3), b1 = M(i, 4), b2 = M(i, 5);
+    x[i][0] = b1 * rz - b2 * ry;
+    x[i][1] = b2 * rx - b0 * rz;
+    x[i][2] = b0 * ry - b1 * rx;
   }
-  target.topLeftCorner<3, 3>() += tl;
-  target.topRightCorner<3, 3>() += tr;
-  target.bottomLeftCorner<3, 3>() += tr.transpose();
-  target.bottomRightCorner<3, 3>() += M.bottomRightCorner<3, 3>();
+#pragma GCC unroll 3
+  for (int i = 0; i < 3; ++i) {
+    // Row i of W^T [r~] is column i of W times [r~].
+    const double u0 = w[0][i], u1 = w[1][i], u2 = w[2][i];
+    const double y[3] = {u1 * rz - u2 * ry, u2 * rx - u0 * rz, u0 * ry - u1 * rx};
+#pragma GCC unroll 3
+    for (int j = i; j < 3; ++j) {
+      double tl = y[j];
+      if (m.angular) tl += M(i, j) - x[i][j] - x[j][i];
+      target(i, j) += tl;
+      if (j != i) target(j, i) += tl;
+      const double br = M(3 + i, 3 + j);
+      target(3 + i, 3 + j) += br;
+      if (j != i) target(3 + j, 3 + i) += br;
+    }
+#pragma GCC unroll 3
+    for (int j = 0; j < 3; ++j) {
+      const double tr = (m.angular ? M(i, 3 + j) : 0.0) - w[j][i];
+      target(i, 3 + j) += tr;
+      target(3 + j, i) += tr;
+    }
+  }
 }
 
 // Where [S_K] = ([S_w]; [S_v]) has nonzero rows: the products with it skip the zero half.
