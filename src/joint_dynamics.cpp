@@ -180,7 +180,8 @@ void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
 }
 
 // Where [S_K] = ([S_w]; [S_v]) has nonzero rows: the products with it skip the zero half.
-enum class Subspace { none, angular, linear, general, free };
+// ball: a spherical joint's [S] = ([R_K]^T; 0).
+enum class Subspace { none, angular, ball, linear, general, free };
 
 // Body K's terms of the recursions, in inertial components about O_K (docs/theory.md).
 struct Link {
@@ -215,6 +216,7 @@ struct JointDynamics::Impl {
     offset.assign(at(n), 0);
     joint_type.assign(at(n), JointType::free);
     links.resize(at(n));
+    if (!m.forces().empty()) motions.resize(at(n));
     for (int k = 0; k < n; ++k) {
       const auto i = at(k);
       speeds[i] = speed_count(t.joint(k).type);
@@ -249,6 +251,9 @@ struct JointDynamics::Impl {
   std::vector<int> speeds, offset;
   std::vector<JointType> joint_type;
   std::vector<Link> links;
+  // The joint tables at (q, z): of all bodies when the state is computed with them (force
+  // elements), else one body's at a time.
+  std::vector<detail::JointMotion> motions;
   detail::JointMotion motion;
   // Pools by speed: [S_K] and [U_K] = IA_K [S_K] in body-K components, 6 doubles a column, at
   // 6 speed_offset(K); D_K^-1 (speed_count^2 doubles at d_offset[K]).
@@ -298,10 +303,14 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
   q_seen = qq;
   z_seen = zz;
   const bool loads = !model.forces().empty();
-  if (loads)
-    update_state();
-  else
+  if (loads) {  // the joint tables come with the state, [R_K] with its kinematics
+    detail::joint_state(tree, qq, zz, state, &motions);
+    compute_kinematics(model, state, data);
+    compute_resultants(model, state, data);
+    state_current = true;
+  } else {
     state_current = false;
+  }
   ground.tail<3>() = loads ? Vector3::Zero() : Vector3(-model.gravity());
   const int n = model.num_bodies();
   for (int k = 0; k < n; ++k) {
@@ -311,25 +320,28 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const JointType type = joint_type[i];
     const bool is_free = type == JointType::free;
     const int off = offset[i];
-    detail::joint_motion(tree, k, qq, zz.data() + off, motion);
+    if (!loads) detail::joint_motion(tree, k, qq, zz.data() + off, motion);
+    const detail::JointMotion& jm = loads ? motions[i] : motion;
     Link& l = links[i];
-    const Matrix3 identity = Matrix3::Identity();
+    static const Matrix3 identity = Matrix3::Identity();
     const Matrix3& rj = root ? identity : links[at(j)].R;
     // [R_K]: the free body's own Euler parameters, else [R(rel)] [R_J].
-    if (is_free)
+    if (loads)
+      l.R = data.kinematics.R[i];
+    else if (is_free)
       l.R = rotation_matrix(qq.segment<4>(tree.coordinate_offset(k)));
     else if (root)
-      l.R = rotation_matrix(motion.rel);
+      l.R = rotation_matrix(jm.rel);
     else
-      l.R.noalias() = rotation_matrix(motion.rel) * rj;
+      l.R.noalias() = rotation_matrix(jm.rel) * rj;
     const Matrix3& rk = l.R;
     // Eqs. (14)-(15) in inertial components: w_K = a w_J + [R_K]^T [G_K] z_K (a = 0 for a free
     // body, whose w'_K is z_K itself) and v_O,K = v_O,J + w_J x r + [R_J]^T [T_K] z_K, with
     // r = [R_J]^T (q'_K + s'_K). The coefficients of z_K are the columns of [S_K].
     const Vector3 w_j = root ? Vector3::Zero() : links[at(j)].w;
-    l.w.noalias() = rk.transpose() * motion.w_rel;
+    l.w.noalias() = rk.transpose() * jm.w_rel;
     if (!is_free) l.w += w_j;
-    l.r.noalias() = rj.transpose() * (model.body(k).joint + motion.slide);
+    l.r.noalias() = rj.transpose() * (model.body(k).joint + jm.slide);
     const int w_count = speeds[i];
     if (w_count > 0) {
       Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
@@ -337,7 +349,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
         s.topRows<3>().setZero();
       } else {
         for (int col = 0; col < w_count; ++col)
-          s.col(col).head<3>().noalias() = rk.transpose() * motion.G.col(col);
+          s.col(col).head<3>().noalias() = rk.transpose() * jm.G.col(col);
       }
       // [T_K] (joint_translation_block): the slide axis in J components for the prismatic
       // speed and the cylindrical one's second, [0 I] for a free body; zero otherwise.
@@ -356,12 +368,12 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
       l.c.head<3>().setZero();
     } else {
       l.c.head<3>() = l.w.cross(l.w - w_j);
-      if (type == JointType::universal) l.c.head<3>().noalias() += rk.transpose() * motion.g_dot_z;
+      if (type == JointType::universal) l.c.head<3>().noalias() += rk.transpose() * jm.g_dot_z;
     }
     if (root) {
       l.c.tail<3>().setZero();
     } else {
-      const Vector3 sd = rj.transpose() * motion.slide_rate;
+      const Vector3 sd = rj.transpose() * jm.slide_rate;
       l.c.tail<3>() = w_j.cross(w_j.cross(l.r) + 2.0 * sd);
     }
     // Newton-Euler about O_K in inertial components, with A = d/dt V (a_O the acceleration of
@@ -405,12 +417,19 @@ void JointDynamics::Impl::recursive_inward(int k) {
   } else {
     if constexpr (M > 0) {
       const int off = offset[at(k)];
-      const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+      [[maybe_unused]] const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
       Eigen::Map<Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
       Eigen::Map<Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
       auto uu = u.segment<M>(off);
       Eigen::Matrix<double, M, M> d;
-      if constexpr (Shape == Subspace::angular) {
+      if constexpr (Shape == Subspace::ball) {
+        // [S] = [S'] [R_K]^T with [S'] = ([I]; 0): [U] D^-1 [U]^T and [U] D^-1 u are those of
+        // [S'] ([U'] = IA [S'], D' = [S']^T [U'], u' = -[S']^T p: no joint loads), and
+        // z dot_K = [R_K] z', z' their solution (outward). U, D^-1 and u hold the primed ones.
+        uk = l.IA.leftCols<3>();
+        d = l.IA.topLeftCorner<3, 3>();
+        uu = -l.p.head<3>();
+      } else if constexpr (Shape == Subspace::angular) {
         const auto sw = s.template topRows<3>();
         uk.noalias() = l.IA.leftCols<3>() * sw;
         d.noalias() = sw.transpose() * uk.template topRows<3>();
@@ -456,17 +475,23 @@ void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
   } else {
     if constexpr (M > 0) {
       const int off = offset[at(k)];
-      const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+      [[maybe_unused]] const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
       const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
       const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
       auto zk = zdot.segment<M>(off);
-      zk.noalias() = d_inv * (u.segment<M>(off) - uk.transpose() * a);
-      if constexpr (Shape == Subspace::angular)
-        a.head<3>().noalias() += s.template topRows<3>() * zk;
-      else if constexpr (Shape == Subspace::linear)
-        a.tail<3>().noalias() += s.template bottomRows<3>() * zk;
-      else
-        a.noalias() += s * zk;
+      if constexpr (Shape == Subspace::ball) {
+        const Vector3 primed = d_inv * (u.segment<3>(off) - uk.transpose() * a);
+        zk.noalias() = l.R * primed;
+        a.head<3>() += primed;
+      } else {
+        zk.noalias() = d_inv * (u.segment<M>(off) - uk.transpose() * a);
+        if constexpr (Shape == Subspace::angular)
+          a.head<3>().noalias() += s.template topRows<3>() * zk;
+        else if constexpr (Shape == Subspace::linear)
+          a.tail<3>().noalias() += s.template bottomRows<3>() * zk;
+        else
+          a.noalias() += s * zk;
+      }
     }
     l.A = a;
   }
@@ -495,7 +520,7 @@ void dispatch_joint_type(JointType type, Step&& step) {
       step.template operator()<2, Subspace::angular>();
       break;
     case JointType::spherical:
-      step.template operator()<3, Subspace::angular>();
+      step.template operator()<3, Subspace::ball>();
       break;
   }
 }
