@@ -7,8 +7,9 @@
 //   V_K = [P_K] V_J + [S_K] z_K,
 // from which every partial velocity with respect to z is a product of [P]s and one [S]:
 // [S_K] = ([R_K]^T [G_K]; [R_J]^T [T_K]) is the joint's motion subspace, made of the same [G_c]
-// and s_block as ConstraintMatrix. Per-body loads come from compute_resultants, at the state
-// joint_state gives, with the kinematics of compute_kinematics.
+// and s_block as ConstraintMatrix. With force elements the per-body loads come from
+// compute_resultants, at the state joint_state gives, with the kinematics of compute_kinematics;
+// without them gravity is the ground's acceleration and that state is computed only when asked.
 #include "kanedyn/joint_dynamics.hpp"
 
 #include <Eigen/LU>
@@ -255,14 +256,15 @@ struct JointDynamics::Impl {
   // elements), else one body's at a time.
   std::vector<detail::JointMotion> motions;
   detail::JointMotion motion;
-  // Pools by speed: [S_K] and [U_K] = IA_K [S_K] in body-K components, 6 doubles a column, at
-  // 6 speed_offset(K); D_K^-1 (speed_count^2 doubles at d_offset[K]).
+  // Pools by speed: [S_K] and [U_K] = IA_K [S_K] in inertial components, 6 doubles a column,
+  // at 6 speed_offset(K); D_K^-1 (speed_count^2 doubles at d_offset[K]). A spherical joint's
+  // U, D^-1 and u are those of ([I]; 0) (recursive_inward).
   std::vector<double> S, U, D_inv;
   std::vector<int> d_offset;
   // The assembled route's blocks of [C]^T [A] [C] and their factor, made on its first use.
   std::optional<detail::JointTreeLdlt> ldlt;
 
-  void update_state();
+  void update_state(std::vector<detail::JointMotion>* tables = nullptr);
   void prepare(const VectorX& qq, const VectorX& zz);
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
@@ -287,9 +289,10 @@ struct JointDynamics::Impl {
   void recursive_outward(int k, Eigen::Ref<VectorX> zdot);
 };
 
-// The notes' state at the last (q, z), its kinematics and its loads.
-void JointDynamics::Impl::update_state() {
-  detail::joint_state(tree, q_seen, z_seen, state, nullptr);
+// The notes' state at the last (q, z), its kinematics and its loads (and each body's joint
+// table into tables when not null).
+void JointDynamics::Impl::update_state(std::vector<detail::JointMotion>* tables) {
+  detail::joint_state(tree, q_seen, z_seen, state, tables);
   compute_kinematics(model, state, data);
   compute_resultants(model, state, data);
   state_current = true;
@@ -303,14 +306,10 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
   q_seen = qq;
   z_seen = zz;
   const bool loads = !model.forces().empty();
-  if (loads) {  // the joint tables come with the state, [R_K] with its kinematics
-    detail::joint_state(tree, qq, zz, state, &motions);
-    compute_kinematics(model, state, data);
-    compute_resultants(model, state, data);
-    state_current = true;
-  } else {
+  if (loads)  // the joint tables come with the state, [R_K] with its kinematics
+    update_state(&motions);
+  else
     state_current = false;
-  }
   ground.tail<3>() = loads ? Vector3::Zero() : Vector3(-model.gravity());
   const int n = model.num_bodies();
   for (int k = 0; k < n; ++k) {
