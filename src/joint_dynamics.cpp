@@ -31,6 +31,9 @@ namespace {
 
 size_t at(int i) { return static_cast<size_t>(i); }
 
+// [R_J] of the ground, for a root's joint.
+const Matrix3 kIdentity3 = Matrix3::Identity();
+
 // 6 x (speeds of one joint): fixed storage, no heap.
 using Block = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
 
@@ -255,7 +258,7 @@ struct JointDynamics::Impl {
   // The joint tables at (q, z): of all bodies when the state is computed with them (force
   // elements), else one body's at a time.
   std::vector<detail::JointMotion> motions;
-  detail::JointMotion motion;
+  detail::JointMotion scratch_motion;
   // Pools by speed: [S_K] and [U_K] = IA_K [S_K] in inertial components, 6 doubles a column,
   // at 6 speed_offset(K); D_K^-1 (speed_count^2 doubles at d_offset[K]). A spherical joint's
   // U, D^-1 and u are those of ([I]; 0) (recursive_inward).
@@ -319,11 +322,10 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const JointType type = joint_type[i];
     const bool is_free = type == JointType::free;
     const int off = offset[i];
-    if (!loads) detail::joint_motion(tree, k, qq, zz.data() + off, motion);
-    const detail::JointMotion& jm = loads ? motions[i] : motion;
+    if (!loads) detail::joint_motion(tree, k, qq, zz.data() + off, scratch_motion);
+    const detail::JointMotion& jm = loads ? motions[i] : scratch_motion;
     Link& l = links[i];
-    static const Matrix3 identity = Matrix3::Identity();
-    const Matrix3& rj = root ? identity : links[at(j)].R;
+    const Matrix3& rj = root ? kIdentity3 : links[at(j)].R;
     // [R_K]: the free body's own Euler parameters, else [R(rel)] [R_J].
     if (loads)
       l.R = data.kinematics.R[i];
@@ -606,7 +608,7 @@ JointDynamics::~JointDynamics() = default;
 
 // The state and its kinematics and loads, computed on the first request after an evaluation
 // that did not need them.
-const State& JointDynamics::state() const {
+const State& JointDynamics::state() {
   if (!impl_->state_current) impl_->update_state();
   return impl_->state;
 }

@@ -38,8 +38,10 @@ class JointDynamics {
   /// at q with its spherical and free Euler parameters normalized, and evaluate() there.
   void derivative(const VectorX& qz, Route route, Eigen::Ref<VectorX> dqz);
 
-  /// The notes' state at the last evaluation's (q, z) (State(model) before the first).
-  const State& state() const;
+  /// The notes' state at the last evaluation's (q, z) (State(model) before the first). Not
+  /// const: it may compute the state (see evaluate()), so, like evaluate(), it is not for
+  /// concurrent calls on one object.
+  const State& state();
   /// Its kinematics and loads (see evaluate()).
   Data& data();
   const JointTree& tree() const;
