@@ -98,8 +98,8 @@ void expect_renumbering_exact(const Model& model, const State& state, bool renum
 }
 
 TEST(RecursivePlan, RandomTreesRenumberedGiveTheSameBitsAndTheStagedRoute) {
-  // Bushy trees past kKeepLimit (5000, 9000: pass 2 recomputes) and below it (keeps).
-  for (const int n : {9, 100, 1000, 5000, 9000})
+  // Bushy trees past kKeepLimit (pass 2 recomputes) and below it (keeps).
+  for (const int n : {9, 100, 1000, 9000, fused::kKeepLimit + 3000})
     for (const unsigned seed : {1u, 2u, 3u}) {
       const GeneratedSystem g = random_tree_model(n, seed);
       const State moving = moving_state(g.model, seed + 10);

@@ -301,20 +301,22 @@ TEST(SpeedRoutes, GroupsOfEqualConstantsAreShared) {
   EXPECT_EQ(distinct(none), workspace(none).plan->param_group.size());
 }
 
-// Past 4096 bodies pass 1 keeps its results for pass 2 only where pass 2 follows soon (a
-// chain, whose scratch is then a small ring); a random tree's pass 2 gathers and recomputes
-// them. Both codings give the staged route's results.
+// Past fused::kKeepLimit bodies pass 1 keeps its results for pass 2 only where pass 2 follows
+// soon (a chain, whose scratch is then a small ring); a random tree's pass 2 gathers and
+// recomputes them. Both codings give the staged route's results.
 TEST(SpeedRoutes, LargeModelsKeepOrRecomputeForPassTwo) {
-  const GeneratedSystem chain = chain_model(5000, 5), tree = random_tree_model(5000, 5);
+  const int n = fused::kKeepLimit + 1000;
+  const GeneratedSystem chain = chain_model(n, 5), tree = random_tree_model(n, 5);
   const Data chain_data(chain.model, DataOptions::recursive_only());
   EXPECT_TRUE(workspace(chain_data).plan->keep);
-  // A chain's pass 2 follows one group later: its scratch is a ring of 4 groups, not 5000
+  // A chain's pass 2 follows one group later: its scratch is a ring of 4 groups, not n
   // bodies' worth.
   EXPECT_EQ(workspace(chain_data).plan->scratch_mask, 3);
   EXPECT_LT(workspace(chain_data).fused_scratch.size(), 2000u);
   EXPECT_FALSE(workspace(Data(tree.model, DataOptions::recursive_only())).plan->keep);
   EXPECT_TRUE(
-      workspace(Data(random_tree_model(4096, 5).model, DataOptions::recursive_only())).plan->keep);
+      workspace(Data(random_tree_model(fused::kKeepLimit, 5).model, DataOptions::recursive_only()))
+          .plan->keep);
   expect_fused_equals_staged(chain.model, chain.initial);
   expect_fused_equals_staged(tree.model, tree.initial);
 }

@@ -64,7 +64,7 @@ void forward_dynamics(const Model& model, const State& state, Data& data);
 
 /// Up to this many bodies pass 1 keeps its intermediate results for pass 2 (Plan::keep);
 /// beyond, it does so when no group's pass 2 comes more than kKeepLag bodies after its pass 1.
-constexpr int kKeepLimit = 4096;
+constexpr int kKeepLimit = 16384;
 constexpr int kKeepLag = 64;
 
 /// From this many bodies on, a model not numbered depth first is renumbered so (Plan::user).
