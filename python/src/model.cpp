@@ -481,7 +481,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "energy",
           [](const PyModel& p, py::object state_obj) {
             const State state = state_argument(p, state_obj);
-            Data data(p.model(), DataOptions::recursive_only());
+            PyModel::Lease work(p);  // a pooled Data: no workspace built per call
+            Data& data = work->data;
             return py::make_tuple(kinetic_energy(p.model(), state, data),
                                   potential_energy(p.model(), state, data),
                                   total_energy(p.model(), state, data));
@@ -492,7 +493,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "momentum",
           [](const PyModel& p, py::object state_obj) {
             const State state = state_argument(p, state_obj);
-            Data data(p.model(), DataOptions::recursive_only());
+            PyModel::Lease work(p);
+            Data& data = work->data;
             return py::make_tuple(to_numpy(linear_momentum(p.model(), state, data)),
                                   to_numpy(angular_momentum(p.model(), state, data)));
           },
