@@ -35,6 +35,7 @@ function start() {
     const w = ui.stage.clientWidth;
     const hgt = ui.stage.clientHeight;
     renderer.setSize(w, hgt, false);
+    view.setResolution(w, hgt);
     camera.aspect = w / Math.max(hgt, 1);
     camera.updateProjectionMatrix();
     dirty = true;

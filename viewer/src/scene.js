@@ -2,11 +2,13 @@
 // O_J -> Q_K -> O_K, body axes, the joints of a jointed model, a ground grid and the gravity
 // direction.
 import {
-  AmbientLight, ArrowHelper, AxesHelper, BoxGeometry, BufferAttribute, BufferGeometry, Color,
-  DirectionalLight, GridHelper, Group, LineBasicMaterial, LineSegments, Mesh, MeshBasicMaterial,
-  MeshStandardMaterial, PerspectiveCamera, Quaternion, Scene, SphereGeometry, Vector3,
-  WebGLRenderer,
+  AmbientLight, ArrowHelper, AxesHelper, BoxGeometry, Color, DirectionalLight, GridHelper, Group,
+  Mesh, MeshBasicMaterial, MeshStandardMaterial, PerspectiveCamera, Quaternion, Scene,
+  SphereGeometry, Vector3, WebGLRenderer,
 } from 'three';
+import { LineMaterial } from 'three/examples/jsm/lines/LineMaterial.js';
+import { LineSegments2 } from 'three/examples/jsm/lines/LineSegments2.js';
+import { LineSegmentsGeometry } from 'three/examples/jsm/lines/LineSegmentsGeometry.js';
 import { fitView } from './fit.js';
 import {
   JOINT_HEX, MARKER_HEX, axisHalfLength, hasJoints, jointLines, jointMarkers, lineSegments, segmentCount,
@@ -21,6 +23,10 @@ const AXIS_COLOURS = AXIS_HEX.map((c) => new Color(c));
 export function bodyColour(k) {
   return new Color().setHSL(((k * 137.508) % 360) / 360, 0.65, 0.5);
 }
+
+/** Widths in CSS pixels: WebGL draws its own lines 1 device pixel wide whatever is asked. */
+export const LINK_WIDTH = 2;
+export const JOINT_WIDTH = 3;
 
 /**
  * True when WebGL draws on the CPU (SwiftShader, llvmpipe: a browser without a GPU, as in
@@ -73,10 +79,13 @@ export function createScene(canvas, model, motion) {
 
   // Two segments per body: O_J -> Q_K (fixed in J) and Q_K -> O_K (the translation s'_K).
   const n = model.bodies.length;
+  // Drawn as screen-space quads (three.js's LineSegments2), so that the lines have a width;
+  // each frame rewrites the position array in place (setPositions keeps the array).
   const linkPositions = new Float32Array(n * 4 * 3);
-  const linkGeometry = new BufferGeometry();
-  linkGeometry.setAttribute('position', new BufferAttribute(linkPositions, 3));
-  const links = new LineSegments(linkGeometry, new LineBasicMaterial({ color: 0x222222 }));
+  const linkGeometry = new LineSegmentsGeometry();
+  linkGeometry.setPositions(linkPositions);
+  const lineMaterials = [new LineMaterial({ color: 0x222222, linewidth: LINK_WIDTH })];
+  const links = new LineSegments2(linkGeometry, lineMaterials[0]);
   links.frustumCulled = false;
   scene.add(links);
 
@@ -115,11 +124,15 @@ export function createScene(canvas, model, motion) {
       }
     }
   }
-  const jointGeometry = new BufferGeometry();
-  jointGeometry.setAttribute('position', new BufferAttribute(jointPositions, 3));
-  jointGeometry.setAttribute('color', new BufferAttribute(jointColours, 3));
-  const jointLinesObject = new LineSegments(jointGeometry,
-    new LineBasicMaterial({ vertexColors: true, depthTest: false, depthWrite: false }));
+  const jointGeometry = new LineSegmentsGeometry();
+  if (jointSegments > 0) {
+    jointGeometry.setPositions(jointPositions);
+    jointGeometry.setColors(jointColours);
+  }
+  lineMaterials.push(new LineMaterial({
+    vertexColors: true, linewidth: JOINT_WIDTH, depthTest: false, depthWrite: false,
+  }));
+  const jointLinesObject = new LineSegments2(jointGeometry, lineMaterials[1]);
   jointLinesObject.frustumCulled = false;
   jointLinesObject.renderOrder = 2;
   joints.add(jointLinesObject);
@@ -143,7 +156,7 @@ export function createScene(canvas, model, motion) {
         ++s;
       }
     });
-    jointGeometry.attributes.position.needsUpdate = true;
+    if (jointSegments > 0) jointGeometry.attributes.instanceStart.data.needsUpdate = true;
     for (const m of marks) {
       const qk = frame[m.body].q;
       m.mesh.position.set(qk[0], qk[1], qk[2]);
@@ -173,7 +186,7 @@ export function createScene(canvas, model, motion) {
         linkPositions[base + 9 + a] = f.o[a];
       }
     }
-    linkGeometry.attributes.position.needsUpdate = true;
+    linkGeometry.attributes.instanceStart.data.needsUpdate = true;
     if (lines.length || marks.length) placeJoints(frame);
     scene.updateMatrixWorld();
   }
@@ -184,6 +197,11 @@ export function createScene(canvas, model, motion) {
       b.mesh.getWorldPosition(v);
       return { name: model.bodies[k].name, x: v.x, y: v.y, z: v.z };
     });
+  }
+
+  /** The canvas's size in CSS pixels, which the line widths are measured in. */
+  function setResolution(width, height) {
+    for (const m of lineMaterials) m.resolution.set(width, height);
   }
 
   function setAxesVisible(on) {
@@ -207,5 +225,6 @@ export function createScene(canvas, model, motion) {
 
   return {
     software, renderer, scene, camera, bodies, fit, place, drawnCentres, setAxesVisible, setJointsVisible, drawnJoints, sun,
+    setResolution,
   };
 }
