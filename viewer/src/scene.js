@@ -133,6 +133,7 @@ export function createScene(canvas, model, motion) {
     vertexColors: true, linewidth: JOINT_WIDTH, depthTest: false, depthWrite: false,
   }));
   const jointLinesObject = new LineSegments2(jointGeometry, lineMaterials[1]);
+  jointLinesObject.visible = jointSegments > 0; // (welds only: markers, no lines to draw)
   jointLinesObject.frustumCulled = false;
   jointLinesObject.renderOrder = 2;
   joints.add(jointLinesObject);

@@ -10,6 +10,7 @@ import { decodeTrajectory } from '../../src/data.js';
 import { createMotion } from '../../src/motion.js';
 import { axisHalfLength, jointLines, lineSegments } from '../../src/joints.js';
 import { fitView } from '../../src/fit.js';
+import { JOINT_WIDTH } from '../../src/scene.js';
 
 const dir = workDir('browser-human-jointed');
 const model = join(EXAMPLES, 'human_jointed.yaml');
@@ -67,6 +68,31 @@ test('each joint axis is drawn through Q_K along the axis of the body it is fixe
       if (hit) ++hits;
     }
     assert.ok(hits >= 6, `${j.name} (${j.in}): the axis colour at ${hits} of 9 points along it`);
+  }
+});
+
+test('the joint axes are lines JOINT_WIDTH pixels wide', async () => {
+  const drawn = await ctx.page.evaluate(() => { window.kanedynViewer.seek(0.2345); return window.kanedynViewer.jointAxes(); });
+  const img = await shot();
+  for (const j of drawn) {
+    const dx = j.pageTo.x - j.pageFrom.x;
+    const dy = j.pageTo.y - j.pageFrom.y;
+    const len = Math.hypot(dx, dy);
+    const nx = -dy / len;
+    const ny = dx / len;
+    // Across the line at seven points along it: the runs of the axis colour. Other lines cross
+    // it at some (the pelvis's hinge crosses the hips' axes), so the median, not each.
+    const runs = [];
+    for (let s = 2; s <= 8; ++s) {
+      const cx = j.pageFrom.x + (s / 10) * dx;
+      const cy = j.pageFrom.y + (s / 10) * dy;
+      let run = 0;
+      for (let o = -6; o <= 6; o += 0.5) if (isTurn(img.rgb(Math.round(cx + o * nx), Math.round(cy + o * ny)))) run += 0.5;
+      runs.push(run);
+    }
+    runs.sort((a, b) => a - b);
+    // A line one device pixel wide (WebGL's own) reads as 1-1.5 here, JOINT_WIDTH = 3 as 2-3.5.
+    assert.ok(runs[3] >= JOINT_WIDTH - 1, `${j.name} (${j.in}): ${runs[3]} px across (median of ${runs})`);
   }
 });
 
