@@ -5,7 +5,8 @@
 // extensions. It is compiled once per SIMD width: 2 lanes (SSE2, any x86-64; or the
 // generic 16-byte vectors elsewhere), 4 (AVX) and 8 (AVX-512F), the wider ones under
 // `#pragma GCC target`, each in its own translation unit (src/recursive/fused_lanes2.cpp,
-// fused_lanes4.cpp, fused_lanes8.cpp), and compile() picks the widest the running CPU has.
+// fused_lanes4.cpp, fused_lanes8.cpp, through src/recursive/fused_lanes.inc), and compile()
+// picks the widest the running CPU has.
 // The kernel uses no FMA and no reassociation, so every width gives the same bits (tested).
 // The layout of the plan's tables depends on the width chosen (Plan::lanes).
 #pragma once

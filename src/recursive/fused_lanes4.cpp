@@ -1,37 +1,5 @@
-// The fused kernel with 4 lanes (src/recursive/fused.hpp, src/recursive/fused_kernel.inc; the
-// equations of src/equations.inc compiled here for this target).
-#include <cmath>
-#include <cstddef>
-#include <cstring>
-#include <type_traits>
-
-#include "fused.hpp"
-
-#if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
-#endif
-
-#if defined(__x86_64__) || defined(__i386__)
-// The kernel's functions are compiled for avx, the rest of the program is not (clang takes
-// the target as an attribute of each function, GCC as a pragma).
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx")
-#endif
+// The fused kernel with 4 lanes, compiled for AVX (src/recursive/fused_lanes.inc).
 #define KANEDYN_FUSED_LANES 4
-namespace kanedyn::fused::lanes4 {
-#include "../equations.inc"
-#include "fused_kernel.inc"
-}  // namespace kanedyn::fused::lanes4
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
-#else
-namespace kanedyn::fused::lanes4 {
-void evaluate(const Args&) {}  // never chosen: widest_supported_lanes() is 2 off x86
-}  // namespace kanedyn::fused::lanes4
-#endif
+#define KANEDYN_FUSED_NAMESPACE lanes4
+#define KANEDYN_FUSED_TARGET "avx"
+#include "fused_lanes.inc"
