@@ -221,6 +221,8 @@ struct JointDynamics::Impl {
     joint_type.assign(at(n), JointType::free);
     links.resize(at(n));
     if (!m.forces().empty()) motions.resize(at(n));
+    for (const auto& element : m.forces())
+      loads_read_positions = loads_read_positions || element->reads_positions();
     for (int k = 0; k < n; ++k) {
       const auto i = at(k);
       speeds[i] = speed_count(t.joint(k).type);
@@ -246,6 +248,10 @@ struct JointDynamics::Impl {
   VectorX q, z, qdot;      // derivative()'s (q; z) and q dot
   VectorX q_seen, z_seen;  // the (q, z) of the last evaluate(), for state() and data()
   bool state_current = true;
+  // data.kinematics holds the positions and velocities of the state too (not only R), and
+  // whether the force elements need them in every evaluation (ForceElement::reads_positions).
+  bool kinematics_complete = true;
+  bool loads_read_positions = false;
   VectorX joint_force;  // Q of the joint loads, in the order of z
   VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
   // The acceleration of the ground: -g when gravity enters as the ground's acceleration (no
@@ -267,7 +273,8 @@ struct JointDynamics::Impl {
   // The assembled route's blocks of [C]^T [A] [C] and their factor, made on its first use.
   std::optional<detail::JointTreeLdlt> ldlt;
 
-  void update_state(std::vector<detail::JointMotion>* tables = nullptr);
+  void update_state(std::vector<detail::JointMotion>* tables = nullptr, bool complete = true);
+  void complete_kinematics();
   void prepare(const VectorX& qq, const VectorX& zz);
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
@@ -292,13 +299,26 @@ struct JointDynamics::Impl {
   void recursive_outward(int k, Eigen::Ref<VectorX> zdot);
 };
 
-// The notes' state at the last (q, z), its kinematics and its loads (and each body's joint
+// The notes' state at the last (q, z), its kinematics (only [R_K] when not complete: the
+// positions and velocities follow in complete_kinematics) and its loads (and each body's joint
 // table into tables when not null).
-void JointDynamics::Impl::update_state(std::vector<detail::JointMotion>* tables) {
+void JointDynamics::Impl::update_state(std::vector<detail::JointMotion>* tables, bool complete) {
   detail::joint_state(tree, q_seen, z_seen, state, tables);
-  compute_kinematics(model, state, data);
+  if (complete)
+    compute_kinematics(model, state, data);
+  else
+    compute_rotations(model, state, data);
   compute_resultants(model, state, data);
   state_current = true;
+  kinematics_complete = complete;
+}
+
+// The rest of compute_kinematics after update_state(..., false): the same functions in the
+// same order, so the same bits as computing them at once.
+void JointDynamics::Impl::complete_kinematics() {
+  compute_positions(model, state, data);
+  compute_velocities(model, state, data);
+  kinematics_complete = true;
 }
 
 // Per body [P_K], [S_K], c_K and p_K = b_K - F_ext,K in inertial components about O_K, and
@@ -310,7 +330,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
   z_seen = zz;
   const bool loads = !model.forces().empty();
   if (loads)  // the joint tables come with the state, [R_K] with its kinematics
-    update_state(&motions);
+    update_state(&motions, loads_read_positions);
   else
     state_current = false;
   ground.tail<3>() = loads ? Vector3::Zero() : Vector3(-model.gravity());
@@ -613,7 +633,10 @@ const State& JointDynamics::state() {
   return impl_->state;
 }
 Data& JointDynamics::data() {
-  if (!impl_->state_current) impl_->update_state();
+  if (!impl_->state_current)
+    impl_->update_state();
+  else if (!impl_->kinematics_complete)
+    impl_->complete_kinematics();
   return impl_->data;
 }
 const JointTree& JointDynamics::tree() const { return impl_->tree; }

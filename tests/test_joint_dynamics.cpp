@@ -49,6 +49,22 @@ std::vector<JointLoad> random_joint_loads(std::mt19937& rng, const std::vector<J
   return loads;
 }
 
+// A spring from the inertial origin to G_K: -k p_G_K at G_K. It reads the positions of the
+// kinematics (ForceElement::reads_positions() is left true), which the built-in elements do not.
+class Tether final : public ForceElement {
+ public:
+  Tether(int body, double k) : body_(body), k_(k) {}
+  std::string type() const override { return "tether"; }
+  int body() const override { return body_; }
+  void apply(const Model&, const State&, const Kinematics& kin, Loads& loads) const override {
+    loads.force[static_cast<size_t>(body_)] -= k_ * kin.p_G[static_cast<size_t>(body_)];
+  }
+
+ private:
+  int body_;
+  double k_;
+};
+
 // A model, its joints (JointTree keeps a copy of what it needs of the Model, but JointDynamics
 // keeps references to both: they live here together) and a random (q, z).
 struct Case {
@@ -138,6 +154,16 @@ std::vector<Case> comparison_cases(unsigned seed) {
                             Model(loaded.bodies(), loaded.gravity(), {}, "unloaded"),
                             random_types(rng, n), rng));
   }
+  // An element that needs the positions (the built-in ones do not): the kinematics are then
+  // computed whole in every evaluation.
+  {
+    const Model loaded = test::random_loaded_model(rng, 6);
+    std::vector<std::shared_ptr<const ForceElement>> forces = loaded.forces();
+    forces.push_back(std::make_shared<Tether>(3, 40.0));
+    out.push_back(make_case("a force element that reads positions",
+                            Model(loaded.bodies(), loaded.gravity(), forces, "tethered"),
+                            random_types(rng, 6), rng));
+  }
   return out;
 }
 
@@ -195,11 +221,11 @@ TEST(JointDynamics, StateKinematicsAndLoadsAreThoseOfTheJointState) {
   }
 }
 
-// With no force element the state is computed when asked for: it must be the last
-// evaluation's, whichever of state() and data() is asked first, and however often.
+// With no force element the state is computed when asked for, and with the built-in ones the
+// kinematics' positions and velocities: they must be the last evaluation's, whichever of
+// state() and data() is asked first, and however often.
 TEST(JointDynamics, StateIsTheLastEvaluationsWhenAskedLater) {
   for (const Case& c : comparison_cases(3)) {
-    if (!c.model.forces().empty()) continue;
     SCOPED_TRACE(c.name);
     std::mt19937 rng(7);
     VectorX q2, z2;
@@ -221,6 +247,8 @@ TEST(JointDynamics, StateIsTheLastEvaluationsWhenAskedLater) {
         EXPECT_EQ(dyn.state().x, expected.x);
         EXPECT_EQ(dyn.state().y, expected.y);
         EXPECT_EQ(dyn.data().kinematics.R.back(), fresh.kinematics.R.back());
+        EXPECT_EQ(dyn.data().kinematics.p_G.back(), fresh.kinematics.p_G.back());
+        EXPECT_EQ(dyn.data().kinematics.v_G.back(), fresh.kinematics.v_G.back());
       }
     }
   }

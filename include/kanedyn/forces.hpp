@@ -22,6 +22,11 @@ class ForceElement {
   virtual std::string validate(const Model& model) const;
   virtual void apply(const Model& model, const State& state, const Kinematics& kin,
                      Loads& loads) const = 0;
+  /// Whether apply() reads the positions or velocities in kin (p_O, p_G, qs_b, v_O, v_G) and
+  /// not only the state and the rotations R. True unless an element says otherwise, so that
+  /// an element written elsewhere is given all of them; the built-in ones read the state and R
+  /// only, and the jointed route (JointDynamics) then computes the rest only when asked for it.
+  virtual bool reads_positions() const { return true; }
   /// Potential energy stored in the element (0 for constant loads, which are not conservative
   /// in general and are left out of the energy).
   virtual double potential_energy(const Model& model, const State& state,
@@ -44,6 +49,7 @@ class Bushing final : public ForceElement {
   std::string validate(const Model& model) const override;
   void apply(const Model& model, const State& state, const Kinematics& kin,
              Loads& loads) const override;
+  bool reads_positions() const override { return false; }  // R_J only
   double potential_energy(const Model& model, const State& state,
                           const Kinematics& kin) const override;
   double damping_power(const Model& model, const State& state,
@@ -68,6 +74,7 @@ class ConstantForce final : public ForceElement {
   int body() const override { return body_; }
   void apply(const Model& model, const State& state, const Kinematics& kin,
              Loads& loads) const override;
+  bool reads_positions() const override { return false; }
   Vector3 value;
 
  private:
@@ -82,6 +89,7 @@ class ConstantTorque final : public ForceElement {
   int body() const override { return body_; }
   void apply(const Model& model, const State& state, const Kinematics& kin,
              Loads& loads) const override;
+  bool reads_positions() const override { return false; }
   Vector3 value;
 
  private:
