@@ -6,6 +6,8 @@
 // (io::load_model_file), each loaded in a child process of its own so that its peak RSS is
 // the loading's alone.
 //   build/bench/kanedyn_scale [--quick] [--trees] [--file-bodies N] [--simd-lanes 2|4|8]
+//   (--trees also times each tree given already numbered depth first, and the map between the
+//   two numberings alone: what a large tree's renumbering costs, see depth_first below)
 //   build/bench/kanedyn_scale --files-only [--keep-files] [--file-bodies N]
 //   (--files-only: the model files only; --keep-files: leave them in /tmp)
 //   (default N = 100,000; lanes: the widest this CPU runs)
@@ -20,6 +22,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
@@ -35,6 +38,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using namespace kanedyn;
+
+Eigen::Index at(size_t i) { return static_cast<Eigen::Index>(i); }
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -239,6 +244,107 @@ int load_file(const std::string& path, int n) {
   return difference < 1e-12 ? 0 : 1;
 }
 
+// A random tree's time split in two (--trees): the same tree given already numbered depth first
+// (each body's subtree right after it), which the O(N) route then runs without renumbering, and
+// the map between the two numberings alone: the state's 13 doubles per body gathered through the
+// permutation and the derivatives' 13 scattered back, as the route does for a large model
+// numbered otherwise (src/recursive/fused.cpp). The map touches each body's data in an order
+// unrelated to where it lies, so past the caches it is bound by memory latency.
+struct DepthFirst {
+  GeneratedSystem system;
+  std::vector<int> order;  // depth-first body k is the tree's body order[k]
+};
+
+DepthFirst depth_first(const GeneratedSystem& tree) {
+  const Model& m = tree.model;
+  const int n = m.num_bodies();
+  std::vector<int> order, stack, rank(static_cast<size_t>(n));
+  for (int k = n; k-- > 0;)
+    if (m.body(k).lower_body == kGround) stack.push_back(k);
+  while (!stack.empty()) {
+    const int k = stack.back();
+    stack.pop_back();
+    order.push_back(k);
+    const std::vector<int>& children = m.children(k);
+    stack.insert(stack.end(), children.rbegin(), children.rend());
+  }
+  for (int k = 0; k < n; ++k) rank[static_cast<size_t>(order[static_cast<size_t>(k)])] = k;
+  const auto renumbered = [&](int k) {
+    return k == kGround ? kGround : rank[static_cast<size_t>(k)];
+  };
+  std::vector<BodySpec> bodies;
+  for (const int u : order) {
+    BodySpec b = m.body(u);
+    b.lower_body = renumbered(b.lower_body);
+    bodies.push_back(std::move(b));
+  }
+  std::vector<std::shared_ptr<const ForceElement>> forces;
+  for (const auto& element : m.forces()) {
+    const auto* b = dynamic_cast<const Bushing*>(element.get());
+    if (b == nullptr)
+      throw std::runtime_error("depth_first: the generated trees hold bushings only");
+    forces.push_back(std::make_shared<Bushing>(renumbered(b->body()), b->stiffness, b->damping,
+                                               b->rotational_stiffness, b->rotational_damping));
+  }
+  Model model(std::move(bodies), m.gravity(), std::move(forces), m.name() + "-depth-first");
+  State state = tree.initial;
+  const auto un = static_cast<size_t>(n);
+  for (size_t k = 0; k < un; ++k) {
+    const auto u = static_cast<size_t>(order[k]);
+    for (size_t c = 0; c < 4; ++c) state.x[at(4 * k + c)] = tree.initial.x[at(4 * u + c)];
+    for (size_t c = 0; c < 3; ++c) {
+      state.x[at(4 * un + 3 * k + c)] = tree.initial.x[at(4 * un + 3 * u + c)];
+      state.y[at(3 * k + c)] = tree.initial.y[at(3 * u + c)];
+      state.y[at(3 * un + 3 * k + c)] = tree.initial.y[at(3 * un + 3 * u + c)];
+    }
+  }
+  return {{std::move(model), std::move(state)}, std::move(order)};
+}
+
+// Minimum ns per call of the map alone (the state into depth-first order, the derivatives back),
+// over batches of about 2 ms.
+double time_map(const std::vector<int>& order, const State& state) {
+  const size_t n = order.size();
+  const VectorX& x = state.x;
+  const VectorX& y = state.y;
+  VectorX to_x(x.size()), to_y(y.size()), xdot(x.size()), ydot(y.size());
+  const VectorX from_xdot = VectorX::Constant(x.size(), 1.0), from_ydot = y;
+  const auto map = [&] {
+    for (size_t k = 0; k < n; ++k) {
+      const auto u = static_cast<size_t>(order[k]);
+      for (size_t c = 0; c < 4; ++c) to_x[at(4 * k + c)] = x[at(4 * u + c)];
+      for (size_t c = 0; c < 3; ++c) {
+        to_x[at(4 * n + 3 * k + c)] = x[at(4 * n + 3 * u + c)];
+        to_y[at(3 * k + c)] = y[at(3 * u + c)];
+        to_y[at(3 * n + 3 * k + c)] = y[at(3 * n + 3 * u + c)];
+      }
+    }
+    for (size_t k = 0; k < n; ++k) {
+      const auto u = static_cast<size_t>(order[k]);
+      for (size_t c = 0; c < 4; ++c) xdot[at(4 * u + c)] = from_xdot[at(4 * k + c)];
+      for (size_t c = 0; c < 3; ++c) {
+        ydot[at(3 * u + c)] = from_ydot[at(3 * k + c)];
+        ydot[at(3 * n + 3 * u + c)] = from_ydot[at(3 * n + 3 * k + c)];
+      }
+    }
+    xdot.tail(3 * n) = y.tail(3 * n);  // Eq. (40)
+  };
+  map();
+  auto t0 = Clock::now();
+  map();
+  const int batch = std::max(1, static_cast<int>(2e-3 / seconds_since(t0)));
+  double best = 1e300;
+  for (int b = 0; b < 50; ++b) {
+    t0 = Clock::now();
+    for (int i = 0; i < batch; ++i) map();
+    best = std::min(best, seconds_since(t0) * 1e9 / batch);
+  }
+  // Use the results, so that the copies are not optimized away.
+  if (!to_x.allFinite() || !to_y.allFinite() || !xdot.allFinite() || !ydot.allFinite())
+    throw std::runtime_error("time_map: non-finite copies");
+  return best;
+}
+
 // Runs this program again with --load-file PATH N.
 int load_in_child(const char* self, const std::string& path, int n) {
   std::string flag = "--load-file", count = std::to_string(n), file = path;
@@ -287,8 +393,10 @@ int main(int argc, char** argv) {
       "%d bodies per SIMD pass\n\n",
       trees ? "random trees (seed 1)" : "chains",
       Data(chain_model(8).model, DataOptions::recursive_only(lanes)).simd_lanes());
-  std::printf("%8s %10s %12s %12s %14s %13s %14s %s\n", "N", "build ms", "median ns/b", "min ns/b",
+  std::printf("%8s %10s %12s %12s %14s %13s %14s %s", "N", "build ms", "median ns/b", "min ns/b",
               "Data bytes/b", "peak RSS MB", "RK4 ns/step/b", "RK4 check");
+  if (trees) std::printf("   depth-first: min ns/b   map alone: min ns/b");
+  std::printf("\n");
   for (const int n : sizes) {
     auto t0 = Clock::now();
     const GeneratedSystem g = trees ? random_tree_model(n, 1) : chain_model(n);
@@ -303,9 +411,29 @@ int main(int argc, char** argv) {
     // state must have moved.
     const bool finite = end.x.allFinite() && end.y.allFinite();
     const bool moved = (end.y - g.initial.y).norm() > 0.0;
-    std::printf("%8d %10.1f %12.1f %12.1f %14.0f %13.1f %14.1f %s\n", n, build_ms, median / n,
+    bool same = true;  // --trees: the depth-first tree's ydot is the random numbering's
+    std::printf("%8d %10.1f %12.1f %12.1f %14.0f %13.1f %14.1f %s", n, build_ms, median / n,
                 min / n, static_cast<double>(data.memory_bytes()) / n, peak_rss_mb(),
                 step * 1e9 / n, finite && moved ? "finite, moved" : "FAILED");
+    if (trees) {
+      const DepthFirst d = depth_first(g);
+      Data depth_first_data(d.system.model, DataOptions::recursive_only(lanes));
+      const double depth_first_min =
+          time_evaluations(d.system.model, d.system.initial, depth_first_data).second;
+      std::printf(" %24.1f %19.1f", depth_first_min / n, time_map(d.order, g.initial) / n);
+      // The timing means something only if it is the same tree: the same ydot, body by body
+      // (renumbering changes no bit, tests/test_recursive_plan.cpp).
+      forward_dynamics(g.model, g.initial, data, Route::recursive);
+      for (size_t k = 0; k < d.order.size(); ++k) {
+        const auto u = static_cast<size_t>(d.order[k]), un = static_cast<size_t>(n);
+        for (size_t c = 0; c < 3; ++c)
+          if (depth_first_data.ydot[at(3 * k + c)] != data.ydot[at(3 * u + c)] ||
+              depth_first_data.ydot[at(3 * un + 3 * k + c)] != data.ydot[at(3 * un + 3 * u + c)])
+            same = false;
+      }
+    }
+    std::printf(same ? "\n" : "  FAILED: the depth-first tree's ydot differs\n");
+    if (!same) return 1;
   }
 
   // Loading: the same chain through a model file, YAML and JSON.
