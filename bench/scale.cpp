@@ -255,6 +255,36 @@ struct DepthFirst {
   std::vector<int> order;  // depth-first body k is the tree's body order[k]
 };
 
+// The state into depth-first order: to[body k] = from[body order[k]] (x: 4N Euler parameters,
+// then 3N translations; y: 3N angular velocities, then 3N translation rates).
+void gather_state(const std::vector<int>& order, const State& from, State& to) {
+  const size_t n = order.size();
+  for (size_t k = 0; k < n; ++k) {
+    const auto u = static_cast<size_t>(order[k]);
+    for (size_t c = 0; c < 4; ++c) to.x[at(4 * k + c)] = from.x[at(4 * u + c)];
+    for (size_t c = 0; c < 3; ++c) {
+      to.x[at(4 * n + 3 * k + c)] = from.x[at(4 * n + 3 * u + c)];
+      to.y[at(3 * k + c)] = from.y[at(3 * u + c)];
+      to.y[at(3 * n + 3 * k + c)] = from.y[at(3 * n + 3 * u + c)];
+    }
+  }
+}
+
+// The derivatives back, to[body order[k]] = from[body k], but Eq. (40)'s s' dot (= y2, which the
+// caller copies in order): ydot, and the Euler parameter rates of xdot.
+void scatter_derivatives(const std::vector<int>& order, const VectorX& from_xdot,
+                         const VectorX& from_ydot, VectorX& xdot, VectorX& ydot) {
+  const size_t n = order.size();
+  for (size_t k = 0; k < n; ++k) {
+    const auto u = static_cast<size_t>(order[k]);
+    for (size_t c = 0; c < 4; ++c) xdot[at(4 * u + c)] = from_xdot[at(4 * k + c)];
+    for (size_t c = 0; c < 3; ++c) {
+      ydot[at(3 * u + c)] = from_ydot[at(3 * k + c)];
+      ydot[at(3 * n + 3 * u + c)] = from_ydot[at(3 * n + 3 * k + c)];
+    }
+  }
+}
+
 DepthFirst depth_first(const GeneratedSystem& tree) {
   const Model& m = tree.model;
   const int n = m.num_bodies();
@@ -288,16 +318,7 @@ DepthFirst depth_first(const GeneratedSystem& tree) {
   }
   Model model(std::move(bodies), m.gravity(), std::move(forces), m.name() + "-depth-first");
   State state = tree.initial;
-  const auto un = static_cast<size_t>(n);
-  for (size_t k = 0; k < un; ++k) {
-    const auto u = static_cast<size_t>(order[k]);
-    for (size_t c = 0; c < 4; ++c) state.x[at(4 * k + c)] = tree.initial.x[at(4 * u + c)];
-    for (size_t c = 0; c < 3; ++c) {
-      state.x[at(4 * un + 3 * k + c)] = tree.initial.x[at(4 * un + 3 * u + c)];
-      state.y[at(3 * k + c)] = tree.initial.y[at(3 * u + c)];
-      state.y[at(3 * un + 3 * k + c)] = tree.initial.y[at(3 * un + 3 * u + c)];
-    }
-  }
+  gather_state(order, tree.initial, state);
   return {{std::move(model), std::move(state)}, std::move(order)};
 }
 
@@ -305,29 +326,13 @@ DepthFirst depth_first(const GeneratedSystem& tree) {
 // over batches of about 2 ms.
 double time_map(const std::vector<int>& order, const State& state) {
   const size_t n = order.size();
-  const VectorX& x = state.x;
-  const VectorX& y = state.y;
-  VectorX to_x(x.size()), to_y(y.size()), xdot(x.size()), ydot(y.size());
-  const VectorX from_xdot = VectorX::Constant(x.size(), 1.0), from_ydot = y;
+  State to = state;
+  VectorX xdot(state.x.size()), ydot(state.y.size());
+  const VectorX from_xdot = VectorX::Constant(state.x.size(), 1.0), from_ydot = state.y;
   const auto map = [&] {
-    for (size_t k = 0; k < n; ++k) {
-      const auto u = static_cast<size_t>(order[k]);
-      for (size_t c = 0; c < 4; ++c) to_x[at(4 * k + c)] = x[at(4 * u + c)];
-      for (size_t c = 0; c < 3; ++c) {
-        to_x[at(4 * n + 3 * k + c)] = x[at(4 * n + 3 * u + c)];
-        to_y[at(3 * k + c)] = y[at(3 * u + c)];
-        to_y[at(3 * n + 3 * k + c)] = y[at(3 * n + 3 * u + c)];
-      }
-    }
-    for (size_t k = 0; k < n; ++k) {
-      const auto u = static_cast<size_t>(order[k]);
-      for (size_t c = 0; c < 4; ++c) xdot[at(4 * u + c)] = from_xdot[at(4 * k + c)];
-      for (size_t c = 0; c < 3; ++c) {
-        ydot[at(3 * u + c)] = from_ydot[at(3 * k + c)];
-        ydot[at(3 * n + 3 * u + c)] = from_ydot[at(3 * n + 3 * k + c)];
-      }
-    }
-    xdot.tail(3 * n) = y.tail(3 * n);  // Eq. (40)
+    gather_state(order, state, to);
+    scatter_derivatives(order, from_xdot, from_ydot, xdot, ydot);
+    xdot.tail(at(3 * n)) = state.y.tail(at(3 * n));  // Eq. (40)
   };
   map();
   auto t0 = Clock::now();
@@ -340,7 +345,7 @@ double time_map(const std::vector<int>& order, const State& state) {
     best = std::min(best, seconds_since(t0) * 1e9 / batch);
   }
   // Use the results, so that the copies are not optimized away.
-  if (!to_x.allFinite() || !to_y.allFinite() || !xdot.allFinite() || !ydot.allFinite())
+  if (!to.x.allFinite() || !to.y.allFinite() || !xdot.allFinite() || !ydot.allFinite())
     throw std::runtime_error("time_map: non-finite copies");
   return best;
 }
@@ -411,7 +416,7 @@ int main(int argc, char** argv) {
     // state must have moved.
     const bool finite = end.x.allFinite() && end.y.allFinite();
     const bool moved = (end.y - g.initial.y).norm() > 0.0;
-    bool same = true;  // --trees: the depth-first tree's ydot is the random numbering's
+    bool same = true;  // --trees: the depth-first tree's derivatives are the random numbering's
     std::printf("%8d %10.1f %12.1f %12.1f %14.0f %13.1f %14.1f %s", n, build_ms, median / n,
                 min / n, static_cast<double>(data.memory_bytes()) / n, peak_rss_mb(),
                 step * 1e9 / n, finite && moved ? "finite, moved" : "FAILED");
@@ -421,18 +426,14 @@ int main(int argc, char** argv) {
       const double depth_first_min =
           time_evaluations(d.system.model, d.system.initial, depth_first_data).second;
       std::printf(" %24.1f %19.1f", depth_first_min / n, time_map(d.order, g.initial) / n);
-      // The timing means something only if it is the same tree: the same ydot, body by body
-      // (renumbering changes no bit, tests/test_recursive_plan.cpp).
+      // The timing means something only if it is the same tree: the same ydot and Euler
+      // parameter rates, body by body (renumbering changes no bit, tests/test_recursive_plan.cpp).
       forward_dynamics(g.model, g.initial, data, Route::recursive);
-      for (size_t k = 0; k < d.order.size(); ++k) {
-        const auto u = static_cast<size_t>(d.order[k]), un = static_cast<size_t>(n);
-        for (size_t c = 0; c < 3; ++c)
-          if (depth_first_data.ydot[at(3 * k + c)] != data.ydot[at(3 * u + c)] ||
-              depth_first_data.ydot[at(3 * un + 3 * k + c)] != data.ydot[at(3 * un + 3 * u + c)])
-            same = false;
-      }
+      VectorX xdot = data.xdot, ydot = data.ydot;
+      scatter_derivatives(d.order, depth_first_data.xdot, depth_first_data.ydot, xdot, ydot);
+      same = ydot == data.ydot && xdot == data.xdot;
     }
-    std::printf(same ? "\n" : "  FAILED: the depth-first tree's ydot differs\n");
+    std::printf(same ? "\n" : "  FAILED: the depth-first tree's derivatives differ\n");
     if (!same) return 1;
   }
 
