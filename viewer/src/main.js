@@ -209,6 +209,25 @@ function start() {
     /** Milliseconds of work of the last rendered frames (update and draw). */
     frameTimes: () => work.slice(),
     clearFrameTimes: () => { work.length = 0; },
+    /**
+     * What the renderer holds: the ids of every geometry and material in the scene, the
+     * counts of compiled programs, geometries and textures, and whether the canvas is
+     * multisampled. Unchanged by playing, unless something is rebuilt per frame.
+     */
+    resources: () => {
+      const ids = [];
+      scene.traverse((o) => {
+        if (o.geometry) ids.push(o.geometry.uuid);
+        if (o.material) [].concat(o.material).forEach((m) => ids.push(m.uuid));
+      });
+      return {
+        ids,
+        programs: renderer.info.programs.length,
+        geometries: renderer.info.memory.geometries,
+        textures: renderer.info.memory.textures,
+        multisampled: renderer.getContext().getContextAttributes().antialias,
+      };
+    },
   };
 }
 

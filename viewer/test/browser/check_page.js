@@ -139,34 +139,54 @@ export async function checkPicker(page, column) {
   assert.equal(await page.$eval('#picker', (e) => e.value), '', 'the list is ready for the next');
 }
 
-/** Plays at 1x for `seconds` and returns the frame statistics (ms). */
+/**
+ * Plays at 1x for `seconds` and returns the frame statistics (ms), how far the shown time
+ * moved and how far the frames' own clock says it should have, and the renderer's resources
+ * and the plot canvases before and after.
+ */
 export async function measureFrames(page, seconds) {
   return page.evaluate(async (s) => {
     const v = window.kanedynViewer;
     v.seek(v.start);
     v.setSpeed(1);
+    const before = v.resources();
+    const canvases = v.plotCanvases();
     v.clearFrameTimes();
     const stamps = [];
+    const t0 = v.time();
     v.play();
     await new Promise((done) => {
-      const t0 = performance.now();
+      const start = performance.now();
       const tick = (now) => {
         stamps.push(now);
-        if (now - t0 < s * 1000) requestAnimationFrame(tick);
+        if (now - start < s * 1000) requestAnimationFrame(tick);
         else done();
       };
       requestAnimationFrame(tick);
     });
     v.pause();
+    const moved = v.time() - t0;
     const work = v.frameTimes().sort((a, b) => a - b);
-    const gaps = stamps.slice(1).map((x, i) => x - stamps[i]).sort((a, b) => a - b);
+    const gaps = stamps.slice(1).map((x, i) => x - stamps[i]);
+    // The page advances by each frame's interval, at most 0.25 s of it (main.js).
+    const clock = gaps.reduce((sum, g) => sum + Math.min(g, 250), 0) / 1000;
+    const largestGap = Math.max(...gaps);
+    gaps.sort((a, b) => a - b);
     const q = (a, f) => a[Math.min(a.length - 1, Math.floor(f * a.length))];
+    const after = v.plotCanvases();
     return {
       frames: work.length,
+      software: v.softwareRendering,
       workMedian: q(work, 0.5),
       workP95: q(work, 0.95),
       intervalMedian: q(gaps, 0.5),
       intervalP95: q(gaps, 0.95),
+      largestGap,
+      moved,
+      clock,
+      before,
+      after: v.resources(),
+      samePlots: canvases.length === after.length && canvases.every((c, i) => c === after[i]),
     };
   }, seconds);
 }
