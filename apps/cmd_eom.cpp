@@ -214,8 +214,12 @@ void add_eom(CLI::App& app) {
     std::optional<ProjectedEquations> projected;
     if (file.jointed()) projected = projected_equations(file.model, *file.joints, q, z, data);
     kane_equations(file.model, state, data);
-    if (!data.ydot.allFinite() || (projected && !projected->zdot.allFinite()))
-      throw std::runtime_error(opt->path + ": the equations of motion are not finite");
+    // Every number printed is finite, or nothing is printed (JSON has no NaN).
+    const bool finite = data.kane.A.allFinite() && data.kane.f.allFinite() &&
+                        data.ydot.allFinite() && data.xdot.allFinite() &&
+                        (!projected || (projected->C.allFinite() && projected->A_z.allFinite() &&
+                                        projected->f_z.allFinite() && projected->zdot.allFinite()));
+    if (!finite) throw std::runtime_error(opt->path + ": the equations of motion are not finite");
     if (opt->json) {
       print_json(file, data, projected ? &*projected : nullptr);
     } else {

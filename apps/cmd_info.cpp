@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
+#include "options.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -35,8 +36,7 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
     std::snprintf(head, sizeof head, "%3d  %-18s %8.4g  %3d  ", k + 1, model.body(k).name.c_str(),
                   model.body(k).mass, model.depth(k));
     out << head;
-    for (const int c : model.chain(k)) out << c + 1 << " -> ";
-    out << "0\n";
+    out << chain_text(model, k) << "\n";
   }
   if (file.jointed()) {
     const JointTree& tree = *file.joints;

@@ -195,14 +195,7 @@ void print_text(const io::ModelFile& file, const Inspection& in, const std::stri
   std::printf("%s at %s, N = %d\n", io::printable(file.path).c_str(), where.c_str(), n);
   for (const BodyInspection& b : in.bodies) {
     const int k = b.K - 1;
-    std::string chain;
-    constexpr size_t kShown = 6;  // a long chain: its first and last bodies
-    for (size_t i = 0; i < b.chain.size(); ++i) {
-      if (b.chain.size() > 2 * kShown && i == kShown)
-        chain += " -> ..." + std::to_string(b.chain.size() - 2 * kShown) + " more...";
-      if (b.chain.size() > 2 * kShown && i >= kShown && i < b.chain.size() - kShown) continue;
-      chain += (i ? " -> " : "") + std::to_string(b.chain[i]);
-    }
+    const std::string chain = chain_text(model, k);
     std::printf("\nbody %d '%s': L(%d) = %d, u = %d, chain %s\n", b.K,
                 io::printable(b.name).c_str(), b.K, b.L, b.u, chain.c_str());
     if (want("R"))
@@ -386,8 +379,10 @@ void add_inspect(CLI::App& app) {
         opt->row.empty() ? -1 : parse_row(opt->path, opt->row, file.model.num_bodies());
     const Inspection in = file.jointed() ? inspect(file.model, *file.joints, q, z, t, bodies)
                                          : inspect(file.model, state, t, bodies);
-    if (!in.ydot.allFinite())
-      throw std::runtime_error(opt->path + ": the equations of motion are not finite");
+    // Every number printed is finite, or nothing is printed (JSON has no NaN).
+    if (const std::string bad = in.first_non_finite(); !bad.empty())
+      throw std::runtime_error(opt->path + ": the quantities at this state are not finite (" + bad +
+                               ", the first such)");
     if (row_index >= 0) {
       if (!print_row(file, in, where, row_index))
         throw std::runtime_error(opt->path + ": row " + opt->row +

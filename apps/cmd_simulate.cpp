@@ -35,6 +35,7 @@ const SimulationSettings kDefaults{};
 struct Options {
   std::string model;
   std::string out;
+  bool no_output = false;
   double t_end = kDefaults.t_end, dt_out = kDefaults.dt_out;
   std::string integrator, route;
   double rtol = kDefaults.rtol, atol = kDefaults.atol, step = kDefaults.step;
@@ -287,38 +288,56 @@ int run(const Options& o) {
   const io::ModelFile file = io::load_model_file(o.model);
   const Model& model = file.model;
   const SimulationSettings base = settings_from(o, file.simulation);
-  const std::string out = o.out.empty() ? default_output(o.model) : o.out;
+  const std::string out =
+      o.no_output ? std::string() : (o.out.empty() ? default_output(o.model) : o.out);
   // Everything that can be checked is checked before the output file exists.
   try {
     validate_settings(model, base);
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(o.model + ": " + e.what());
   }
-  io::check_output_path(out, o.model);
+  if (!o.no_output) {
+    io::check_output_path(out, {o.model});
+    warn_disk_space(file, base, out);
+  }
   warn_rk4_stability(model, base);
-  warn_disk_space(file, base, out);
 
   // The handlers first: from the moment OUT.partial exists, a signal leaves it whole.
   SignalGuard signals;
   // Rows are formatted and written on a thread of their own (their kinematics and energy
-  // too): the integrating thread only copies each output state (docs/performance.md).
+  // too): the integrating thread only copies each output state (docs/performance.md). The
+  // file is created with the first row, once the initial state has passed simulate()'s
+  // checks: a run refused at its start leaves no file.
   const JointTree* joints = file.jointed() ? &*file.joints : nullptr;
-  io::BackgroundTrajectoryWriter writer(model, out, joints);
+  std::optional<io::BackgroundTrajectoryWriter> writer;
+  const auto open_writer = [&]() -> io::BackgroundTrajectoryWriter& {
+    if (!writer) writer.emplace(model, out, joints);
+    return *writer;
+  };
   Progress progress(base.t_start, base.t_end);
   StepWatch watch(base.t_start, base.t_end, base.dt_out);
   SimulationSettings settings = base;
   settings.observer_kinematics = false;
   settings.on_step = [&](double t) {
-    if (progress.update(t)) writer.flush();
+    if (progress.update(t) && writer) writer->flush();
     watch.step(t);
     return g_signal == 0;
   };
   const Observer observer = [&](double t, const State& state, Data&) {
-    writer.write_row(t, state);
+    if (!o.no_output) open_writer().write_row(t, state);
   };
   const JointObserver joint_observer = [&](double t, const State& state, const VectorX& q,
-                                           const VectorX& z,
-                                           Data&) { writer.write_row(t, state, q, z); };
+                                           const VectorX& z, Data&) {
+    if (!o.no_output) open_writer().write_row(t, state, q, z);
+  };
+  const auto kept = [&](bool with_time, double t) {
+    if (!writer)
+      return std::string(o.no_output ? "no trajectory written (--no-output)"
+                                     : "nothing written to " + io::printable(out));
+    return "partial trajectory (" + std::to_string(writer->rows()) + " rows" +
+           (with_time ? ", up to t = " + format("%.10g", t) : std::string()) + ") kept in " +
+           io::printable(writer->partial_path());
+  };
   SimulationStats stats;
   try {
     stats = joints ? simulate(model, *joints, file.joint_q, file.joint_z, settings, joint_observer)
@@ -326,32 +345,35 @@ int run(const Options& o) {
   } catch (const std::exception& e) {
     progress.clear();
     try {
-      writer.close();
+      if (writer) writer->close();
     } catch (...) {  // e is the error to report; the partial file keeps whole rows
     }
-    throw std::runtime_error(std::string(e.what()) + "; partial trajectory (" +
-                             std::to_string(writer.rows()) + " rows) kept in " +
-                             writer.partial_path());
+    throw std::runtime_error(std::string(e.what()) + "; " + kept(false, 0.0));
   }
   progress.clear();
   const long columns = static_cast<long>(io::trajectory_columns(model, joints).size());
+  const long rows = writer ? writer->rows() : 0;
   if (stats.ok()) {
-    writer.finish();
-    print_summary(file, settings, stats, writer.path(), writer.rows(), columns);
+    if (o.no_output) {
+      print_summary(file, settings, stats, "none (--no-output)", 0, columns);
+      return 0;
+    }
+    io::BackgroundTrajectoryWriter& w = open_writer();
+    w.finish();
+    print_summary(file, settings, stats, io::printable(w.path()), w.rows(), columns);
     return 0;
   }
-  writer.close();
-  print_summary(file, settings, stats, writer.partial_path(), writer.rows(), columns);
-  const std::string kept = "partial trajectory (" + std::to_string(writer.rows()) +
-                           " rows, up to t = " + format("%.10g", stats.t_reached) + ") kept in " +
-                           writer.partial_path();
+  if (writer) writer->close();
+  print_summary(file, settings, stats,
+                writer ? io::printable(writer->partial_path()) : std::string("none"),
+                writer ? writer->rows() : rows, columns);
   if (stats.status == SimulationStatus::interrupted) {
     const int sig = g_signal;
     std::fprintf(stderr, "kanedyn: %s: %s; %s\n", signal_name(sig), stats.message.c_str(),
-                 kept.c_str());
+                 kept(true, stats.t_reached).c_str());
     return 128 + sig;
   }
-  throw std::runtime_error(stats.message + "; " + kept);
+  throw std::runtime_error(stats.message + "; " + kept(true, stats.t_reached));
 }
 
 void add_simulate(CLI::App& app) {
@@ -382,9 +404,13 @@ void add_simulate(CLI::App& app) {
                       "recursive (O(N), default) or assembled (assemble [A] and {f}, Eqs. 37-38, "
                       "and solve Eq. 36); --method and kane are the older spellings")
           ->check(CLI::IsMember({"recursive", "assembled", "kane"}));
-  cmd->add_option(
+  auto* out_opt = cmd->add_option(
       "--out,-o", o->out,
-      "trajectory CSV (default: the model file's name with .csv, in the current folder)");
+      "trajectory CSV (default: the model file's name with .csv, in the current folder); "
+      "a regular file or none, not the model file");
+  auto* no_output = cmd->add_flag("--no-output", o->no_output,
+                                  "write no trajectory: the run and its summary only");
+  out_opt->excludes(no_output);
   cmd->callback([o] {
     const int code = run(*o);
     if (code != 0) {

@@ -7,8 +7,10 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
+#include "kanedyn/io/files.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/io/trajectory.hpp"
@@ -30,14 +32,22 @@ void run(const Options& o) {
       have_traj
           ? io::read_trajectory(file.model, o.trajectory, file.jointed() ? &*file.joints : nullptr)
           : view::initial_trajectory(file.model, file.initial);
-  const std::string& input = have_traj ? o.trajectory : o.model;
+  const std::string& named = have_traj ? o.trajectory : o.model;
   std::string out = o.out;
-  if (out.empty()) out = std::filesystem::path(input).filename().replace_extension(".html");
+  if (out.empty()) out = std::filesystem::path(named).filename().replace_extension(".html");
+  const bool to_stdout = out == "-";
+  // Every input, by identity: the default page name of a model called run.html is the model.
+  const std::vector<std::string> inputs{o.model, o.trajectory};
+  if (!to_stdout) io::check_output_path(out, inputs);
   const std::string text = view::page(
       file.model, file.path, traj,
       have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state",
       file.jointed() ? &*file.joints : nullptr);
-  view::write_page(out, input, text);
+  if (to_stdout) {
+    io::write_to_stdout(text);
+    return;
+  }
+  io::write_file_atomically(out, text, inputs);
   std::printf("wrote %s (%.1f kB; ", io::printable(out).c_str(), text.size() / 1000.0);
   if (have_traj)
     std::printf("%zu rows", traj.rows());
@@ -55,12 +65,14 @@ void add_view(CLI::App& app) {
   cmd->footer(
       "The page needs no server and makes no network request: open it from disk in a browser. "
       "Without a trajectory it shows the model's initial state. Trajectories of more than 20000 "
-      "rows are decimated (the page says so). Written to OUT.partial, renamed to OUT at the end.");
+      "rows are decimated (the page says so). Written to OUT.partial, renamed to OUT at the end; "
+      "OUT must be a regular file or not exist, and not one of the inputs. -o - writes the "
+      "page to standard output.");
   cmd->add_option("MODEL", o->model, "model file (YAML or JSON)")->required();
   cmd->add_option("TRAJECTORY", o->trajectory, "trajectory CSV of this model (kanedyn simulate)");
   cmd->add_option("--out,-o", o->out,
                   "web page (default: the trajectory's, else the model's, name with .html, in "
-                  "the current folder)");
+                  "the current folder; - for standard output)");
   cmd->callback([o] { run(*o); });
 }
 

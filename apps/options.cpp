@@ -34,6 +34,23 @@ std::string speed_label(int n, int i) {
   return (part == 0 ? "w" : "sd") + std::to_string(k + 1) + "." + std::to_string(c + 1);
 }
 
+std::string chain_text(const Model& model, int k) {
+  constexpr int kShown = 6;  // a long chain: its first bodies, then its root
+  const Model::Chain chain = model.chain(k);
+  std::string text;
+  int shown = 0;
+  // Only the first kShown entries are walked: a chain of N bodies costs O(1) per body, not
+  // O(N) (info of a 100,000-link chain would otherwise print 5e9 numbers).
+  for (auto it = chain.begin(); it != chain.end() && shown < kShown; ++it, ++shown)
+    text += (shown ? " -> " : "") + std::to_string(*it + 1);
+  if (chain.size > kShown + 1)
+    text += " -> ..." + std::to_string(chain.size - kShown - 1) + " more... -> " +
+            std::to_string(chain.root + 1);
+  else if (chain.size == kShown + 1)
+    text += " -> " + std::to_string(chain.root + 1);
+  return text + " -> 0";
+}
+
 void add_state_options(CLI::App* cmd, StateChoice& choice) {
   auto* trajectory = cmd->add_option("--trajectory", choice.trajectory,
                                      "take the state from a row of this trajectory CSV "

@@ -20,6 +20,11 @@ inline CLI::Validator positive_number() { return decimal_number(true); }
 /// reads them.
 std::string speed_label(int n, int i);
 
+/// Body k's chain down to the inertial frame, 1-based, "8 -> 7 -> 1 -> 0"; a chain of more
+/// than 7 bodies shows its first 6 and its root ("...N more..." between), so that the text for
+/// a whole model stays O(N).
+std::string chain_text(const Model& model, int k);
+
 /// `--trajectory FILE.csv --t T`, each needing the other.
 struct StateChoice {
   std::string trajectory;

@@ -217,4 +217,42 @@ Inspection inspect(const Model& model, const JointTree& tree, const VectorX& q, 
   return out;
 }
 
+std::string Inspection::first_non_finite() const {
+  const auto bad = [](const auto& m) { return !m.allFinite(); };
+  if (bad(F_y)) return "F_y";
+  if (bad(F_y_star)) return "F_y_star";
+  if (bad(ydot)) return "ydot";
+  for (const BodyInspection& b : bodies) {
+    const std::string body = "body " + std::to_string(b.K) + " ";
+    const std::pair<const char*, bool> parts[] = {{"R", bad(b.R)},
+                                                  {"p_O", bad(b.p_O)},
+                                                  {"p_G", bad(b.p_G)},
+                                                  {"v_O", bad(b.v_O)},
+                                                  {"v_G", bad(b.v_G)},
+                                                  {"w", bad(b.w)},
+                                                  {"w_y", bad(b.w_y)},
+                                                  {"v_O_y", bad(b.v_O_y)},
+                                                  {"v_G_y", bad(b.v_G_y)},
+                                                  {"v_O_y_dot", bad(b.v_O_y_dot)},
+                                                  {"v_G_y_dot", bad(b.v_G_y_dot)},
+                                                  {"F", bad(b.F)},
+                                                  {"M", bad(b.M)},
+                                                  {"F_y", bad(b.F_y)},
+                                                  {"F_y_star", bad(b.F_y_star)}};
+    for (const auto& [name, is_bad] : parts)
+      if (is_bad) return body + name;
+  }
+  if (joints) {
+    const JointInspection& j = *joints;
+    const std::pair<const char*, bool> parts[] = {
+        {"q", bad(j.q)},     {"z", bad(j.z)},     {"C", bad(j.C)},       {"Cdot_z", bad(j.Cdot_z)},
+        {"A_z", bad(j.A_z)}, {"f_z", bad(j.f_z)}, {"zdot", bad(j.zdot)}, {"ydot", bad(j.ydot)}};
+    for (const auto& [name, is_bad] : parts)
+      if (is_bad) return std::string("joints ") + name;
+    for (const JointBodyInspection& b : j.bodies)
+      if (bad(b.C_w) || bad(b.C_sd)) return "joints body " + std::to_string(b.K) + " C";
+  }
+  return "";
+}
+
 }  // namespace kanedyn

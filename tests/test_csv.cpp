@@ -225,7 +225,7 @@ TEST(TrajectoryCsv, OutputPathsAreCheckedBeforeAnythingIsCreated) {
   const std::string d = dir.string();
   auto problem = [](const std::string& path, const std::string& input = "") {
     try {
-      io::check_output_path(path, input);
+      io::check_output_path(path, {input});
     } catch (const std::runtime_error& e) {
       return std::string(e.what());
     }

@@ -283,49 +283,6 @@ std::string page(const Model& model, const std::string& model_file, const io::Tr
   return text;
 }
 
-void write_page(const std::string& path, const std::string& input, const std::string& text) {
-  io::check_output_path(path, input);
-  const std::string partial = path + ".partial";
-  struct stat st {};
-  if (::lstat(partial.c_str(), &st) == 0) {
-    if (!S_ISREG(st.st_mode))
-      throw std::runtime_error("cannot write " + io::printable(partial) +
-                               ": it exists and is not a regular file");
-    ::unlink(partial.c_str());
-  }
-  // O_EXCL|O_NOFOLLOW: never write through a link someone placed there meanwhile.
-  const int fd =
-      ::open(partial.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
-  if (fd < 0)
-    throw std::runtime_error("cannot create " + io::printable(partial) + ": " +
-                             std::strerror(errno));
-  const auto fail = [&](const std::string& what) {
-    const int err = errno;
-    ::close(fd);
-    ::unlink(partial.c_str());
-    return std::runtime_error(what + " " + io::printable(partial) + ": " + std::strerror(err) +
-                              "; nothing written to " + io::printable(path));
-  };
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) throw fail("cannot write");
-    done += static_cast<std::size_t>(n);
-  }
-  if (::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(partial.c_str());
-    throw std::runtime_error("cannot write " + io::printable(partial) + ": " + std::strerror(err));
-  }
-  if (std::rename(partial.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(partial.c_str());
-    throw std::runtime_error("cannot rename " + io::printable(partial) + " to " +
-                             io::printable(path) + ": " + std::strerror(err));
-  }
-}
-
 bool available() { return kAvailable; }
 
 void require_available() {

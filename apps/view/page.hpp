@@ -36,9 +36,4 @@ io::Trajectory initial_trajectory(const Model& model, const State& initial);
 std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
                  const std::string& source, const JointTree* joints = nullptr);
 
-/// Writes `text` to PATH.partial and renames it to PATH (io::check_output_path first, with
-/// `input` the file it must not overwrite); on failure removes the partial file (a page cut
-/// short is of no use), leaves PATH as it was and throws naming the file.
-void write_page(const std::string& path, const std::string& input, const std::string& text);
-
 }  // namespace kanedyn::view

@@ -73,6 +73,11 @@ struct Inspection {
   std::vector<BodyInspection> bodies;  ///< the selected bodies, in numbering order
   /// A jointed model's joints (the inspect overload with a JointTree); empty otherwise.
   std::optional<JointInspection> joints;
+
+  /// The first quantity with a number that is not finite ("ydot", "body 3 p_O",
+  /// "joints A_z", ...), or "" when every number is finite: a state far out of range (a
+  /// prismatic coordinate of 1e300) gives finite positions and overflowing products.
+  std::string first_non_finite() const;
 };
 
 /// Evaluates the notes' quantities at the state and fills an Inspection: the kinematics, the

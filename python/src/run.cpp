@@ -414,7 +414,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   std::string out;
   if (!output.is_none()) {
     out = py::str(py::module_::import("os").attr("fspath")(output));
-    io::check_output_path(out, m.file().path);
+    io::check_output_path(out, {m.file().path});
   }
   if (progress.is(py::bool_(true)))
     progress = py::module_::import("kanedyn._result").attr("ProgressBar")();
@@ -435,7 +435,12 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
     throw py::value_error(
         "simulate(initial=...) of a jointed model: it starts from the file's joint coordinates "
         "(initial.joint, initial.joint_rate)");
-  if (!out.empty()) writer = std::make_unique<io::BackgroundTrajectoryWriter>(model, out, tree);
+  // The file is created with the first row, once the initial state has passed simulate()'s
+  // checks: a run refused at its start leaves no file.
+  const auto open_writer = [&]() -> io::BackgroundTrajectoryWriter& {
+    if (!writer) writer = std::make_unique<io::BackgroundTrajectoryWriter>(model, out, tree);
+    return *writer;
+  };
   const auto keep = [&](double t, const State& state, Data& data) {
     rows.t.push_back(t);
     rows.x.insert(rows.x.end(), state.x.begin(), state.x.end());
@@ -444,14 +449,14 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
       rows.p_G.insert(rows.p_G.end(), p.begin(), p.end());
   };
   const Observer observer = [&](double t, const State& state, Data& data) {
-    if (writer) writer->write_row(t, state);
+    if (!out.empty()) open_writer().write_row(t, state);
     if (!store) return;
     keep(t, state, data);
     rows.energy.push_back(total_energy_of_kinematics(model, state, data));
   };
   const JointObserver joint_observer = [&](double t, const State& state, const VectorX& q,
                                            const VectorX& z, Data& data) {
-    if (writer) writer->write_row(t, state, q, z);
+    if (!out.empty()) open_writer().write_row(t, state, q, z);
     if (!store) return;
     keep(t, state, data);
     rows.energy.push_back(total_energy_of_kinematics(model, state, data) +
@@ -537,6 +542,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
     qa = float64_array(q_obj, "q", {rows, nq}, "(T, " + std::to_string(nq) + ")");
     za = float64_array(z_obj, "z", {rows, nz}, "(T, " + std::to_string(nz) + ")");
   }
+  io::check_output_path(path, {m.file().path});
   io::TrajectoryWriter writer(model, path, tree);
   Data data(model, DataOptions::recursive_only());
   State state(model);

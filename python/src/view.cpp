@@ -5,6 +5,7 @@
 
 #include "bindings.hpp"
 #include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/files.hpp"
 #include "kanedyn/io/trajectory.hpp"
 #ifdef KANEDYN_PYTHON_HAVE_VIEW
 #include "page.hpp"
@@ -29,7 +30,7 @@ size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
     for (py::ssize_t c = 0; c < columns; ++c)
       traj.values.push_back(doubles(table)[r * stride(table, 0) + c * stride(table, 1)]);
   const std::string text = view::page(model, m.file().path, traj, source, m.joints());
-  view::write_page(path, input, text);
+  io::write_file_atomically(path, text, {m.file().path, input});
   return text.size();
 #else
   (void)m, (void)path_obj, (void)table_obj, (void)source, (void)input;

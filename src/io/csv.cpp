@@ -1,5 +1,7 @@
 #include "kanedyn/io/csv.hpp"
 
+#include "kanedyn/io/files.hpp"
+
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
@@ -41,27 +43,6 @@ std::string system_error(const std::string& what, const std::string& file) {
 
 std::string quoted(const std::string& path) { return "'" + path + "'"; }
 
-/// Creates PATH.partial for writing without ever writing through a link: a leftover regular
-/// file of that name (from an interrupted run) is removed first; a symbolic link or anything
-/// else there is refused; O_EXCL | O_NOFOLLOW then refuses whatever appears in between.
-int create_partial(const std::string& partial) {
-  struct stat st {};
-  if (::lstat(partial.c_str(), &st) == 0) {
-    if (!S_ISREG(st.st_mode))
-      throw std::runtime_error("cannot create " + quoted(partial) + ": it exists and is " +
-                               (S_ISLNK(st.st_mode)   ? "a symbolic link"
-                                : S_ISDIR(st.st_mode) ? "a directory"
-                                                      : "not a regular file") +
-                               "; remove it, or choose another output");
-    if (::unlink(partial.c_str()) != 0 && errno != ENOENT)
-      throw std::runtime_error(system_error("cannot replace", partial));
-  }
-  const int fd =
-      ::open(partial.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
-  if (fd < 0) throw std::runtime_error(system_error("cannot create", partial));
-  return fd;
-}
-
 }  // namespace
 
 namespace {
@@ -83,37 +64,6 @@ namespace {
 }
 
 }  // namespace
-
-void check_output_path(const std::string& path, const std::string& input_path) {
-  namespace fs = std::filesystem;
-  if (path.empty()) throw std::runtime_error("the output file name is empty");
-  if (path.back() == '/')
-    throw std::runtime_error("output " + quoted(path) + " ends with '/': give a file name, e.g. " +
-                             quoted(path + "run.csv"));
-  std::error_code ec;
-  const fs::path out(path);
-  if (fs::is_directory(out, ec))
-    throw std::runtime_error("output " + quoted(path) + " is a directory: give a file name, e.g. " +
-                             quoted((out / "run.csv").string()));
-  const fs::path folder = out.has_parent_path() ? out.parent_path() : fs::path(".");
-  if (!fs::exists(folder, ec))
-    throw std::runtime_error("cannot write " + quoted(path) + ": its folder " +
-                             quoted(folder.string()) + " does not exist");
-  if (!fs::is_directory(folder, ec))
-    throw std::runtime_error("cannot write " + quoted(path) + ": " + quoted(folder.string()) +
-                             " is not a directory");
-  if (::access(folder.c_str(), W_OK | X_OK) != 0)
-    throw std::runtime_error("cannot write " + quoted(path) + ": its folder " +
-                             quoted(folder.string()) + " is not writable (" + std::strerror(errno) +
-                             ")");
-  if (!input_path.empty()) {
-    // The final file and the partial file both: either would destroy the input.
-    for (const std::string& target : {path, path + ".partial"})
-      if (fs::equivalent(target, input_path, ec))
-        throw std::runtime_error("output " + quoted(target) + " is the input file " +
-                                 quoted(input_path) + "; choose another output (-o)");
-  }
-}
 
 namespace {
 /// The joint columns of body k: 0 for free and weld joints (and without joints).
@@ -146,7 +96,7 @@ TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path, const J
   if (joints && joints->num_bodies() != model.num_bodies())
     throw std::invalid_argument("TrajectoryWriter: the joint tree is not the model's");
   check_output_path(path_);
-  fd_ = create_partial(partial_path());
+  fd_ = create_partial_file(partial_path());
   // A row holds 2 + 16N numbers (and the joint columns, 7 a body at most), each followed by
   // ',' or the newline.
   const size_t row_bytes = (kMaxNumberChars + 1) *
@@ -258,6 +208,9 @@ void TrajectoryWriter::close() {
 
 void TrajectoryWriter::finish() {
   close();
+  // What was a regular file or nothing when the run started must still be one: a FIFO or a
+  // link made there during the run is not replaced (the partial file stays).
+  check_output_path(path_);
   if (std::rename(partial_path().c_str(), path_.c_str()) != 0)
     throw std::runtime_error(system_error("cannot rename '" + partial_path() + "' to", path_));
 }

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "kanedyn/forces.hpp"
+#include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/io/urdf.hpp"
 #include "kanedyn/rotation.hpp"
@@ -1219,6 +1220,8 @@ void read_force(const Reader& r, const Field& f, const BodyNames& names,
   const Field body_field = m.require("body");
   const int body = body_reference(r, body_field, names);
   if (type == "joint_spring" || type == "joint_force") {
+    // A joint_force is its value: one left out is a mistake, not a zero (docs/model-format.md).
+    if (type == "joint_force") (void)m.require("value");
     loads.push_back(read_joint_load(r, m, type, body_field, body, joints));
     return;
   }
@@ -1373,45 +1376,13 @@ ModelFile parse_model_file(const std::string& text, const std::string& source_na
 }
 
 ModelFile load_model_file(const std::string& path) {
-  const auto fail = [&](const std::string& problem) {
-    throw ModelFileError(path, 0, 0, "", problem);
-  };
-  // O_NONBLOCK: opening a FIFO must not wait for a writer (it is refused below anyway).
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-  if (fd < 0) fail(std::string("cannot open: ") + std::strerror(errno));
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{fd};
-  struct stat st {};
-  if (::fstat(fd, &st) != 0) fail(std::string("cannot open: ") + std::strerror(errno));
-  if (S_ISDIR(st.st_mode)) fail("cannot open: is a directory");
-  if (!S_ISREG(st.st_mode))
-    fail("cannot read: not a regular file (a device, pipe or socket); a model file is a file");
-  if (static_cast<uint64_t>(st.st_size) > kMaxFileBytes) fail(Reader::too_large());
   std::string text;
   try {
-    // The size is a hint only: the file may change while it is read. The loop stops at the
-    // limit whatever the file does.
-    text.resize(static_cast<size_t>(st.st_size) + 1);
-    size_t used = 0;
-    for (;;) {
-      if (used == text.size()) {
-        if (text.size() > kMaxFileBytes) fail(Reader::too_large());
-        text.resize(std::min(2 * text.size(), kMaxFileBytes + 1));
-      }
-      const ssize_t got = ::read(fd, text.data() + used, text.size() - used);
-      if (got < 0) {
-        if (errno == EINTR) continue;
-        fail(std::string("cannot read: ") + std::strerror(errno));
-      }
-      if (got == 0) break;
-      used += static_cast<size_t>(got);
-    }
-    if (used > kMaxFileBytes) fail(Reader::too_large());
-    text.resize(used);
+    text = read_whole_file(open_regular_file(path), kMaxFileBytes, "a model file");
   } catch (const std::bad_alloc&) {
     out_of_memory(path);
+  } catch (const std::runtime_error& e) {
+    throw ModelFileError(path, 0, 0, "", e.what());
   }
   // A URDF robot reads as the model file `kanedyn import` writes for it (docs/urdf.md).
   if (path.ends_with(".urdf"))

@@ -2,13 +2,14 @@
 
 #include <charconv>
 #include <cmath>
-#include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
 #include <vector>
 
 #include "kanedyn/io/csv.hpp"
+#include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
 
 namespace kanedyn::io {
@@ -32,18 +33,31 @@ std::vector<std::string_view> fields(std::string_view line) {
   }
 }
 
-/// Opens the trajectory and checks that its header is this model's; `fail(line, problem)`
-/// builds the error.
+/// The longest line this model's trajectory can hold: the header, or a row of numbers in
+/// their longest shortest-round-trip form (24 characters) with a comma each. A file without line
+/// breaks is refused after this many bytes instead of being read whole.
+size_t max_line_length(const std::vector<std::string>& columns) {
+  size_t header = 0;
+  for (const std::string& c : columns) header += c.size() + 1;
+  return std::max(header, 32 * columns.size()) + 1024;
+}
+
+/// Opens the trajectory (a regular file only: a FIFO or a device is refused without waiting
+/// on it) and checks that its header is this model's; `fail(line, problem)` builds the error.
 template <typename Fail>
 std::vector<std::string> open_and_check_header(const Model& model, const JointTree* joints,
-                                               const std::string& path, std::ifstream& in,
-                                               const Fail& fail) {
-  in.open(path, std::ios::binary);
-  if (!in) throw fail(0, "cannot open the trajectory");
+                                               const std::string& path,
+                                               std::optional<LineReader>& in, const Fail& fail) {
   std::vector<std::string> columns = trajectory_columns(model, joints);
   std::string line;
-  if (!std::getline(in, line)) throw fail(0, "the trajectory is empty");
-  if (!line.empty() && line.back() == '\r') line.pop_back();
+  bool any = false;
+  try {
+    in.emplace(path);
+    any = in->next(line, max_line_length(columns));
+  } catch (const std::runtime_error& e) {
+    throw fail(0, std::string(e.what()) + " (the trajectory)");
+  }
+  if (!any) throw fail(0, "the trajectory is empty");
   const std::vector<std::string_view> header = fields(line);
   for (size_t c = 0; c < std::max(header.size(), columns.size()); ++c) {
     if (c < header.size() && c < columns.size() && header[c] == columns[c]) continue;
@@ -55,6 +69,46 @@ std::vector<std::string> open_and_check_header(const Model& model, const JointTr
                    (model.name().empty() ? std::string("this model") : "'" + model.name() + "'"));
   }
   return columns;
+}
+
+/// The next line of the file, or false at its end; its errors (a line too long, a read
+/// error) name the line.
+template <typename Fail>
+bool next_line(LineReader& in, const std::vector<std::string>& columns, std::string& line,
+               int line_no, const Fail& fail) {
+  try {
+    return in.next(line, max_line_length(columns));
+  } catch (const std::runtime_error& e) {
+    throw fail(line_no, std::string(e.what()) + ", longer than any row of this model's trajectory");
+  }
+}
+
+/// A row is a state: every body's Euler parameters (e1..e4) and every spherical joint's q
+/// (j1..j4) have norm 1 within the model file's tolerance, 1e-6 (docs/model-format.md).
+template <typename Fail>
+void check_row_state(const Model& model, const JointTree* joints,
+                     const std::vector<std::string>& columns, const std::vector<double>& row,
+                     int line_no, const Fail& fail) {
+  constexpr double kTolerance = 1e-6;
+  const auto check = [&](size_t first, const char* what) {
+    double sum = 0.0;
+    for (size_t i = 0; i < 4; ++i) sum += row[first + i] * row[first + i];
+    const double norm = std::sqrt(sum);
+    if (!(std::abs(norm - 1.0) <= kTolerance))
+      throw fail(line_no, "columns '" + columns[first] + "' to '" + columns[first + 3] +
+                              "' are not " + what + ": their norm is " + number(norm) +
+                              ", not 1 within 1e-6");
+  };
+  size_t b = 1;
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    check(b + 3, "Euler parameters");
+    b += 16;
+    if (!joints) continue;
+    const JointType type = joints->joint(k).type;
+    if (type == JointType::free || type == JointType::weld) continue;
+    if (type == JointType::spherical) check(b, "a spherical joint's Euler parameters");
+    b += static_cast<size_t>(coordinate_count(type) + speed_count(type));
+  }
 }
 
 /// Parses one data row into `row` (its size is the number of columns).
@@ -82,7 +136,7 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
-  std::ifstream in;
+  std::optional<LineReader> in;
   const std::vector<std::string> columns = open_and_check_header(model, joints, path, in, fail);
   std::string line;
   // One pass: keep the row nearest to t and the times of its neighbours.
@@ -91,11 +145,11 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
   int best_line = 0, line_no = 1;
   double t_first = 0.0, t_last = 0.0, before_best = NAN, after_best = NAN, prev_t = NAN;
   bool any = false, take_next = false;
-  while (std::getline(in, line)) {
+  while (next_line(*in, columns, line, line_no + 1, fail)) {
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
     parse_row(line, line_no, columns, row, fail);
+    check_row_state(model, joints, columns, row, line_no, fail);
     const double tr = row[0];
     if (take_next) {
       after_best = tr;
@@ -164,17 +218,17 @@ Trajectory read_trajectory(const Model& model, const std::string& path, const Jo
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
-  std::ifstream in;
+  std::optional<LineReader> in;
   Trajectory out;
   out.columns = open_and_check_header(model, joints, path, in, fail);
   std::vector<double> row(out.columns.size());
   std::string line;
   int line_no = 1;
-  while (std::getline(in, line)) {
+  while (next_line(*in, out.columns, line, line_no + 1, fail)) {
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
     parse_row(line, line_no, out.columns, row, fail);
+    check_row_state(model, joints, out.columns, row, line_no, fail);
     // Interpolating between rows needs times in order.
     if (!out.values.empty() && row[0] < out.values[out.values.size() - out.columns.size()])
       throw fail(line_no, "t = " + number(row[0]) + " is before the previous row's t = " +

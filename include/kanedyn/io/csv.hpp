@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kanedyn/data.hpp"
+#include "kanedyn/io/files.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
@@ -20,11 +21,6 @@ namespace kanedyn::io {
 /// whose joint is neither free nor weld adds NAME.j1..j<n> (its q) and NAME.jd1..jd<m> (its z)
 /// right after its own columns.
 std::vector<std::string> trajectory_columns(const Model& model, const JointTree* joints = nullptr);
-
-/// Throws std::runtime_error, naming the path and the problem, unless a trajectory can be
-/// written to `path`: not empty, not ending in '/', not a directory, in an existing writable
-/// folder, and (when input_path is given) neither it nor PATH.partial is that input file.
-void check_output_path(const std::string& path, const std::string& input_path = "");
 
 /// Streams a trajectory to PATH.partial.
 class TrajectoryWriter {

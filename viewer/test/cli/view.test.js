@@ -191,7 +191,7 @@ test('a partial file that is a link is not written through', () => {
   symlinkSync('target.txt', join(dir, 'linked.html.partial'));
   const r = kanedyn(dir, 'view', eight, 'eight.csv', '-o', 'linked.html');
   assert.equal(r.code, 1);
-  assert.equal(r.err, "kanedyn: error: cannot write linked.html.partial: it exists and is not a regular file\n");
+  assert.equal(r.err, "kanedyn: error: cannot create 'linked.html.partial': it exists and is a symbolic link; remove it, or choose another output\n");
   assert.equal(readFileSync(join(dir, 'target.txt'), 'utf8'), 'keep');
   assert.ok(!existsSync(join(dir, 'linked.html')));
 });
