@@ -331,7 +331,7 @@ TEST(SimulateCommand, SettingsTheModelCannotRunFailBeforeTheRun) {
   EXPECT_NE(r.err.find("use the recursive route"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("DataOptions"), std::string::npos) << r.err;
   EXPECT_EQ(files_left(dir, {"long.yaml"}), std::vector<std::string>{});
-  // eom prints the dense [A]: refused past 1000 bodies, naming the file.
+  // eom prints the dense [A]: refused past kMaxEomBodies, naming the file.
   r = run_in(dir, "eom long.yaml");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("kanedyn: error: long.yaml: eom prints the dense 6N x 6N [A]"),

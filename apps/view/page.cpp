@@ -258,11 +258,25 @@ std::string page_data(const Model& model, const std::string& model_file,
   d["f32_columns"] = std::move(f32_columns);
   d["f64"] = base64_of(f64);
   d["f32"] = base64_of(f32);
-  // Inside <script>, "</" could close the element: JSON allows the escape "<\/".
-  std::string text = d.dump(-1, ' ', false, Json::error_handler_t::replace);
-  for (std::size_t p = text.find("</"); p != std::string::npos; p = text.find("</", p + 3))
-    text.replace(p, 2, "<\\/");
-  return text;
+  // Inside <script>, "</script" would close the element and "<!--" followed by "<script"
+  // would put the tokenizer in its double-escaped state, where the element's own end tag no
+  // longer closes it. With no '<' at all, neither can happen; '>' and '&' go too, so the data
+  // means the same wherever an HTML parser meets it. These characters occur only inside JSON
+  // strings, where \u escapes are the same text.
+  const std::string text = d.dump(-1, ' ', false, Json::error_handler_t::replace);
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    if (c == '<')
+      out += "\\u003c";
+    else if (c == '>')
+      out += "\\u003e";
+    else if (c == '&')
+      out += "\\u0026";
+    else
+      out += c;
+  }
+  return out;
 }
 
 }  // namespace

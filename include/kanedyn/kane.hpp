@@ -19,7 +19,10 @@ namespace kanedyn {
 void kane_equations(const Model& model, const State& state, Data& data);
 
 /// The largest N for which the `eom` outputs (the tool's and Python's Model.eom) form the dense
-/// 6N x 6N [A]: 36 N^2 doubles, 288 MB (and about 0.7 GB of JSON) at 1000 bodies.
-constexpr int kMaxEomBodies = 1000;
+/// 6N x 6N [A]: 36 N^2 doubles. A chain's [A] is full and its tree LDL^T O(N^3): at 300
+/// bodies eom takes about 0.6 s (1.6 s and 13 MB with --json) on a 2-core machine, at 1000
+/// about 16 s (29 s, 150 MB of JSON and 1.8 GB of memory), past what a table or a JSON
+/// object of one state is for. Larger models: inspect (per body), bench, simulate.
+constexpr int kMaxEomBodies = 300;
 
 }  // namespace kanedyn

@@ -431,7 +431,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def("eom", &equations_of_motion, py::arg("state") = py::none(),
            "Kane's equations at a state (default: the initial state): [A] (Eq. 37), {f} (Eq. "
            "38), {y dot} (Eq. 36), {x dot} (Eqs. 39-40) and {F_y} (Eq. 31), the same numbers as "
-           "`kanedyn eom --json`. At most 1000 bodies (the dense [A]).")
+           "`kanedyn eom --json`. At most 300 bodies (the dense [A]).")
       .def(
           "inspect",
           [](const PyModel& p, py::object state_obj, double t, py::object bodies, py::object q_obj,

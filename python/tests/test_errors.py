@@ -229,12 +229,12 @@ def test_hostile_inputs_do_not_crash_the_interpreter() -> None:
 
 
 def test_eom_refuses_more_bodies_than_the_tool_prints(tmp_path) -> None:
-    path = tmp_path / "chain1001.yaml"
+    path = tmp_path / "chain301.yaml"
     subprocess.run(
-        [sys.executable, str(EXAMPLES / "make_chain.py"), "1001", "-o", str(path)], check=True
+        [sys.executable, str(EXAMPLES / "make_chain.py"), "301", "-o", str(path)], check=True
     )
     chain = kanedyn.load(path)
-    with pytest.raises(ValueError, match=r"N = 1001 is more than 1000"):
+    with pytest.raises(ValueError, match=r"N = 301 is more than 300"):
         chain.eom()
     tool = run_tool(["eom", path])
-    assert tool.returncode == 1 and "is more than the 1000 bodies" in tool.stderr
+    assert tool.returncode == 1 and "is more than the 300 bodies" in tool.stderr
