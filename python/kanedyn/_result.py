@@ -150,12 +150,12 @@ class Result:
         return os.fspath(path)
 
     @classmethod
-    def read_csv(cls, model: Any, path: Union[str, os.PathLike]) -> "Result":
+    def read_csv(cls, model: Any, path: Union[str, bytes, os.PathLike]) -> "Result":
         """A trajectory CSV of this model, read back to the same doubles by the tool's own
         reader (the header must be this model's, every row whole, times in order); ValueError
         names the file, the line and the problem."""
-        path = os.fspath(path)
         table = model._read_csv(path)
+        path = os.fsdecode(path)
         n = model.N
         rows = table.shape[0]
         q = z = None

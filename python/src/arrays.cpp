@@ -137,6 +137,29 @@ std::string copy_speeds(const Model& model, const double* values, py::ssize_t st
   return "";
 }
 
+std::string path_argument(py::handle obj, const char* name) {
+  const py::module_ os = py::module_::import("os");
+  py::object path;
+  try {
+    path = os.attr("fspath")(obj);
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_TypeError)) throw;
+    throw py::type_error(std::string(name) + " must be a path (str, bytes or os.PathLike), not " +
+                         std::string(py::str(obj.get_type().attr("__name__"))));
+  }
+  const auto bytes = py::reinterpret_borrow<py::bytes>(
+      py::isinstance<py::bytes>(path) ? path : os.attr("fsencode")(path));
+  std::string out = bytes;
+  if (out.find('\0') != std::string::npos) throw py::value_error("embedded null byte");
+  return out;
+}
+
+py::str path_str(const std::string& path) {
+  PyObject* s = PyUnicode_DecodeFSDefaultAndSize(path.data(), static_cast<Py_ssize_t>(path.size()));
+  if (!s) throw py::error_already_set();
+  return py::reinterpret_steal<py::str>(s);
+}
+
 State state_argument(const PyModel& m, py::handle obj) {
   if (obj.is_none()) return m.file().initial;
   if (!py::isinstance<State>(obj))

@@ -101,6 +101,15 @@ State state_argument(const PyModel& m, py::handle obj);
 /// shapes, finite, unit Euler parameters (ValueError naming the body).
 VectorX joint_arguments(const PyModel& m, py::object q, py::object z);
 
+/// A path argument as open() takes one: str, bytes or os.PathLike (by os.fspath), encoded as
+/// os.fsencode does (so that a name os.listdir gave back round-trips). A NUL byte raises
+/// ValueError("embedded null byte"), as open() does: the C library would end the name there
+/// and read or write another file. `name` names the argument in the TypeError for a
+/// non-path.
+std::string path_argument(py::handle obj, const char* name);
+/// A path for Python: a str decoded as os.fsdecode does, the inverse of path_argument.
+py::str path_str(const std::string& path);
+
 /// C-contiguous float64 copies.
 py::array_t<double> to_numpy(const VectorX& v);
 py::array_t<double> to_numpy(const MatrixX& m);

@@ -289,7 +289,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
 
   m.def(
       "_load_file",
-      [](const std::string& path) {
+      [](py::handle path_obj) {
+        const std::string path = path_argument(path_obj, "path");
         try {
           py::gil_scoped_release release;
           return std::make_shared<PyModel>(io::load_model_file(path));
@@ -314,7 +315,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def_property_readonly(
           "name", [](const PyModel& p) { return p.model().name(); }, "the model's name")
       .def_property_readonly(
-          "path", [](const PyModel& p) { return p.file().path; },
+          "path", [](const PyModel& p) { return path_str(p.file().path); },
           "the file it was loaded from ('<string>' or '<dict>' otherwise)")
       .def_property_readonly(
           "L",

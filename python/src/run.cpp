@@ -413,7 +413,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   std::unique_ptr<io::BackgroundTrajectoryWriter> writer;
   std::string out;
   if (!output.is_none()) {
-    out = py::str(py::module_::import("os").attr("fspath")(output));
+    out = path_argument(output, "output");
     io::check_output_path(out, {m.file().path});
   }
   if (progress.is(py::bool_(true)))
@@ -508,7 +508,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
                      self, adopt(std::move(rows.t), {T}), adopt(std::move(rows.x), {T, 7 * n}),
                      adopt(std::move(rows.y), {T, 6 * n}), adopt(std::move(rows.p_G), {T, n, 3}),
                      adopt(std::move(rows.energy), {T}), stats_out,
-                     out.empty() ? py::object(py::none()) : py::object(py::str(out)), q, z);
+                     out.empty() ? py::object(py::none()) : py::object(path_str(out)), q, z);
   }
   if (!stats.ok()) {
     const std::string message =
@@ -529,7 +529,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
                py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj) {
   const Model& model = m.model();
   const int n = m.N();
-  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_obj));
+  const std::string path = path_argument(path_obj, "path");
   const auto t = float64_array(t_obj, "t", {-1}, "(T,)");
   const py::ssize_t rows = t.shape(0);
   const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
@@ -562,7 +562,8 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
 
 /// A trajectory CSV of this model as its (T, 2 + 16N) table, by io::read_trajectory (the
 /// reader of the tool's view and inspect --trajectory); its errors as ValueError.
-py::array_t<double> read_csv(const PyModel& m, const std::string& path) {
+py::array_t<double> read_csv(const PyModel& m, py::handle path_obj) {
+  const std::string path = path_argument(path_obj, "path");
   io::Trajectory traj;
   try {
     py::gil_scoped_release release;
