@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -153,7 +154,26 @@ py::array output_array(py::handle obj, const char* name, py::ssize_t rows, py::s
   return a;
 }
 
-py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int threads,
+/// The number of threads asked for, capped at the hardware's: more than that only share the
+/// same cores, and each costs a stack of address space (enough of them fail to start).
+py::ssize_t thread_count(py::handle obj, unsigned cores) {
+  if (PyBool_Check(obj.ptr())) throw py::type_error("threads must be an integer, got a bool");
+  PyObject* index = PyNumber_Index(obj.ptr());
+  if (!index) {
+    PyErr_Clear();
+    throw py::type_error("threads must be an integer, got " +
+                         std::string(py::str(obj.get_type().attr("__name__"))));
+  }
+  const auto value = py::reinterpret_steal<py::int_>(index);
+  int overflow = 0;
+  const long long asked = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+  if (overflow < 0 || (overflow == 0 && asked < 0))
+    throw py::value_error("threads must be >= 0 (0: every core), got a negative number");
+  if (overflow > 0 || asked == 0 || asked > static_cast<long long>(cores)) return cores;
+  return static_cast<py::ssize_t>(asked);
+}
+
+py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::object threads_obj,
                             py::object out) {
   refuse_jointed(m, "derivatives_batch()");
   const int n = m.N();
@@ -164,7 +184,8 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
   const auto ya = float64_array(
       Y, "Y", {rows, 6 * n},
       "(M, 6N) = (" + std::to_string(rows) + ", " + std::to_string(6 * n) + ") (M from X)");
-  if (threads < 0) throw py::value_error("threads must be >= 0 (0: every core)");
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const py::ssize_t threads = thread_count(threads_obj, cores);
   py::array xd, yd;
   if (out.is_none()) {
     xd = py::array_t<double>({rows, static_cast<py::ssize_t>(7 * n)});
@@ -179,9 +200,7 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
     if (py::module_::import("numpy").attr("may_share_memory")(xd, yd).cast<bool>())
       throw py::value_error("out: Xd and Yd must not share memory");
   }
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const py::ssize_t workers =
-      std::max<py::ssize_t>(1, std::min<py::ssize_t>(threads > 0 ? threads : cores, rows));
+  const py::ssize_t workers = std::max<py::ssize_t>(1, std::min<py::ssize_t>(threads, rows));
   const double* x_in = doubles(xa);
   const double* y_in = doubles(ya);
   const py::ssize_t xs0 = stride(xa, 0), xs1 = stride(xa, 1);
@@ -191,10 +210,13 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
   // Each worker records the first bad row of its share; the lowest row is reported.
   std::vector<py::ssize_t> bad_row(static_cast<size_t>(workers), -1);
   std::vector<std::string> bad(static_cast<size_t>(workers));
+  // Set when a thread could not be started: the rest stop at their next row.
+  std::atomic<bool> abandoned{false};
   const auto work = [&](py::ssize_t w) {
     PyModel::Lease lease(m);
     const py::ssize_t first = rows * w / workers, last = rows * (w + 1) / workers;
     for (py::ssize_t r = first; r < last; ++r) {
+      if (abandoned.load(std::memory_order_relaxed)) return;
       std::string problem =
           copy_coordinates(m.model(), x_in + r * xs0, xs1, lease->state.x, "X", r);
       if (problem.empty())
@@ -209,13 +231,25 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
       std::copy_n(lease->data.ydot.data(), 6 * n, y_out + r * 6 * n);
     }
   };
+  std::string start_failure;
   {
     py::gil_scoped_release release;
     std::vector<std::thread> pool;
-    for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
-    work(0);
+    pool.reserve(static_cast<size_t>(workers));
+    // A thread that cannot be started (a limit on threads or on address space) must not
+    // leave the started ones joinable when the exception unwinds: that calls std::terminate.
+    try {
+      for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
+    } catch (const std::exception& e) {
+      abandoned = true;
+      start_failure = "derivatives_batch(): cannot start thread " +
+                      std::to_string(pool.size() + 2) + " of " + std::to_string(workers) + " (" +
+                      e.what() + "); ask for fewer threads";
+    }
+    if (start_failure.empty()) work(0);
     for (std::thread& th : pool) th.join();
   }
+  if (!start_failure.empty()) throw std::runtime_error(start_failure);
   for (size_t w = 0; w < bad_row.size(); ++w)
     if (bad_row[w] >= 0) throw py::value_error(bad[w]);
   return py::make_tuple(xd, yd);
@@ -599,8 +633,9 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
   cls.def("derivatives_batch", &derivatives_batch, py::arg("X"), py::arg("Y"),
           py::arg("threads") = 0, py::arg("out") = py::none(),
           "(Xd, Yd) for M states at once: X (M, 7N), Y (M, 6N) -> Xd (M, 7N), Yd (M, 6N), row "
-          "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0: every core) with "
-          "the GIL released. out=(Xd, Yd): write into these float64 C-contiguous arrays instead of "
+          "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0, or more than the "
+          "hardware has: one per core) with the GIL released; RuntimeError if a thread cannot "
+          "be started. out=(Xd, Yd): write into these float64 C-contiguous arrays instead of "
           "new ones (and return them); a loop that reuses them saves the first touch of new "
           "memory, which costs as much as the evaluations on small models.")
       .def("_simulate", &simulate_model, py::arg("settings"), py::arg("initial"), py::arg("output"),

@@ -72,3 +72,96 @@ def test_paths_are_what_open_takes(eight, tmp_path) -> None:
         kanedyn.load(bytearray(b"x.yaml"))
 
 
+# --- threads -----------------------------------------------------------------------------------
+
+
+def _threads_of_this_process() -> int:
+    return len(os.listdir("/proc/self/task"))
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="counts threads in /proc")
+def test_batch_threads_are_capped_at_the_cores() -> None:
+    chain = kanedyn.load(EXAMPLES / "chain64.yaml")
+    s = chain.initial_state()
+    X = np.tile(s.x, (20000, 1))
+    Y = np.tile(s.y, (20000, 1))
+    want = chain.derivatives_batch(X[:50], Y[:50], threads=1)
+    for many in (os.cpu_count() or 1) + 5, 10**20:
+        got = chain.derivatives_batch(X[:50], Y[:50], threads=many)
+        assert got[0].tobytes() == want[0].tobytes() and got[1].tobytes() == want[1].tobytes()
+    # Count the threads while a batch asks for 64: the caller, and at most one more per core
+    # besides the one the caller's thread works on.
+    baseline = _threads_of_this_process()
+    done = threading.Event()
+
+    def batch() -> None:
+        chain.derivatives_batch(X, Y, threads=64)
+        done.set()
+
+    caller = threading.Thread(target=batch)
+    caller.start()
+    most = 0
+    while not done.is_set():
+        most = max(most, _threads_of_this_process())
+        time.sleep(0.0005)
+    caller.join()
+    cores = os.cpu_count() or 1
+    assert baseline + 1 <= most <= baseline + 1 + (cores - 1), (baseline, most, cores)
+
+
+_THREAD_LIMIT_SCRIPT = """
+import os, resource, sys
+import numpy as np
+import kanedyn
+
+which, out = sys.argv[1], sys.argv[2]
+m = kanedyn.load({model!r})
+s = m.initial_state()
+X = np.tile(s.x, (64, 1))
+Y = np.tile(s.y, (64, 1))
+target = (np.empty_like(X), np.empty_like(Y))
+# Everything the calls need besides the new thread is made now, on this thread alone (a
+# thread that ran and ended would leave its stack cached for the next one).
+m.derivatives_batch(X, Y, threads=1, out=target)
+m.simulate(t_end=0.05)
+size = int(next(l for l in open("/proc/self/status") if l.startswith("VmSize:")).split()[1])
+# 2 MiB more address space than is mapped: no thread stack (8 MiB by default) fits.
+resource.setrlimit(resource.RLIMIT_AS, (size * 1024 + (2 << 20), resource.RLIM_INFINITY))
+try:
+    if which == "batch":
+        m.derivatives_batch(X, Y, threads=2, out=target)
+    else:
+        m.simulate(t_end=0.05, output=out)
+    outcome = "no error"
+except Exception as e:
+    outcome = type(e).__name__ + ": " + str(e)
+finally:
+    resource.setrlimit(resource.RLIMIT_AS, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
+print(outcome)
+"""
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="reads VmSize from /proc")
+@pytest.mark.parametrize("which", ["batch", "simulate"])
+def test_a_thread_that_cannot_start_is_an_exception(which, tmp_path) -> None:
+    """RLIMIT_AS just above what the process has mapped, so that a thread's stack cannot be
+    mapped (RLIMIT_NPROC would do for a user, but is not enforced for root). The interpreter
+    must get a RuntimeError and exit normally, not abort (returncode -6)."""
+    if which == "batch" and (os.cpu_count() or 1) < 2:
+        pytest.skip("one core: derivatives_batch starts no thread")
+    out = tmp_path / "run.csv"
+    script = _THREAD_LIMIT_SCRIPT.format(model=str(EXAMPLES / "eight_body.yaml"))
+    done = subprocess.run(
+        [sys.executable, "-c", script, which, str(out)], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, (done.returncode, done.stderr[-2000:])
+    if which == "batch":
+        assert done.stdout.startswith("RuntimeError: derivatives_batch(): cannot start thread 2 of 2"), done.stdout
+        assert "ask for fewer threads" in done.stdout
+    else:
+        assert done.stdout.startswith("RuntimeError: cannot start the thread that writes"), done.stdout
+        assert str(out) + ".partial" in done.stdout
+    # The run had not begun: neither the CSV nor a partial file with only its header is left.
+    assert not any(tmp_path.iterdir())
+
+
