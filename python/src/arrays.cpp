@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
 
 #include "bindings.hpp"
@@ -158,6 +159,32 @@ py::str path_str(const std::string& path) {
   PyObject* s = PyUnicode_DecodeFSDefaultAndSize(path.data(), static_cast<Py_ssize_t>(path.size()));
   if (!s) throw py::error_already_set();
   return py::reinterpret_steal<py::str>(s);
+}
+
+long long integer_argument(py::handle obj, const std::string& name, long long lo, long long hi) {
+  const auto type_name = [&] { return std::string(py::str(obj.get_type().attr("__name__"))); };
+  if (PyBool_Check(obj.ptr())) throw py::type_error(name + " must be an integer, got a bool");
+  PyObject* index = PyNumber_Index(obj.ptr());
+  if (!index) {
+    PyErr_Clear();
+    throw py::type_error(name + " must be an integer, got " + type_name());
+  }
+  const auto value = py::reinterpret_steal<py::int_>(index);
+  int overflow = 0;
+  const long long v = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+  if (overflow == 0 && v >= lo && v <= hi) return v;
+  // str() of an int of thousands of digits raises (Python 3.11's limit); a huge one is
+  // shown by its first digits.
+  std::string text;
+  try {
+    text = py::str(static_cast<py::handle>(value));
+  } catch (py::error_already_set&) {
+    text = "(an integer of more than 4300 digits)";
+  }
+  if (text.size() > 40)
+    text = text.substr(0, 20) + "... (" + std::to_string(text.size()) + " digits)";
+  throw py::value_error(name + " " + text + " is not in " + std::to_string(lo) + ".." +
+                        std::to_string(hi));
 }
 
 State state_argument(const PyModel& m, py::handle obj) {

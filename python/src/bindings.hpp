@@ -110,6 +110,11 @@ std::string path_argument(py::handle obj, const char* name);
 /// A path for Python: a str decoded as os.fsdecode does, the inverse of path_argument.
 py::str path_str(const std::string& path);
 
+/// An integer argument: a Python int or anything with __index__ (numpy integers), not a
+/// bool. TypeError otherwise; ValueError "NAME VALUE is not in LO..HI" when out of the range,
+/// however large (pybind11's own conversion would raise TypeError for an int beyond 64 bits).
+long long integer_argument(py::handle obj, const std::string& name, long long lo, long long hi);
+
 /// C-contiguous float64 copies.
 py::array_t<double> to_numpy(const VectorX& v);
 py::array_t<double> to_numpy(const MatrixX& m);

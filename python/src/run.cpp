@@ -105,7 +105,10 @@ PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t
     if (given[2]) {
       t = PyFloat_AsDouble(given[2]);
       if (t == -1.0 && PyErr_Occurred()) {
+        // An int too large for a double is a number, just not a finite time.
+        const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError);
         PyErr_Clear();
+        if (overflow) throw py::value_error("t must be finite");
         throw py::type_error("t must be a number");
       }
     }
@@ -262,18 +265,35 @@ py::array_t<double> adopt(std::vector<double>&& values, std::vector<py::ssize_t>
   return py::array_t<double>(shape, heap->data(), owner);
 }
 
+/// repr(value), cut to its first digits when long (an int of 10**400, say).
+std::string shown_value(py::handle value) {
+  std::string shown;
+  try {
+    shown = py::repr(value);
+  } catch (py::error_already_set&) {  // str() of an int of more than 4300 digits raises
+    return "an integer of more than 4300 digits";
+  }
+  if (shown.size() > 40)
+    shown = shown.substr(0, 20) + "... (" + std::to_string(shown.size()) + " characters)";
+  return shown;
+}
+
 double positive_setting(py::handle value, const char* name) {
   double v = 0.0;
+  const bool is_bool = py::isinstance<py::bool_>(value);
   try {
-    if (py::isinstance<py::bool_>(value) || py::isinstance<py::str>(value)) throw py::cast_error();
+    if (is_bool || py::isinstance<py::str>(value)) throw py::cast_error();
     v = value.cast<double>();
   } catch (const py::cast_error&) {
-    throw py::type_error(std::string(name) + " must be a number, got " +
-                         std::string(py::str(value.get_type().attr("__name__"))));
+    // An int beyond the range of a double is a number, just not a finite one.
+    if (is_bool || !py::isinstance<py::int_>(value))
+      throw py::type_error(std::string(name) + " must be a number, got " +
+                           std::string(py::str(value.get_type().attr("__name__"))));
+    v = std::numeric_limits<double>::infinity();
   }
   if (!(std::isfinite(v) && v > 0.0))
     throw py::value_error(std::string(name) + " must be a finite number > 0, got " +
-                          std::string(py::repr(value)));
+                          shown_value(value));
   return v;
 }
 
@@ -612,7 +632,9 @@ py::array_t<double> read_csv(const PyModel& m, py::handle path_obj) {
 
 /// Seconds per forward_dynamics call, looped in C++: the baseline of the call-overhead
 /// benchmark (bench/python/bench_python.py).
-double time_derivatives(const PyModel& m, py::object state_obj, long calls) {
+double time_derivatives(const PyModel& m, py::object state_obj, py::handle calls_obj) {
+  const long calls =
+      static_cast<long>(integer_argument(calls_obj, "calls", 1, std::numeric_limits<long>::max()));
   const State state = state_argument(m, state_obj);
   PyModel::Lease work(m);
   work->state = state;

@@ -165,3 +165,63 @@ def test_a_thread_that_cannot_start_is_an_exception(which, tmp_path) -> None:
     assert not any(tmp_path.iterdir())
 
 
+# --- integers ----------------------------------------------------------------------------------
+
+
+def test_integers_out_of_range_name_the_range(eight) -> None:
+    for bodies in (10**20, [10**20], [-(10**20)], np.int64(9), [0]):
+        with pytest.raises(ValueError, match=r"bodies: body number -?\d+ is not in 1\.\.8"):
+            eight.inspect(bodies=bodies)
+    with pytest.raises(ValueError, match=r"body number .*digits.* is not in 1\.\.8"):
+        eight.inspect(bodies=10**5000)
+    assert [b.K for b in eight.inspect(bodies=np.int64(3)).bodies] == [3]
+    assert [b.K for b in eight.inspect(bodies=np.array([2, 5])).bodies] == [2, 5]
+    with pytest.raises(ValueError, match=r"body number 100000000000000000000 is not in 1\.\.8"):
+        eight.symbolic_partial(10**20)
+    with pytest.raises(KeyError, match="no body 100000000000000000000"):
+        eight.inspect(bodies=[1])[10**20]
+    s = eight.initial_state()
+    with pytest.raises(ValueError, match="t must be finite"):
+        eight.derivatives(s.x, s.y, 10**400)
+    with pytest.raises(ValueError, match=r"t_end must be a finite number > 0, got 1000"):
+        eight.simulate(t_end=10**400)
+    with pytest.raises(TypeError, match="t_end must be a number, got bool"):
+        eight.simulate(t_end=True)
+    X, Y = np.tile(s.x, (3, 1)), np.tile(s.y, (3, 1))
+    with pytest.raises(ValueError, match="threads must be >= 0"):
+        eight.derivatives_batch(X, Y, threads=-(10**20))
+    with pytest.raises(TypeError, match="threads must be an integer, got float"):
+        eight.derivatives_batch(X, Y, threads=2.0)
+    with pytest.raises(ValueError, match=r"calls 100000000000000000000 is not in 1\.\."):
+        eight._time_derivatives(None, 10**20)
+    # A broadcast array can claim 7N numbers for N beyond the library's int.
+    big = 2**31
+    with pytest.raises(ValueError, match=r"x must have shape \(7N,\) for N in 1\.\.306783378"):
+        kanedyn.State(np.broadcast_to(0.0, (7 * big,)), np.broadcast_to(0.0, (6 * big,)))
+
+
+# --- State.normalize ---------------------------------------------------------------------------
+
+
+def test_normalize_refuses_a_norm_it_cannot_divide_by() -> None:
+    s = kanedyn.State(np.zeros(7), np.zeros(6))
+    with pytest.raises(ValueError, match=r"body 1 \(x\[0:4\]\) have norm 0"):
+        s.normalize()
+    assert np.array_equal(s.x, np.zeros(7))  # unchanged, not nan
+    x = np.zeros(14)
+    x[0:4] = [0, 0, 0, 2]
+    two = kanedyn.State(x, np.zeros(12))
+    with pytest.raises(ValueError, match=r"body 2 \(x\[4:8\]\) have norm 0"):
+        two.normalize()
+    assert two.x[3] == 2.0  # body 1 not rescaled either: nothing changes
+    two.x[4:8] = [np.nan, 0, 0, 1]
+    with pytest.raises(ValueError, match=r"body 2 .* have norm nan"):
+        two.normalize()
+    two.x[4:8] = [0, 0, 0, np.inf]
+    with pytest.raises(ValueError, match=r"body 2 .* have norm inf"):
+        two.normalize()
+    two.x[4:8] = [0, 0, 3, 4]
+    assert two.normalize() == 4.0  # the largest | |eps_K| - 1 |
+    assert np.allclose(two.x[:8], [0, 0, 0, 1, 0, 0, 0.6, 0.8])
+
+
