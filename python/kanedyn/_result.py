@@ -129,12 +129,15 @@ class Result:
         out[:, -1] = self.energy
         return out
 
-    def to_csv(self, path: Union[str, os.PathLike]) -> None:
+    def to_csv(self, path: Union[str, bytes, os.PathLike]) -> None:
         """Writes the trajectory CSV, byte for byte what `kanedyn simulate` writes for the same
-        run: to PATH.partial, renamed to PATH when complete."""
+        run: to PATH.partial, renamed to PATH when complete. The rows are checked first: a
+        number that is not finite, Euler parameters not of unit norm (within 1e-6), times out
+        of order or no rows at all raise ValueError naming the array, row and column, and no
+        file is created (the tool's reader would refuse such a file)."""
         self.model._write_csv(path, self.t, self.x, self.y, self.energy, self.q, self.z)
 
-    def view(self, path: Union[str, os.PathLike, None] = None) -> str:
+    def view(self, path: Union[str, bytes, os.PathLike, None] = None) -> Union[str, bytes]:
         """Writes the web page of `kanedyn view` for this trajectory (docs/viewer.md): one
         self-contained HTML file that animates the model and plots the columns. The default
         path is the CSV's name (when the run streamed one), else the model file's, with .html,

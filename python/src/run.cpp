@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -577,8 +578,110 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   return store ? result : py::object(stats_out);
 }
 
+/// "NAME[r, c] is nan" (and what the column holds, when `what` is given) for the first
+/// non-finite number of the (rows, cols) array a, or "".
+template <class Describe>
+std::string first_non_finite(const py::array& a, const char* name, py::ssize_t rows,
+                             py::ssize_t cols, const Describe& what) {
+  const bool vector = a.ndim() == 1;
+  for (py::ssize_t r = 0; r < rows; ++r)
+    for (py::ssize_t c = 0; c < cols; ++c) {
+      const double v = doubles(a)[r * stride(a, 0) + (vector ? 0 : c * stride(a, 1))];
+      if (std::isfinite(v)) continue;
+      const std::string at =
+          vector ? std::to_string(r) : std::to_string(r) + ", " + std::to_string(c);
+      const std::string described = what(c);
+      return std::string(name) + "[" + at + "] is " +
+             (std::isnan(v) ? "nan"
+              : v > 0       ? "inf"
+                            : "-inf") +
+             (described.empty() ? "" : " (" + described + ")");
+    }
+  return "";
+}
+
+/// The norm of 4 numbers as the trajectory reader computes it (check_row_state in
+/// src/io/trajectory.cpp), so that a row passed here is never refused there.
+double reader_norm(const double* values, py::ssize_t stride) {
+  double sum = 0.0;
+  for (int i = 0; i < 4; ++i) sum += values[i * stride] * values[i * stride];
+  return std::sqrt(sum);
+}
+
+/// Every reason the trajectory reader would refuse the CSV of these rows, as one ValueError
+/// naming the array, the row and the column: a non-finite number, Euler parameters (or a
+/// spherical joint's) not of unit norm within 1e-6, a time before the previous row's, no rows;
+/// and a mass centre that overflows (the writer would refuse that row). Checked before any
+/// file is created, so that a refused to_csv leaves nothing behind.
+void check_rows(const PyModel& m, const py::array& t, const py::array& x, const py::array& y,
+                const py::array& energy, const py::array& qa, const py::array& za) {
+  const Model& model = m.model();
+  const int n = m.N();
+  const JointTree* tree = m.joints();
+  const py::ssize_t rows = t.shape(0);
+  const auto fail = [](const std::string& problem) {
+    throw py::value_error("to_csv: " + problem + "; nothing was written");
+  };
+  if (rows == 0) fail("the result has no rows (a trajectory CSV has at least one)");
+  const auto none = [](py::ssize_t) { return std::string(); };
+  const auto body_of = [&](int component) { return describe_state_component(model, component); };
+  std::string problem = first_non_finite(t, "t", rows, 1, none);
+  if (problem.empty())
+    problem = first_non_finite(x, "x", rows, 7 * n,
+                               [&](py::ssize_t c) { return body_of(static_cast<int>(c)); });
+  if (problem.empty())
+    problem = first_non_finite(y, "y", rows, 6 * n,
+                               [&](py::ssize_t c) { return body_of(7 * n + static_cast<int>(c)); });
+  if (problem.empty()) problem = first_non_finite(energy, "energy", rows, 1, none);
+  if (problem.empty() && tree) {
+    problem = first_non_finite(qa, "q", rows, tree->num_coordinates(), none);
+    if (problem.empty()) problem = first_non_finite(za, "z", rows, tree->num_speeds(), none);
+  }
+  if (!problem.empty()) fail(problem);
+  const auto not_unit = [&](const char* name, py::ssize_t r, int first, int k, const char* what,
+                            double norm) {
+    char shown[32];
+    std::snprintf(shown, sizeof shown, "%.17g", norm);
+    fail(std::string(name) + "[" + std::to_string(r) + ", " + std::to_string(first) + ":" +
+         std::to_string(first + 4) + "]: " + what + " of body '" + model.body(k).name +
+         "' have norm " + shown + ", not 1 within 1e-6 (the trajectory reader refuses that)");
+  };
+  Data data(model, DataOptions::recursive_only());
+  State state(model);
+  for (py::ssize_t r = 0; r < rows; ++r) {
+    const double* row = doubles(x) + r * stride(x, 0);
+    for (int k = 0; k < n; ++k)
+      if (const double norm = reader_norm(row + 4 * k * stride(x, 1), stride(x, 1));
+          !(std::abs(norm - 1.0) <= kUnitTolerance))
+        not_unit("x", r, 4 * k, k, "the Euler parameters", norm);
+    if (tree)
+      for (int k = 0; k < n; ++k) {
+        if (tree->joint(k).type != JointType::spherical) continue;
+        const int first = tree->coordinate_offset(k);
+        const double* q = doubles(qa) + r * stride(qa, 0) + first * stride(qa, 1);
+        if (const double norm = reader_norm(q, stride(qa, 1));
+            !(std::abs(norm - 1.0) <= kUnitTolerance))
+          not_unit("q", r, first, k, "the spherical joint's Euler parameters", norm);
+      }
+    const double t_r = doubles(t)[r * stride(t, 0)];
+    if (r > 0 && t_r < doubles(t)[(r - 1) * stride(t, 0)])
+      fail("t[" + std::to_string(r) + "] is before t[" + std::to_string(r - 1) +
+           "] (the trajectory reader needs the times in order)");
+    // The CSV's NAME.x, .y, .z are computed from the state: finite states can still put a
+    // mass centre beyond the range of a double.
+    for (int i = 0; i < 7 * n; ++i) state.x[i] = row[i * stride(x, 1)];
+    for (int i = 0; i < 6 * n; ++i) state.y[i] = doubles(y)[r * stride(y, 0) + i * stride(y, 1)];
+    compute_kinematics(model, state, data);
+    for (int k = 0; k < n; ++k)
+      if (!data.kinematics.p_G[static_cast<size_t>(k)].allFinite())
+        fail("row " + std::to_string(r) + ": the mass centre of body '" + model.body(k).name +
+             "' is not finite (its position in x overflows)");
+  }
+}
+
 /// Writes stored rows as the trajectory CSV: the kinematics of each row are computed again
 /// (compute_kinematics gives the same bits as at run time), the energy is the stored one.
+/// The rows are checked first (check_rows): the file is written whole or not at all.
 void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::handle x_obj,
                py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj) {
   const Model& model = m.model();
@@ -596,6 +699,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
     qa = float64_array(q_obj, "q", {rows, nq}, "(T, " + std::to_string(nq) + ")");
     za = float64_array(z_obj, "z", {rows, nz}, "(T, " + std::to_string(nz) + ")");
   }
+  check_rows(m, t, x, y, energy, qa, za);
   io::check_output_path(path, {m.file().path});
   io::TrajectoryWriter writer(model, path, tree);
   Data data(model, DataOptions::recursive_only());

@@ -225,3 +225,77 @@ def test_normalize_refuses_a_norm_it_cannot_divide_by() -> None:
     assert np.allclose(two.x[:8], [0, 0, 0, 1, 0, 0, 0.6, 0.8])
 
 
+# --- Result.to_csv -----------------------------------------------------------------------------
+
+
+def _spoiled(r: kanedyn.Result, array: str, index: tuple, value: float) -> kanedyn.Result:
+    copy = kanedyn.Result(r.model, r.t.copy(), r.x.copy(), r.y.copy(), r.p_G, r.energy.copy(), r.stats,
+                          None, None if r.q is None else r.q.copy(), None if r.z is None else r.z.copy())
+    getattr(copy, array)[index] = value
+    return copy
+
+
+def test_to_csv_refuses_rows_the_reader_would_refuse(eight, tmp_path) -> None:
+    r = eight.simulate(t_end=0.05)
+    path = tmp_path / "run.csv"
+    cases = [
+        ("x", (1, 5), np.nan, r"x\[1, 5\] is nan \(body 'pelvis' \(e2\)\)"),
+        ("x", (2, 40), np.inf, r"x\[2, 40\] is inf \(body .*\(s"),
+        ("y", (3, 47), -np.inf, r"y\[3, 47\] is -inf \(body 'left_forearm' \(sd3\)\)"),
+        ("t", (4,), np.nan, r"t\[4\] is nan"),
+        ("energy", (5,), np.nan, r"energy\[5\] is nan"),
+        ("x", (2, 3), 1.01, r"x\[2, 0:4\]: the Euler parameters of body 'torso' have norm 1.01"),
+        ("t", (3,), -1.0, r"t\[3\] is before t\[2\]"),
+        ("x", (1, 32), 1e308, r"row 1: the mass centre of body '\w+' is not finite"),
+    ]
+    for array, index, value, message in cases:
+        bad = _spoiled(r, array, index, value)
+        if message.startswith("row 1"):
+            bad.x[1, 35] = 1e308  # a second translation, so that a sum overflows
+        with pytest.raises(ValueError, match="to_csv: " + message) as caught:
+            bad.to_csv(path)
+        assert "nothing was written" in str(caught.value)
+        assert not path.exists() and not (tmp_path / "run.csv.partial").exists(), message
+    empty = kanedyn.Result(eight, r.t[:0], r.x[:0], r.y[:0], r.p_G[:0], r.energy[:0], {})
+    with pytest.raises(ValueError, match="no rows"):
+        empty.to_csv(path)
+    # A refused write leaves an existing file as it was.
+    r.to_csv(path)
+    kept = path.read_bytes()
+    with pytest.raises(ValueError):
+        _spoiled(r, "x", (0, 0), np.nan).to_csv(path)
+    assert path.read_bytes() == kept and not (tmp_path / "run.csv.partial").exists()
+
+
+def test_to_csv_refuses_a_jointed_models_bad_rows(tmp_path) -> None:
+    m = kanedyn.load(EXAMPLES / "human_jointed.yaml")
+    r = m.simulate(t_end=0.05)
+    assert r.q is not None and r.z is not None
+    with pytest.raises(ValueError, match=r"to_csv: z\[2, 0\] is nan"):
+        _spoiled(r, "z", (2, 0), np.nan).to_csv(tmp_path / "j.csv")
+    with pytest.raises(ValueError, match=r"to_csv: q\[1, 3\] is inf"):
+        _spoiled(r, "q", (1, 3), np.inf).to_csv(tmp_path / "j.csv")
+    at = m.joint_layout["head"][0]  # a spherical joint: its q are Euler parameters
+    bad = _spoiled(r, "q", (1, at), 0.0)
+    bad.q[1, at : at + 4] = [0.0, 0.0, 0.0, 2.0]
+    with pytest.raises(ValueError, match=rf"q\[1, {at}:{at + 4}\]: the spherical joint's Euler parameters of body 'head' have norm 2"):
+        bad.to_csv(tmp_path / "j.csv")
+    assert not any(tmp_path.iterdir())
+    r.to_csv(tmp_path / "j.csv")
+    back = kanedyn.read_csv(m, tmp_path / "j.csv")
+    assert np.array_equal(back.q, r.q) and np.array_equal(back.z, r.z)
+    done = run_tool(["eom", EXAMPLES / "human_jointed.yaml", "--trajectory", tmp_path / "j.csv", "--t", 0.05])
+    assert done.returncode == 0, done.stderr
+
+
+def test_a_written_csv_reads_back_and_the_tool_reads_it(eight, tmp_path) -> None:
+    r = eight.simulate(t_end=0.05)
+    r.x[2, 0:4] *= 1 + 0.9e-6  # within the reader's 1e-6: still written, still read
+    path = tmp_path / "run.csv"
+    r.to_csv(path)
+    back = kanedyn.Result.read_csv(eight, path)
+    assert np.array_equal(back.t, r.t) and np.array_equal(back.x, r.x) and np.array_equal(back.y, r.y)
+    assert np.array_equal(back.energy, r.energy)
+    for t in (0.0, float(r.t[2]), float(r.t[-1])):
+        done = run_tool(["eom", EXAMPLES / "eight_body.yaml", "--trajectory", path, "--t", t])
+        assert done.returncode == 0, done.stderr
