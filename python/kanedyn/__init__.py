@@ -64,14 +64,15 @@ def _from_dict(model: Mapping[str, Any]) -> Model:
     return _load_text(text, "<dict>")
 
 
-def load(source: Union[str, os.PathLike, Mapping[str, Any]]) -> Model:
+def load(source: Union[str, bytes, os.PathLike, Mapping[str, Any]]) -> Model:
     """A Model from a model file (YAML or JSON, docs/model-format.md) or from a dict of the
     same structure. Raises kanedyn.ModelError with the tool's message,
-    FILE:LINE:COL: KEY.PATH: problem."""
+    FILE:LINE:COL: KEY.PATH: problem. A path is what open() takes (str, bytes, os.PathLike);
+    one holding a NUL byte raises ValueError, as open() does."""
     if isinstance(source, Mapping):
         return _from_dict(source)
-    if isinstance(source, (str, os.PathLike)):
-        return _load_file(os.fspath(source))
+    if isinstance(source, (str, bytes, os.PathLike)):
+        return _load_file(source)
     raise TypeError(f"load() takes a path or a dict, not {type(source).__name__}")
 
 
@@ -85,7 +86,7 @@ def loads(text: Union[str, Mapping[str, Any]], name: str = "<string>") -> Model:
     return _load_text(text, name)
 
 
-def read_csv(model: Model, path: Union[str, os.PathLike]) -> Result:
+def read_csv(model: Model, path: Union[str, bytes, os.PathLike]) -> Result:
     """A trajectory CSV written by `kanedyn simulate` (or Result.to_csv) for this model, as a
     Result (stats is empty)."""
     return Result.read_csv(model, path)
@@ -104,7 +105,7 @@ def _simulate(
     route: Optional[str] = None,
     method: Optional[str] = None,
     initial: Optional[State] = None,
-    output: Union[str, os.PathLike, None] = None,
+    output: Union[str, bytes, os.PathLike, None] = None,
     store: bool = True,
     progress: Union[bool, Callable[[float, float], Any], None] = None,
 ) -> Result:

@@ -129,12 +129,15 @@ class Result:
         out[:, -1] = self.energy
         return out
 
-    def to_csv(self, path: Union[str, os.PathLike]) -> None:
+    def to_csv(self, path: Union[str, bytes, os.PathLike]) -> None:
         """Writes the trajectory CSV, byte for byte what `kanedyn simulate` writes for the same
-        run: to PATH.partial, renamed to PATH when complete."""
+        run: to PATH.partial, renamed to PATH when complete. The rows are checked first: a
+        number that is not finite, Euler parameters not of unit norm (within 1e-6), times out
+        of order or no rows at all raise ValueError naming the array, row and column, and no
+        file is created (the tool's reader would refuse such a file)."""
         self.model._write_csv(path, self.t, self.x, self.y, self.energy, self.q, self.z)
 
-    def view(self, path: Union[str, os.PathLike, None] = None) -> str:
+    def view(self, path: Union[str, bytes, os.PathLike, None] = None) -> Union[str, bytes]:
         """Writes the web page of `kanedyn view` for this trajectory (docs/viewer.md): one
         self-contained HTML file that animates the model and plots the columns. The default
         path is the CSV's name (when the run streamed one), else the model file's, with .html,
@@ -150,12 +153,12 @@ class Result:
         return os.fspath(path)
 
     @classmethod
-    def read_csv(cls, model: Any, path: Union[str, os.PathLike]) -> "Result":
+    def read_csv(cls, model: Any, path: Union[str, bytes, os.PathLike]) -> "Result":
         """A trajectory CSV of this model, read back to the same doubles by the tool's own
         reader (the header must be this model's, every row whole, times in order); ValueError
         names the file, the line and the problem."""
-        path = os.fspath(path)
         table = model._read_csv(path)
+        path = os.fsdecode(path)
         n = model.N
         rows = table.shape[0]
         q = z = None

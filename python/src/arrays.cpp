@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
 
 #include "bindings.hpp"
@@ -135,6 +136,55 @@ std::string copy_speeds(const Model& model, const double* values, py::ssize_t st
     return label(name, row) + "[" + std::to_string(i) + "] is " + number(y[i]) + " (" +
            describe_state_component(model, 7 * n + static_cast<int>(i)) + ")";
   return "";
+}
+
+std::string path_argument(py::handle obj, const char* name) {
+  const py::module_ os = py::module_::import("os");
+  py::object path;
+  try {
+    path = os.attr("fspath")(obj);
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_TypeError)) throw;
+    throw py::type_error(std::string(name) + " must be a path (str, bytes or os.PathLike), not " +
+                         std::string(py::str(obj.get_type().attr("__name__"))));
+  }
+  const auto bytes = py::reinterpret_borrow<py::bytes>(
+      py::isinstance<py::bytes>(path) ? path : os.attr("fsencode")(path));
+  std::string out = bytes;
+  if (out.find('\0') != std::string::npos) throw py::value_error("embedded null byte");
+  return out;
+}
+
+py::str path_str(const std::string& path) {
+  PyObject* s = PyUnicode_DecodeFSDefaultAndSize(path.data(), static_cast<Py_ssize_t>(path.size()));
+  if (!s) throw py::error_already_set();
+  return py::reinterpret_steal<py::str>(s);
+}
+
+long long integer_argument(py::handle obj, const std::string& name, long long lo, long long hi) {
+  const auto type_name = [&] { return std::string(py::str(obj.get_type().attr("__name__"))); };
+  if (PyBool_Check(obj.ptr())) throw py::type_error(name + " must be an integer, got a bool");
+  PyObject* index = PyNumber_Index(obj.ptr());
+  if (!index) {
+    PyErr_Clear();
+    throw py::type_error(name + " must be an integer, got " + type_name());
+  }
+  const auto value = py::reinterpret_steal<py::int_>(index);
+  int overflow = 0;
+  const long long v = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+  if (overflow == 0 && v >= lo && v <= hi) return v;
+  // str() of an int of thousands of digits raises (Python 3.11's limit); a huge one is
+  // shown by its first digits.
+  std::string text;
+  try {
+    text = py::str(static_cast<py::handle>(value));
+  } catch (py::error_already_set&) {
+    text = "(an integer of more than 4300 digits)";
+  }
+  if (text.size() > 40)
+    text = text.substr(0, 20) + "... (" + std::to_string(text.size()) + " digits)";
+  throw py::value_error(name + " " + text + " is not in " + std::to_string(lo) + ".." +
+                        std::to_string(hi));
 }
 
 State state_argument(const PyModel& m, py::handle obj) {

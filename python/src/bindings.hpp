@@ -101,6 +101,20 @@ State state_argument(const PyModel& m, py::handle obj);
 /// shapes, finite, unit Euler parameters (ValueError naming the body).
 VectorX joint_arguments(const PyModel& m, py::object q, py::object z);
 
+/// A path argument as open() takes one: str, bytes or os.PathLike (by os.fspath), encoded as
+/// os.fsencode does (so that a name os.listdir gave back round-trips). A NUL byte raises
+/// ValueError("embedded null byte"), as open() does: the C library would end the name there
+/// and read or write another file. `name` names the argument in the TypeError for a
+/// non-path.
+std::string path_argument(py::handle obj, const char* name);
+/// A path for Python: a str decoded as os.fsdecode does, the inverse of path_argument.
+py::str path_str(const std::string& path);
+
+/// An integer argument: a Python int or anything with __index__ (numpy integers), not a
+/// bool. TypeError otherwise; ValueError "NAME VALUE is not in LO..HI" when out of the range,
+/// however large (pybind11's own conversion would raise TypeError for an int beyond 64 bits).
+long long integer_argument(py::handle obj, const std::string& name, long long lo, long long hi);
+
 /// C-contiguous float64 copies.
 py::array_t<double> to_numpy(const VectorX& v);
 py::array_t<double> to_numpy(const MatrixX& m);

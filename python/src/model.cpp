@@ -77,12 +77,20 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
   return e;
 }
 
+/// True for an integer of another type than int (numpy.int64, ...): what has __index__ and
+/// is neither a bool nor an array (a numpy array has __index__ too, and is a list here).
+bool is_integer(py::handle obj) {
+  if (PyBool_Check(obj.ptr()) || !PyIndex_Check(obj.ptr()) || py::isinstance<py::array>(obj))
+    return false;
+  return !py::isinstance(obj, py::module_::import("numpy").attr("bool_"));
+}
+
 /// 0-based indices of the bodies named by 1-based numbers or by names.
 std::vector<int> body_indices(const Model& model, py::handle bodies) {
   std::vector<int> out;
   if (bodies.is_none()) return out;
   std::vector<py::object> items;
-  if (py::isinstance<py::str>(bodies) || py::isinstance<py::int_>(bodies))
+  if (py::isinstance<py::str>(bodies) || py::isinstance<py::int_>(bodies) || is_integer(bodies))
     items.push_back(py::reinterpret_borrow<py::object>(bodies));
   else
     for (py::handle item : bodies) items.push_back(py::reinterpret_borrow<py::object>(item));
@@ -90,12 +98,9 @@ std::vector<int> body_indices(const Model& model, py::handle bodies) {
     int k = -1;
     if (py::isinstance<py::bool_>(item)) {
       throw py::type_error("bodies: expected body numbers K (1..N) or names, got a bool");
-    } else if (py::isinstance<py::int_>(item)) {
-      const long K = item.cast<long>();
-      if (K < 1 || K > model.num_bodies())
-        throw py::value_error("bodies: body number " + std::to_string(K) + " is not in 1.." +
-                              std::to_string(model.num_bodies()));
-      k = static_cast<int>(K - 1);
+    } else if (py::isinstance<py::int_>(item) || is_integer(item)) {
+      k = static_cast<int>(integer_argument(item, "bodies: body number", 1, model.num_bodies())) -
+          1;
     } else if (py::isinstance<py::str>(item)) {
       const std::string name = item.cast<std::string>();
       k = model.body_index(name);
@@ -223,9 +228,10 @@ void register_inspection(py::module_& m) {
       .def(
           "__getitem__",
           [](const Inspection& q, py::object key) -> const BodyInspection& {
+            // A number K compared as a Python int, so that one beyond 64 bits is only absent.
+            const bool number = py::isinstance<py::int_>(key) && !py::isinstance<py::bool_>(key);
             for (const BodyInspection& b : q.bodies)
-              if ((py::isinstance<py::int_>(key) && !py::isinstance<py::bool_>(key) &&
-                   key.cast<long>() == b.K) ||
+              if ((number && key.equal(py::int_(b.K))) ||
                   (py::isinstance<py::str>(key) && key.cast<std::string>() == b.name))
                 return b;
             throw py::key_error("no body " + std::string(py::repr(key)) + " in this inspection");
@@ -289,7 +295,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
 
   m.def(
       "_load_file",
-      [](const std::string& path) {
+      [](py::handle path_obj) {
+        const std::string path = path_argument(path_obj, "path");
         try {
           py::gil_scoped_release release;
           return std::make_shared<PyModel>(io::load_model_file(path));
@@ -314,7 +321,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def_property_readonly(
           "name", [](const PyModel& p) { return p.model().name(); }, "the model's name")
       .def_property_readonly(
-          "path", [](const PyModel& p) { return p.file().path; },
+          "path", [](const PyModel& p) { return path_str(p.file().path); },
           "the file it was loaded from ('<string>' or '<dict>' otherwise)")
       .def_property_readonly(
           "L",

@@ -2,6 +2,9 @@
 // re-exports it with the Python-side helpers (load, loads, Result).
 #include <pybind11/pybind11.h>
 
+#include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
 
 #include "bindings.hpp"
@@ -74,6 +77,25 @@ auto assign(VectorX State::*field, const char* name) {
   };
 }
 
+/// The most bodies a State built from Python may have: 7N is an int in the library.
+constexpr py::ssize_t kMaxStateBodies = std::numeric_limits<int>::max() / 7;
+
+/// Throws ValueError naming the first body whose eps_K cannot be scaled to unit norm (norm 0,
+/// or not finite), before any is changed. The library's normalize_euler_parameters would
+/// divide by that norm and fill the state with nan: simulate() relies on that to report a
+/// non-finite initial state in its statistics, but from Python it is a silent wrong state.
+void refuse_unscalable(const State& s) {
+  for (int k = 0; k < s.num_bodies(); ++k) {
+    const double norm = s.euler_parameters(k).norm();
+    if (std::isfinite(norm) && norm > 0.0) continue;
+    char shown[32];
+    std::snprintf(shown, sizeof shown, "%g", norm);
+    throw py::value_error("normalize(): the Euler parameters of body " + std::to_string(k + 1) +
+                          " (x[" + std::to_string(4 * k) + ":" + std::to_string(4 * k + 4) +
+                          "]) have norm " + shown + "; they cannot be scaled to a unit quaternion");
+  }
+}
+
 }  // namespace
 
 void register_state(py::module_& m) {
@@ -87,6 +109,11 @@ void register_state(py::module_& m) {
              const py::ssize_t n = xa.shape(0) / 7;
              if (xa.shape(0) % 7 != 0 || n == 0)
                throw py::value_error("x must have shape (7N,) for some N >= 1, got (" +
+                                     std::to_string(xa.shape(0)) + ",)");
+             // A broadcast array can claim any length; 7N must fit the library's int.
+             if (n > kMaxStateBodies)
+               throw py::value_error("x must have shape (7N,) for N in 1.." +
+                                     std::to_string(kMaxStateBodies) + ", got (" +
                                      std::to_string(xa.shape(0)) + ",)");
              const auto ya = float64_array(y, "y", {6 * n},
                                            "(6N,) = (" + std::to_string(6 * n) +
@@ -103,8 +130,14 @@ void register_state(py::module_& m) {
                     "{y}, 6N: angular velocities w'_K then translation rates s'_K dot (a view)")
       .def_property_readonly("N", &State::num_bodies, "the number of bodies")
       .def(
-          "normalize", [](State& s) { return s.normalize_euler_parameters(); },
-          "Rescales every eps_K to unit norm; returns the largest | |eps_K| - 1 | found.")
+          "normalize",
+          [](State& s) {
+            refuse_unscalable(s);
+            return s.normalize_euler_parameters();
+          },
+          "Rescales every eps_K to unit norm; returns the largest | |eps_K| - 1 | found. "
+          "ValueError (and the state unchanged) when some eps_K has norm 0 or a non-finite "
+          "one: no rotation is near it.")
       .def(
           "copy", [](const State& s) { return State(s); }, "An independent copy.")
       .def("__copy__", [](const State& s) { return State(s); })

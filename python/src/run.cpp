@@ -4,8 +4,10 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -104,7 +106,10 @@ PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t
     if (given[2]) {
       t = PyFloat_AsDouble(given[2]);
       if (t == -1.0 && PyErr_Occurred()) {
+        // An int too large for a double is a number, just not a finite time.
+        const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError);
         PyErr_Clear();
+        if (overflow) throw py::value_error("t must be finite");
         throw py::type_error("t must be a number");
       }
     }
@@ -153,7 +158,26 @@ py::array output_array(py::handle obj, const char* name, py::ssize_t rows, py::s
   return a;
 }
 
-py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int threads,
+/// The number of threads asked for, capped at the hardware's: more than that only share the
+/// same cores, and each costs a stack of address space (enough of them fail to start).
+py::ssize_t thread_count(py::handle obj, unsigned cores) {
+  if (PyBool_Check(obj.ptr())) throw py::type_error("threads must be an integer, got a bool");
+  PyObject* index = PyNumber_Index(obj.ptr());
+  if (!index) {
+    PyErr_Clear();
+    throw py::type_error("threads must be an integer, got " +
+                         std::string(py::str(obj.get_type().attr("__name__"))));
+  }
+  const auto value = py::reinterpret_steal<py::int_>(index);
+  int overflow = 0;
+  const long long asked = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+  if (overflow < 0 || (overflow == 0 && asked < 0))
+    throw py::value_error("threads must be >= 0 (0: every core), got a negative number");
+  if (overflow > 0 || asked == 0 || asked > static_cast<long long>(cores)) return cores;
+  return static_cast<py::ssize_t>(asked);
+}
+
+py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::object threads_obj,
                             py::object out) {
   refuse_jointed(m, "derivatives_batch()");
   const int n = m.N();
@@ -164,7 +188,8 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
   const auto ya = float64_array(
       Y, "Y", {rows, 6 * n},
       "(M, 6N) = (" + std::to_string(rows) + ", " + std::to_string(6 * n) + ") (M from X)");
-  if (threads < 0) throw py::value_error("threads must be >= 0 (0: every core)");
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const py::ssize_t threads = thread_count(threads_obj, cores);
   py::array xd, yd;
   if (out.is_none()) {
     xd = py::array_t<double>({rows, static_cast<py::ssize_t>(7 * n)});
@@ -179,9 +204,7 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
     if (py::module_::import("numpy").attr("may_share_memory")(xd, yd).cast<bool>())
       throw py::value_error("out: Xd and Yd must not share memory");
   }
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const py::ssize_t workers =
-      std::max<py::ssize_t>(1, std::min<py::ssize_t>(threads > 0 ? threads : cores, rows));
+  const py::ssize_t workers = std::max<py::ssize_t>(1, std::min<py::ssize_t>(threads, rows));
   const double* x_in = doubles(xa);
   const double* y_in = doubles(ya);
   const py::ssize_t xs0 = stride(xa, 0), xs1 = stride(xa, 1);
@@ -191,10 +214,13 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
   // Each worker records the first bad row of its share; the lowest row is reported.
   std::vector<py::ssize_t> bad_row(static_cast<size_t>(workers), -1);
   std::vector<std::string> bad(static_cast<size_t>(workers));
+  // Set when a thread could not be started: the rest stop at their next row.
+  std::atomic<bool> abandoned{false};
   const auto work = [&](py::ssize_t w) {
     PyModel::Lease lease(m);
     const py::ssize_t first = rows * w / workers, last = rows * (w + 1) / workers;
     for (py::ssize_t r = first; r < last; ++r) {
+      if (abandoned.load(std::memory_order_relaxed)) return;
       std::string problem =
           copy_coordinates(m.model(), x_in + r * xs0, xs1, lease->state.x, "X", r);
       if (problem.empty())
@@ -209,13 +235,25 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, int th
       std::copy_n(lease->data.ydot.data(), 6 * n, y_out + r * 6 * n);
     }
   };
+  std::string start_failure;
   {
     py::gil_scoped_release release;
     std::vector<std::thread> pool;
-    for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
-    work(0);
+    pool.reserve(static_cast<size_t>(workers));
+    // A thread that cannot be started (a limit on threads or on address space) must not
+    // leave the started ones joinable when the exception unwinds: that calls std::terminate.
+    try {
+      for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
+    } catch (const std::exception& e) {
+      abandoned = true;
+      start_failure = "derivatives_batch(): cannot start thread " +
+                      std::to_string(pool.size() + 2) + " of " + std::to_string(workers) + " (" +
+                      e.what() + "); ask for fewer threads";
+    }
+    if (start_failure.empty()) work(0);
     for (std::thread& th : pool) th.join();
   }
+  if (!start_failure.empty()) throw std::runtime_error(start_failure);
   for (size_t w = 0; w < bad_row.size(); ++w)
     if (bad_row[w] >= 0) throw py::value_error(bad[w]);
   return py::make_tuple(xd, yd);
@@ -228,18 +266,35 @@ py::array_t<double> adopt(std::vector<double>&& values, std::vector<py::ssize_t>
   return py::array_t<double>(shape, heap->data(), owner);
 }
 
+/// repr(value), cut to its first digits when long (an int of 10**400, say).
+std::string shown_value(py::handle value) {
+  std::string shown;
+  try {
+    shown = py::repr(value);
+  } catch (py::error_already_set&) {  // str() of an int of more than 4300 digits raises
+    return "an integer of more than 4300 digits";
+  }
+  if (shown.size() > 40)
+    shown = shown.substr(0, 20) + "... (" + std::to_string(shown.size()) + " characters)";
+  return shown;
+}
+
 double positive_setting(py::handle value, const char* name) {
   double v = 0.0;
+  const bool is_bool = py::isinstance<py::bool_>(value);
   try {
-    if (py::isinstance<py::bool_>(value) || py::isinstance<py::str>(value)) throw py::cast_error();
+    if (is_bool || py::isinstance<py::str>(value)) throw py::cast_error();
     v = value.cast<double>();
   } catch (const py::cast_error&) {
-    throw py::type_error(std::string(name) + " must be a number, got " +
-                         std::string(py::str(value.get_type().attr("__name__"))));
+    // An int beyond the range of a double is a number, just not a finite one.
+    if (is_bool || !py::isinstance<py::int_>(value))
+      throw py::type_error(std::string(name) + " must be a number, got " +
+                           std::string(py::str(value.get_type().attr("__name__"))));
+    v = std::numeric_limits<double>::infinity();
   }
   if (!(std::isfinite(v) && v > 0.0))
     throw py::value_error(std::string(name) + " must be a finite number > 0, got " +
-                          std::string(py::repr(value)));
+                          shown_value(value));
   return v;
 }
 
@@ -413,7 +468,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   std::unique_ptr<io::BackgroundTrajectoryWriter> writer;
   std::string out;
   if (!output.is_none()) {
-    out = py::str(py::module_::import("os").attr("fspath")(output));
+    out = path_argument(output, "output");
     io::check_output_path(out, {m.file().path});
   }
   if (progress.is(py::bool_(true)))
@@ -508,7 +563,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
                      self, adopt(std::move(rows.t), {T}), adopt(std::move(rows.x), {T, 7 * n}),
                      adopt(std::move(rows.y), {T, 6 * n}), adopt(std::move(rows.p_G), {T, n, 3}),
                      adopt(std::move(rows.energy), {T}), stats_out,
-                     out.empty() ? py::object(py::none()) : py::object(py::str(out)), q, z);
+                     out.empty() ? py::object(py::none()) : py::object(path_str(out)), q, z);
   }
   if (!stats.ok()) {
     const std::string message =
@@ -523,13 +578,115 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   return store ? result : py::object(stats_out);
 }
 
+/// "NAME[r, c] is nan" (and what the column holds, when `what` is given) for the first
+/// non-finite number of the (rows, cols) array a, or "".
+template <class Describe>
+std::string first_non_finite(const py::array& a, const char* name, py::ssize_t rows,
+                             py::ssize_t cols, const Describe& what) {
+  const bool vector = a.ndim() == 1;
+  for (py::ssize_t r = 0; r < rows; ++r)
+    for (py::ssize_t c = 0; c < cols; ++c) {
+      const double v = doubles(a)[r * stride(a, 0) + (vector ? 0 : c * stride(a, 1))];
+      if (std::isfinite(v)) continue;
+      const std::string at =
+          vector ? std::to_string(r) : std::to_string(r) + ", " + std::to_string(c);
+      const std::string described = what(c);
+      return std::string(name) + "[" + at + "] is " +
+             (std::isnan(v) ? "nan"
+              : v > 0       ? "inf"
+                            : "-inf") +
+             (described.empty() ? "" : " (" + described + ")");
+    }
+  return "";
+}
+
+/// The norm of 4 numbers as the trajectory reader computes it (check_row_state in
+/// src/io/trajectory.cpp), so that a row passed here is never refused there.
+double reader_norm(const double* values, py::ssize_t stride) {
+  double sum = 0.0;
+  for (int i = 0; i < 4; ++i) sum += values[i * stride] * values[i * stride];
+  return std::sqrt(sum);
+}
+
+/// Every reason the trajectory reader would refuse the CSV of these rows, as one ValueError
+/// naming the array, the row and the column: a non-finite number, Euler parameters (or a
+/// spherical joint's) not of unit norm within 1e-6, a time before the previous row's, no rows;
+/// and a mass centre that overflows (the writer would refuse that row). Checked before any
+/// file is created, so that a refused to_csv leaves nothing behind.
+void check_rows(const PyModel& m, const py::array& t, const py::array& x, const py::array& y,
+                const py::array& energy, const py::array& qa, const py::array& za) {
+  const Model& model = m.model();
+  const int n = m.N();
+  const JointTree* tree = m.joints();
+  const py::ssize_t rows = t.shape(0);
+  const auto fail = [](const std::string& problem) {
+    throw py::value_error("to_csv: " + problem + "; nothing was written");
+  };
+  if (rows == 0) fail("the result has no rows (a trajectory CSV has at least one)");
+  const auto none = [](py::ssize_t) { return std::string(); };
+  const auto body_of = [&](int component) { return describe_state_component(model, component); };
+  std::string problem = first_non_finite(t, "t", rows, 1, none);
+  if (problem.empty())
+    problem = first_non_finite(x, "x", rows, 7 * n,
+                               [&](py::ssize_t c) { return body_of(static_cast<int>(c)); });
+  if (problem.empty())
+    problem = first_non_finite(y, "y", rows, 6 * n,
+                               [&](py::ssize_t c) { return body_of(7 * n + static_cast<int>(c)); });
+  if (problem.empty()) problem = first_non_finite(energy, "energy", rows, 1, none);
+  if (problem.empty() && tree) {
+    problem = first_non_finite(qa, "q", rows, tree->num_coordinates(), none);
+    if (problem.empty()) problem = first_non_finite(za, "z", rows, tree->num_speeds(), none);
+  }
+  if (!problem.empty()) fail(problem);
+  const auto not_unit = [&](const char* name, py::ssize_t r, int first, int k, const char* what,
+                            double norm) {
+    char shown[32];
+    std::snprintf(shown, sizeof shown, "%.17g", norm);
+    fail(std::string(name) + "[" + std::to_string(r) + ", " + std::to_string(first) + ":" +
+         std::to_string(first + 4) + "]: " + what + " of body '" + model.body(k).name +
+         "' have norm " + shown + ", not 1 within 1e-6 (the trajectory reader refuses that)");
+  };
+  Data data(model, DataOptions::recursive_only());
+  State state(model);
+  for (py::ssize_t r = 0; r < rows; ++r) {
+    const double* row = doubles(x) + r * stride(x, 0);
+    for (int k = 0; k < n; ++k)
+      if (const double norm = reader_norm(row + 4 * k * stride(x, 1), stride(x, 1));
+          !(std::abs(norm - 1.0) <= kUnitTolerance))
+        not_unit("x", r, 4 * k, k, "the Euler parameters", norm);
+    if (tree)
+      for (int k = 0; k < n; ++k) {
+        if (tree->joint(k).type != JointType::spherical) continue;
+        const int first = tree->coordinate_offset(k);
+        const double* q = doubles(qa) + r * stride(qa, 0) + first * stride(qa, 1);
+        if (const double norm = reader_norm(q, stride(qa, 1));
+            !(std::abs(norm - 1.0) <= kUnitTolerance))
+          not_unit("q", r, first, k, "the spherical joint's Euler parameters", norm);
+      }
+    const double t_r = doubles(t)[r * stride(t, 0)];
+    if (r > 0 && t_r < doubles(t)[(r - 1) * stride(t, 0)])
+      fail("t[" + std::to_string(r) + "] is before t[" + std::to_string(r - 1) +
+           "] (the trajectory reader needs the times in order)");
+    // The CSV's NAME.x, .y, .z are computed from the state: finite states can still put a
+    // mass centre beyond the range of a double.
+    for (int i = 0; i < 7 * n; ++i) state.x[i] = row[i * stride(x, 1)];
+    for (int i = 0; i < 6 * n; ++i) state.y[i] = doubles(y)[r * stride(y, 0) + i * stride(y, 1)];
+    compute_kinematics(model, state, data);
+    for (int k = 0; k < n; ++k)
+      if (!data.kinematics.p_G[static_cast<size_t>(k)].allFinite())
+        fail("row " + std::to_string(r) + ": the mass centre of body '" + model.body(k).name +
+             "' is not finite (its position in x overflows)");
+  }
+}
+
 /// Writes stored rows as the trajectory CSV: the kinematics of each row are computed again
 /// (compute_kinematics gives the same bits as at run time), the energy is the stored one.
+/// The rows are checked first (check_rows): the file is written whole or not at all.
 void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::handle x_obj,
                py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj) {
   const Model& model = m.model();
   const int n = m.N();
-  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_obj));
+  const std::string path = path_argument(path_obj, "path");
   const auto t = float64_array(t_obj, "t", {-1}, "(T,)");
   const py::ssize_t rows = t.shape(0);
   const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
@@ -542,6 +699,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
     qa = float64_array(q_obj, "q", {rows, nq}, "(T, " + std::to_string(nq) + ")");
     za = float64_array(z_obj, "z", {rows, nz}, "(T, " + std::to_string(nz) + ")");
   }
+  check_rows(m, t, x, y, energy, qa, za);
   io::check_output_path(path, {m.file().path});
   io::TrajectoryWriter writer(model, path, tree);
   Data data(model, DataOptions::recursive_only());
@@ -562,7 +720,8 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
 
 /// A trajectory CSV of this model as its (T, 2 + 16N) table, by io::read_trajectory (the
 /// reader of the tool's view and inspect --trajectory); its errors as ValueError.
-py::array_t<double> read_csv(const PyModel& m, const std::string& path) {
+py::array_t<double> read_csv(const PyModel& m, py::handle path_obj) {
+  const std::string path = path_argument(path_obj, "path");
   io::Trajectory traj;
   try {
     py::gil_scoped_release release;
@@ -577,7 +736,9 @@ py::array_t<double> read_csv(const PyModel& m, const std::string& path) {
 
 /// Seconds per forward_dynamics call, looped in C++: the baseline of the call-overhead
 /// benchmark (bench/python/bench_python.py).
-double time_derivatives(const PyModel& m, py::object state_obj, long calls) {
+double time_derivatives(const PyModel& m, py::object state_obj, py::handle calls_obj) {
+  const long calls =
+      static_cast<long>(integer_argument(calls_obj, "calls", 1, std::numeric_limits<long>::max()));
   const State state = state_argument(m, state_obj);
   PyModel::Lease work(m);
   work->state = state;
@@ -598,8 +759,9 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
   cls.def("derivatives_batch", &derivatives_batch, py::arg("X"), py::arg("Y"),
           py::arg("threads") = 0, py::arg("out") = py::none(),
           "(Xd, Yd) for M states at once: X (M, 7N), Y (M, 6N) -> Xd (M, 7N), Yd (M, 6N), row "
-          "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0: every core) with "
-          "the GIL released. out=(Xd, Yd): write into these float64 C-contiguous arrays instead of "
+          "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0, or more than the "
+          "hardware has: one per core) with the GIL released; RuntimeError if a thread cannot "
+          "be started. out=(Xd, Yd): write into these float64 C-contiguous arrays instead of "
           "new ones (and return them); a loop that reuses them saves the first touch of new "
           "memory, which costs as much as the evaluations on small models.")
       .def("_simulate", &simulate_model, py::arg("settings"), py::arg("initial"), py::arg("output"),

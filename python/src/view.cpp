@@ -16,11 +16,14 @@ namespace kanedyn::python {
 namespace {
 
 size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
-                  const std::string& source, const std::string& input) {
+                  const std::string& source, py::object input_obj) {
+  // The arguments first, whatever the build: a path with a NUL byte is refused everywhere.
+  const std::string path = path_argument(path_obj, "path");
+  // The CSV the rows were streamed to ("" if none): an input the page must not replace.
+  const std::string input = path_argument(input_obj, "input");
 #ifdef KANEDYN_PYTHON_HAVE_VIEW
   view::require_available();
   const Model& model = m.model();
-  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_obj));
   io::Trajectory traj{io::trajectory_columns(model, m.joints()), {}};
   const auto columns = static_cast<py::ssize_t>(traj.columns.size());
   const py::array table =
@@ -33,7 +36,7 @@ size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
   io::write_file_atomically(path, text, {m.file().path, input});
   return text.size();
 #else
-  (void)m, (void)path_obj, (void)table_obj, (void)source, (void)input;
+  (void)m, (void)table_obj, (void)source, (void)path, (void)input;
   throw std::runtime_error(
       "this kanedyn module was built without the viewer (the kanedyn tool was not built)");
 #endif

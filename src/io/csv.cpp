@@ -237,7 +237,20 @@ struct BackgroundTrajectoryWriter::Impl {
     capacity = std::clamp<size_t>((size_t{4} << 20) / slot_bytes, 2, 256);
     wake_at = std::clamp<size_t>(capacity / 4, 1, 32);
     ring.resize(capacity * slot_size());
-    thread = std::thread([this] { run(); });
+    try {
+      thread = std::thread([this] { run(); });
+    } catch (const std::exception& e) {
+      // A limit on threads or on address space. The run has not begun: the file, holding
+      // only the header, goes (the caller gets an exception and nothing to clean up).
+      const std::string partial = writer.partial_path();
+      try {
+        writer.close();
+      } catch (...) {  // the thread's failure is the error to report
+      }
+      std::remove(partial.c_str());
+      throw std::runtime_error("cannot start the thread that writes '" + partial +
+                               "': " + e.what());
+    }
   }
 
   /// A slot of the ring: t, then {x}, then {y}, then (jointed) q and z.

@@ -86,6 +86,7 @@ class TrajectoryWriter {
 class BackgroundTrajectoryWriter {
  public:
   /// Creates PATH.partial with its header (throws as TrajectoryWriter) and starts the thread.
+  /// A thread that cannot be started throws std::runtime_error, PATH.partial removed.
   /// The queue holds up to about 4 MB of states, at least 2 and at most 256.
   /// With joints, rows are queued by the (t, state, q, z) overload and their energy adds the
   /// joint springs' potentials.
