@@ -118,8 +118,9 @@ TEST(Cli, BenchJsonIsTheSpecifiedObject) {
   const auto j = nlohmann::ordered_json::parse(r.out);
   std::vector<std::string> keys;
   for (const auto& [key, value] : j.items()) keys.push_back(key);
-  EXPECT_EQ(keys, (std::vector<std::string>{"model", "N", "results"}));
+  EXPECT_EQ(keys, (std::vector<std::string>{"model", "N", "evaluates", "results"}));
   EXPECT_EQ(j["model"], kEight);
+  EXPECT_EQ(j["evaluates"], "ydot and xdot");
   EXPECT_EQ(j["N"], 8);
   ASSERT_EQ(j["results"].size(), 2u);  // default: both routes
   EXPECT_EQ(j["results"][0]["route"], "recursive");
@@ -133,6 +134,26 @@ TEST(Cli, BenchJsonIsTheSpecifiedObject) {
     EXPECT_GT(result["ns_per_eval_min"].get<double>(), 0.0);
     EXPECT_GE(result["ns_per_eval_median"].get<double>(), result["ns_per_eval_min"].get<double>());
   }
+}
+
+TEST(Cli, BenchOfAJointedModelTimesItsJointedRoutes) {
+  // What simulate integrates for a jointed model: z dot and q dot, by both jointed routes.
+  const std::string arm = "'" + std::string(KANEDYN_SOURCE_DIR) + "/examples/urdf/arm.urdf'";
+  ToolRun r = run_tool("bench --json --reps 20 " + arm);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::ordered_json::parse(r.out);
+  EXPECT_EQ(j["evaluates"], "zdot and qdot of the joint coordinates");
+  ASSERT_EQ(j["results"].size(), 2u);
+  EXPECT_EQ(j["results"][0]["route"], "recursive");
+  EXPECT_EQ(j["results"][1]["route"], "assembled");
+  r = run_tool("bench --route recursive --reps 20 " + arm);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("forward dynamics (zdot and qdot of the joint coordinates, as simulate "
+                       "evaluates it)"),
+            std::string::npos)
+      << r.out;
+  // The free tree's SIMD kernel is not what runs here, so no width is named.
+  EXPECT_EQ(r.out.find("SIMD pass"), std::string::npos) << r.out;
 }
 
 TEST(Cli, BenchTextNamesTheSimdWidthAndTakesACap) {
