@@ -1,7 +1,7 @@
 // URDF import (docs/urdf.md): the mapping of every joint kind, of a turned <inertial> and of
 // massless links, checked on the YAML text (read back with libyaml) against transforms
-// computed here from the URDF numbers; every refusal; `kanedyn import`; and
-// load_model_file of a .urdf.
+// computed here from the URDF numbers; every refusal; the XML depth limit and its scan;
+// `kanedyn import`; and load_model_file of a .urdf.
 #include <gtest/gtest.h>
 #include <yaml.h>
 
@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "../src/io/xml_scan.hpp"
 #include "file_support.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -611,6 +612,126 @@ TEST(Urdf, JointedModelPlacesEveryLinkAsUrdfDoes) {
   }
 }
 
+// ---- hostile input: the XML depth ----
+
+namespace {
+
+std::string repeat(const std::string& s, int n) {
+  std::string out;
+  out.reserve(s.size() * static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+/// A robot with one massive link whose XML nests `levels` deep: <robot> is level 1, and
+/// <gazebo> elements, which urdfdom skips, nest below it.
+std::string nested_robot(int levels) {
+  return "<robot name=\"deep\">\n" + massive("a") + repeat("<gazebo>", levels - 1) +
+         repeat("</gazebo>", levels - 1) + "\n</robot>\n";
+}
+
+detail::XmlScan scan(const std::string& text) { return detail::scan_xml(text, kMaxUrdfDepth); }
+
+const std::string kTooDeep = "nested deeper than " + std::to_string(kMaxUrdfDepth);
+
+}  // namespace
+
+TEST(UrdfDepth, DeepFilesAreRefusedBeforeTheParserRecurses) {
+  REQUIRE_URDF();
+  // 100,000 levels overflowed the stack inside TinyXML; 30,000 took over 10 s.
+  for (const int levels : {100000, 30000}) {
+    const std::string text =
+        "<robot name=\"r\">" + repeat("<a>", levels - 1) + repeat("</a>", levels - 1) + "</robot>";
+    const ModelFileError e = refusal(text);
+    EXPECT_EQ(e.file(), "bad.urdf");
+    EXPECT_NE(e.problem().find(kTooDeep), std::string::npos) << e.what();
+    // At the '<' of the first element too deep: level kMaxUrdfDepth + 1.
+    EXPECT_EQ(e.line(), 1);
+    EXPECT_EQ(e.column(), 17 + 3 * (kMaxUrdfDepth - 1)) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+  }
+}
+
+TEST(UrdfDepth, TheLimitItselfIsAccepted) {
+  REQUIRE_URDF();
+  EXPECT_EQ(scan(nested_robot(kMaxUrdfDepth)).max_depth, kMaxUrdfDepth);
+  // The whole import, not only the scan: the file converts.
+  const std::string yaml = urdf_to_model_yaml(nested_robot(kMaxUrdfDepth), "ok.urdf", {}, nullptr);
+  EXPECT_EQ(parse_model_file(yaml, "ok.yaml").model.num_bodies(), 1);
+  const ModelFileError e = refusal(nested_robot(kMaxUrdfDepth + 1));
+  EXPECT_NE(e.problem().find(kTooDeep), std::string::npos) << e.what();
+  EXPECT_EQ(e.line(), 4) << e.what();
+}
+
+TEST(UrdfDepth, ASelfClosingElementIsALevel) {
+  const std::string inner = "<robot>" + repeat("<a>", kMaxUrdfDepth - 2);
+  EXPECT_EQ(scan(inner + "<b/>").problem, "");
+  EXPECT_EQ(scan(inner + "<b/>").max_depth, kMaxUrdfDepth);
+  EXPECT_NE(scan(inner + "<a><b/>").problem.find(kTooDeep), std::string::npos);
+}
+
+TEST(UrdfDepth, MarkupThatIsNotAnElementIsNotALevel) {
+  const std::string deep = repeat("<a>", 2 * kMaxUrdfDepth);
+  // Comments, CDATA sections, DOCTYPE and the XML declaration hold no elements.
+  for (const std::string& s : std::vector<std::string>{
+           "<robot><!--" + deep + "--></robot>", "<robot><![CDATA[" + deep + "]]></robot>",
+           "<!DOCTYPE robot><?xml version=\"1.0\"?><robot><!-- -- > --></robot>"}) {
+    const detail::XmlScan r = scan(s);
+    EXPECT_EQ(r.problem, "") << s;
+    EXPECT_EQ(r.max_depth, 1) << s;
+  }
+  // Quoted attribute values may hold '>', "/>" and end tags: the tag goes on.
+  EXPECT_EQ(scan("<robot a=\"/>\" b='>' c=\"</robot>\"><c/></robot>").max_depth, 2);
+  EXPECT_NE(scan("<robot a=\"</robot>\" b='/>'>" + deep).problem.find(kTooDeep), std::string::npos);
+  // An end tag outside every element closes nothing (TinyXML skips it).
+  EXPECT_NE(scan(repeat("</a>", 50) + "<robot>" + deep).problem.find(kTooDeep), std::string::npos);
+}
+
+TEST(UrdfDepth, TheScanReadsAsTinyXmlDoes) {
+  // TinyXML ends "<?pi ...>" (anything but "<?xml") at the first '>', as XML would not: what
+  // follows is an element to it, and so to the scan.
+  EXPECT_EQ(scan("<robot><?pi > <a></a> ?></robot>").max_depth, 2);
+  // TinyXML reads "&#...;" to the next ';' when the characters before it are digits back to a
+  // '#', whatever lies between: here every end tag, so each <a> nests in the one before.
+  const detail::XmlScan hidden = scan("<robot>" + repeat("<a>&#</a>#1;", kMaxUrdfDepth));
+  EXPECT_NE(hidden.problem.find(kTooDeep), std::string::npos) << hidden.problem;
+  // Where the digits do not reach the '#', TinyXML stops with an error: nothing after is read.
+  EXPECT_EQ(scan("<robot><a>&#</a>x1;" + repeat("<a>", 2 * kMaxUrdfDepth)).problem, "");
+}
+
+TEST(UrdfDepth, TheScanIsOnePassOverAWideFile) {
+  // A million sibling elements: a scan that went back over the text would not finish.
+  const std::string wide = "<robot>" + repeat("<link name=\"a&#62;\"/>", 1000000) + "</robot>";
+  const detail::XmlScan r = scan(wide);
+  EXPECT_EQ(r.problem, "");
+  EXPECT_EQ(r.max_depth, 2);
+}
+
+TEST(UrdfDepth, TextTheParserWouldMisreadIsRefused) {
+  REQUIRE_URDF();
+  struct Case {
+    std::string text, problem;
+    int line, column;
+  };
+  const std::vector<Case> cases = {
+      {robot(massive("a")) + std::string(1, '\0') + "<a>", "a NUL byte", 5, 1},
+      {"<robot name=\"\xe9t\xe9\">", "not valid UTF-8", 1, 14},
+      {"<robot>\n  <link name=\"\xef\xbb\xbf\"/>", "U+FEFF", 2, 15},
+      {"<robot name=\"\xc0\xaf\"/>", "not valid UTF-8", 1, 14},
+  };
+  for (const Case& c : cases) {
+    const ModelFileError e = refusal(c.text);
+    EXPECT_NE(e.problem().find(c.problem), std::string::npos) << e.what();
+    EXPECT_EQ(e.line(), c.line) << e.what();
+    EXPECT_EQ(e.column(), c.column) << e.what();
+  }
+  // A byte order mark at the start is no error, nor is UTF-8 text.
+  const std::string yaml = urdf_to_model_yaml(
+      "\xef\xbb\xbf<robot name=\"r\xc3\xa9\">" + massive("\xe2\x98\x83") + "</robot>", "bom.urdf",
+      {}, nullptr);
+  EXPECT_EQ(parse_model_file(yaml, "bom.yaml").model.num_bodies(), 1);
+}
+
 // ---- kanedyn import ----
 
 namespace {
@@ -675,6 +796,18 @@ TEST(UrdfCli, ErrorsAreOneLineAndWriteNothing) {
   // The output must not be the input.
   r = run_tool("import " + kData + "joints.urdf -o " + kData + "joints.urdf", &dir);
   EXPECT_EQ(r.exit_code, 1) << r.err;
+}
+
+TEST(UrdfCli, ImportRefusesADeepFileInOneLine) {
+  REQUIRE_URDF();
+  const auto in = kanedyn::test::temp_dir("urdf_deep_input") / "deep.urdf";
+  std::ofstream(in) << "<robot>" + repeat("<a>", 100000) + repeat("</a>", 100000) + "</robot>";
+  std::filesystem::path dir;
+  const auto r = run_tool("info " + in.string(), &dir);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "kanedyn: error: " + in.string() +
+                       ":1:" + std::to_string(8 + 3 * (kMaxUrdfDepth - 1)) + ": elements " +
+                       kTooDeep + " levels, the limit for a URDF file (a robot needs under 20)\n");
 }
 
 TEST(UrdfCli, ExampleArmImports) {

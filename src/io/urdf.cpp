@@ -21,6 +21,7 @@
 
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/model.hpp"
+#include "xml_scan.hpp"
 #endif
 
 namespace kanedyn::io {
@@ -181,6 +182,16 @@ std::mutex& console_mutex() {
 
 urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::string& source,
                                          std::vector<std::string>& warnings) {
+  // TinyXML recurses once per element level: a deep file would overflow the stack.
+  if (const detail::XmlScan scan = detail::scan_xml(text, kMaxUrdfDepth); !scan.problem.empty())
+    throw ModelFileError(source, scan.line, scan.column, "", scan.problem);
+  // TinyXML steps past the terminating NUL at the end of an unterminated comment, CDATA
+  // section or quoted value (by the length of the delimiter it looked for): the padding keeps
+  // those reads inside the string, where they meet NULs and stop. The scan refused any NUL in
+  // the text, so TinyXML reads all of it.
+  std::string padded;
+  padded.reserve(text.size() + 8);
+  padded.append(text).append(8, '\0');
   std::lock_guard<std::mutex> lock(console_mutex());
   Capture capture;
   const console_bridge::LogLevel level = console_bridge::getLogLevel();
@@ -195,7 +206,7 @@ urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::str
   } restore{level};
   urdf::ModelInterfaceSharedPtr model;
   try {
-    model = urdf::parseURDF(text);
+    model = urdf::parseURDF(padded);
   } catch (const std::exception& e) {
     capture.errors.push_back(e.what());
   }
