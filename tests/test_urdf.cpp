@@ -1,7 +1,7 @@
 // URDF import (docs/urdf.md): the mapping of every joint kind, of a turned <inertial> and of
 // massless links, checked on the YAML text (read back with libyaml) against transforms
-// computed here from the URDF numbers; every refusal; the XML depth limit and its scan;
-// `kanedyn import`; and load_model_file of a .urdf.
+// computed here from the URDF numbers; every refusal; the XML depth limit and its scan; that
+// what the import writes loads; `kanedyn import`; and load_model_file of a .urdf.
 #include <gtest/gtest.h>
 #include <yaml.h>
 
@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
@@ -612,7 +613,7 @@ TEST(Urdf, JointedModelPlacesEveryLinkAsUrdfDoes) {
   }
 }
 
-// ---- hostile input: the XML depth ----
+// ---- hostile input: XML depth, composed numbers, the axis rule ----
 
 namespace {
 
@@ -732,6 +733,85 @@ TEST(UrdfDepth, TextTheParserWouldMisreadIsRefused) {
   EXPECT_EQ(parse_model_file(yaml, "bom.yaml").model.num_bodies(), 1);
 }
 
+TEST(UrdfImportLoads, OriginsThatSumPastADoubleAreRefusedNamingTheJoint) {
+  REQUIRE_URDF();
+  // Each origin is finite; through the folded massless link 'plate' they sum to infinity.
+  const std::string text =
+      robot("<link name=\"world\"/><link name=\"plate\"/>" + massive("a") +
+            joint("mount", "fixed", "world", "plate", "<origin xyz=\"1.5e308 0 0\"/>") +
+            joint("j", "fixed", "plate", "a", "<origin xyz=\"1.5e308 0 0\"/>"));
+  const ModelFileError e = refusal(text);
+  EXPECT_EQ(e.file(), "bad.urdf");
+  EXPECT_EQ(e.key_path(), "joint 'j'");
+  EXPECT_NE(e.problem().find("massless parent link 'plate' (folded into the ground) is not "
+                             "finite: [inf, 0, 0]"),
+            std::string::npos)
+      << e.what();
+  // The same through a body: folded onto 'a', the link 'tip' carries 'b' out of range.
+  const std::string below =
+      robot("<link name=\"world\"/><link name=\"tip\"/>" + massive("a") + massive("b") +
+            joint("j1", "revolute", "world", "a") +
+            joint("tip_mount", "fixed", "a", "tip", "<origin xyz=\"0 -1e308 0\"/>") +
+            joint("j2", "revolute", "tip", "b", "<origin xyz=\"0 -1e308 0\"/>"));
+  const ModelFileError f = refusal(below);
+  EXPECT_EQ(f.key_path(), "joint 'j2'");
+  EXPECT_NE(f.problem().find("(folded into body 'a') is not finite: [0, -inf, 0]"),
+            std::string::npos)
+      << f.what();
+}
+
+TEST(UrdfImportLoads, WhatTheLoaderRefusesIsRefusedByTheImport) {
+  REQUIRE_URDF();
+  // A value no element check covers (here the gravity option) is caught by reading the
+  // converted text back: the error names the URDF file, not a line of the YAML.
+  UrdfOptions options;
+  options.gravity = {0.0, 0.0, std::numeric_limits<double>::infinity()};
+  try {
+    urdf_to_model_yaml(robot(massive("a")), "g.urdf", options, nullptr);
+    ADD_FAILURE() << "accepted a non-finite gravity";
+  } catch (const ModelFileError& e) {
+    EXPECT_EQ(e.file(), "g.urdf");
+    EXPECT_EQ(e.line(), 0);
+    EXPECT_NE(e.problem().find("the converted model does not load (gravity"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(UrdfImportLoads, OneAxisRuleForTheImportAndTheLoader) {
+  REQUIRE_URDF();
+  REQUIRE_MAPPING_FORM();
+  // Any finite axis not all zero is a direction, however small: the import and the loader
+  // agree (the import refused [1e-200, 0, 0] as zero, the loader read it as the x axis).
+  for (const std::string x : {"1e-200", "1e-320", "1e200", "-3"}) {
+    const std::string text =
+        robot("<link name=\"world\"/>" + massive("a") +
+              joint("j", "revolute", "world", "a", "<axis xyz=\"" + x + " 0 0\"/>"));
+    const std::string yaml = urdf_to_model_yaml(text, "axis.urdf", {}, nullptr);
+    const ModelFile f = parse_model_file(yaml, "axis.yaml");
+    ASSERT_TRUE(f.jointed()) << yaml;
+    const Vec axis = f.joints->joint(0).axis.normalized();
+    EXPECT_EQ(axis, Vec(x[0] == '-' ? -1 : 1, 0, 0)) << x;
+    // The loader takes the same axis written by hand.
+    EXPECT_NO_THROW(parse_model_file(
+        "format: kanedyn-model/1\nbodies:\n  - name: a\n    parent: ground\n    mass: 1\n"
+        "    inertia: [1, 1, 1]\n    joint: {type: revolute, axis: [" +
+            x + ", 0, 0]}\n",
+        "hand.yaml"))
+        << x;
+  }
+  // And both refuse a zero axis.
+  EXPECT_NE(refusal(robot("<link name=\"world\"/>" + massive("a") +
+                          joint("j", "revolute", "world", "a", "<axis xyz=\"0 0 0\"/>")))
+                .problem()
+                .find("axis must be a nonzero finite vector"),
+            std::string::npos);
+  EXPECT_THROW(parse_model_file(
+                   "format: kanedyn-model/1\nbodies:\n  - name: a\n    parent: ground\n    mass: "
+                   "1\n    inertia: [1, 1, 1]\n    joint: {type: revolute, axis: [0, 0, 0]}\n",
+                   "hand.yaml"),
+               ModelFileError);
+}
+
 // ---- kanedyn import ----
 
 namespace {
@@ -796,6 +876,21 @@ TEST(UrdfCli, ErrorsAreOneLineAndWriteNothing) {
   // The output must not be the input.
   r = run_tool("import " + kData + "joints.urdf -o " + kData + "joints.urdf", &dir);
   EXPECT_EQ(r.exit_code, 1) << r.err;
+}
+
+TEST(UrdfCli, ImportWritesNothingWhenTheOriginsOverflow) {
+  REQUIRE_URDF();
+  const auto in = kanedyn::test::temp_dir("urdf_overflow_input") / "sum.urdf";
+  std::ofstream(in) << robot(
+      "<link name=\"world\"/><link name=\"plate\"/>" + massive("a") +
+      joint("mount", "fixed", "world", "plate", "<origin xyz=\"1.5e308 0 0\"/>") +
+      joint("j", "fixed", "plate", "a", "<origin xyz=\"1.5e308 0 0\"/>"));
+  std::filesystem::path dir;
+  const auto r = run_tool("import " + in.string() + " -o m.yaml", &dir);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find(in.string() + ": joint 'j': origin composed"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.yaml"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.yaml.partial"));
 }
 
 TEST(UrdfCli, ImportRefusesADeepFileInOneLine) {

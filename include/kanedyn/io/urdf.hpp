@@ -33,7 +33,9 @@ bool urdf_supported();
 /// `link 'base'`) as the key path, line 0: a file urdfdom cannot parse, a joint kanedyn has no
 /// counterpart for (planar, mimic), a closed loop, a massless link moved by a joint, a bad
 /// mass or inertia; XML nested deeper than kMaxUrdfDepth, a NUL byte or text that is not
-/// UTF-8 (with the line and column); and "built without URDF support" when !urdf_supported().
+/// UTF-8 (with the line and column); a model whose numbers do not compose to one the model
+/// loader reads (the text is read back with parse_model_file before it is returned); and "built
+/// without URDF support" when !urdf_supported().
 std::string urdf_to_model_yaml(const std::string& urdf_text, const std::string& source_name,
                                const UrdfOptions& options, std::vector<std::string>* notes);
 
