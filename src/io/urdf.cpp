@@ -184,8 +184,31 @@ std::mutex& console_mutex() {
   return m;
 }
 
-urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::string& source,
-                                         std::vector<std::string>& warnings) {
+/// urdfdom's model. Its links own their child links through shared pointers, so the links of
+/// a closed loop own each other and would never be freed: they are cut apart when it goes.
+class UrdfModel {
+ public:
+  explicit UrdfModel(urdf::ModelInterfaceSharedPtr model) : model_(std::move(model)) {}
+  UrdfModel(UrdfModel&& other) noexcept : model_(std::move(other.model_)) {}
+  UrdfModel(const UrdfModel&) = delete;
+  UrdfModel& operator=(const UrdfModel&) = delete;
+  UrdfModel& operator=(UrdfModel&&) = delete;
+  ~UrdfModel() {
+    if (!model_) return;
+    for (const auto& [name, link] : model_->links_) {
+      link->child_links.clear();
+      link->child_joints.clear();
+    }
+  }
+  explicit operator bool() const { return model_ != nullptr; }
+  const urdf::ModelInterface* operator->() const { return model_.get(); }
+
+ private:
+  urdf::ModelInterfaceSharedPtr model_;
+};
+
+UrdfModel parse_urdf(const std::string& text, const std::string& source,
+                     std::vector<std::string>& warnings) {
   // TinyXML recurses once per element level: a deep file would overflow the stack.
   if (const detail::XmlScan scan = detail::scan_xml(text, kMaxUrdfDepth); !scan.problem.empty())
     throw ModelFileError(source, scan.line, scan.column, "", scan.problem);
@@ -208,12 +231,13 @@ urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::str
       console_bridge::setLogLevel(level);
     }
   } restore{level};
-  urdf::ModelInterfaceSharedPtr model;
+  urdf::ModelInterfaceSharedPtr parsed;
   try {
-    model = urdf::parseURDF(padded);
+    parsed = urdf::parseURDF(padded);
   } catch (const std::exception& e) {
     capture.errors.push_back(e.what());
   }
+  UrdfModel model(std::move(parsed));
   if (!model || !capture.errors.empty()) {
     std::string why;
     for (const std::string& e : capture.errors) why += (why.empty() ? "" : "; ") + e;
@@ -232,7 +256,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
                                  const UrdfOptions& options, std::vector<std::string>* notes_out,
                                  std::optional<ModelFile>* loaded) {
   std::vector<std::string> warnings;
-  const urdf::ModelInterfaceSharedPtr model = parse_urdf(urdf_text, source_name, warnings);
+  const UrdfModel model = parse_urdf(urdf_text, source_name, warnings);
   const auto fail = [&](const std::string& element, const std::string& problem) -> void {
     throw ModelFileError(source_name, 0, 0, element, problem);
   };
