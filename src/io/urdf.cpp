@@ -239,12 +239,14 @@ UrdfModel parse_urdf(const std::string& text, const std::string& source,
   }
   UrdfModel model(std::move(parsed));
   if (!model || !capture.errors.empty()) {
+    // urdfdom quotes the file's bytes; printable() cuts its input, and a control byte becomes
+    // four characters: 200 keeps the message under 1000.
     std::string why;
     for (const std::string& e : capture.errors) why += (why.empty() ? "" : "; ") + e;
     if (why.empty()) why = "no reason given";
     throw ModelFileError(
         source, 0, 0, "",
-        "not a valid URDF file (urdfdom could not parse it): " + printable(why, 400));
+        "not a valid URDF file (urdfdom could not parse it): " + printable(why, 200));
   }
   for (const std::string& w : capture.warnings) warnings.push_back("urdfdom: " + w);
   return model;
