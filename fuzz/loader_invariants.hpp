@@ -31,10 +31,16 @@ struct LoaderVerdict {
   std::string violation;  ///< empty when every invariant holds
 };
 
-/// What an error message may not be: multi-line, raw control bytes, unnamed, overlong.
-inline std::string check_error_message(const std::string& what) {
-  if (what.rfind(kSourceName, 0) != 0)
-    return "error message does not start with '" + std::string(kSourceName) + "'";
+/// Each fuzz target's own check of one input, whatever the bytes (check_loader for the model
+/// loader's): LLVMFuzzerTestOneInput aborts on a violation, and the replay driver also uses it
+/// to see that a "valid_" input is accepted.
+LoaderVerdict check_input(std::string_view text);
+
+/// What an error message may not be: multi-line, raw control bytes, unnamed (not starting with
+/// `source`, the name the input was parsed under), overlong.
+inline std::string check_error_message(const std::string& what,
+                                       const std::string& source = kSourceName) {
+  if (what.rfind(source, 0) != 0) return "error message does not start with '" + source + "'";
   if (what.size() >= kMaxMessageLength)
     return "error message is " + std::to_string(what.size()) + " characters long";
   for (std::size_t i = 0; i < what.size(); ++i) {

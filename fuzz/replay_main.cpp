@@ -1,11 +1,13 @@
-// Replays files through the fuzz target's LLVMFuzzerTestOneInput, without libFuzzer: the seed
-// and regression corpora run in every build (and under the sanitizer builds) as ctest tests.
+// Replays files through a fuzz target's LLVMFuzzerTestOneInput, without libFuzzer (linked with
+// the model loader's target as kanedyn_fuzz_replay, with the URDF import's as
+// kanedyn_fuzz_urdf_replay): the seed and regression corpora run in every build (and under the
+// sanitizer builds) as ctest tests.
 //
 //   kanedyn_fuzz_replay [-v] [--known-failures FILE] [--timeout SECONDS] PATH...
 //
 // PATH is a file or a directory (its regular files, recursively, in sorted order; names
 // starting with '.' and the known-failures file itself are left out). A file whose name starts
-// with "valid_" must also be accepted by the loader. The known-failures file lists, one per
+// with "valid_" must also be accepted (check_input). The known-failures file lists, one per
 // line, "NAME REASON" for inputs that break an invariant with the current loader: these run in
 // a child process (so that a crash or hang cannot stop the replay), with a time limit, and are
 // reported, but do not fail the run. Everything else runs in this process: a broken invariant
@@ -106,7 +108,7 @@ std::string escaped(const std::string& text) {
 void replay(const fs::path& path, const std::string& bytes) {
   LLVMFuzzerTestOneInput(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size());
   if (path.filename().string().starts_with("valid_")) {
-    const kanedyn::fuzz::LoaderVerdict verdict = kanedyn::fuzz::check_loader(bytes);
+    const kanedyn::fuzz::LoaderVerdict verdict = kanedyn::fuzz::check_input(bytes);
     if (!verdict.accepted) {
       std::fprintf(stderr, "kanedyn fuzz: a valid_ input was refused: %s\n", verdict.error.c_str());
       std::fflush(stderr);
@@ -242,7 +244,7 @@ int main(int argc, char** argv) {
     replay(path, bytes);
     ++replayed;
     if (verbose) {
-      const kanedyn::fuzz::LoaderVerdict verdict = kanedyn::fuzz::check_loader(bytes);
+      const kanedyn::fuzz::LoaderVerdict verdict = kanedyn::fuzz::check_input(bytes);
       std::printf("  %s\n", verdict.accepted ? "accepted" : escaped(verdict.error).c_str());
     }
   }

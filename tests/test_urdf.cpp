@@ -1,7 +1,7 @@
 // URDF import (docs/urdf.md): the mapping of every joint kind, of a turned <inertial> and of
 // massless links, checked on the YAML text (read back with libyaml) against transforms
-// computed here from the URDF numbers; every refusal; `kanedyn import`; and
-// load_model_file of a .urdf.
+// computed here from the URDF numbers; every refusal; the XML depth limit and its scan; that
+// what the import writes loads; `kanedyn import`; and load_model_file of a .urdf.
 #include <gtest/gtest.h>
 #include <yaml.h>
 
@@ -9,11 +9,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "../src/io/xml_scan.hpp"
 #include "file_support.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -611,6 +613,205 @@ TEST(Urdf, JointedModelPlacesEveryLinkAsUrdfDoes) {
   }
 }
 
+// ---- hostile input: XML depth, composed numbers, the axis rule ----
+
+namespace {
+
+std::string repeat(const std::string& s, int n) {
+  std::string out;
+  out.reserve(s.size() * static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+/// A robot with one massive link whose XML nests `levels` deep: <robot> is level 1, and
+/// <gazebo> elements, which urdfdom skips, nest below it.
+std::string nested_robot(int levels) {
+  return "<robot name=\"deep\">\n" + massive("a") + repeat("<gazebo>", levels - 1) +
+         repeat("</gazebo>", levels - 1) + "\n</robot>\n";
+}
+
+detail::XmlScan scan(const std::string& text) { return detail::scan_xml(text, kMaxUrdfDepth); }
+
+const std::string kTooDeep = "nested deeper than " + std::to_string(kMaxUrdfDepth);
+
+}  // namespace
+
+TEST(UrdfDepth, DeepFilesAreRefusedBeforeTheParserRecurses) {
+  REQUIRE_URDF();
+  // 100,000 levels overflowed the stack inside TinyXML; 30,000 took over 10 s.
+  for (const int levels : {100000, 30000}) {
+    const std::string text =
+        "<robot name=\"r\">" + repeat("<a>", levels - 1) + repeat("</a>", levels - 1) + "</robot>";
+    const ModelFileError e = refusal(text);
+    EXPECT_EQ(e.file(), "bad.urdf");
+    EXPECT_NE(e.problem().find(kTooDeep), std::string::npos) << e.what();
+    // At the '<' of the first element too deep: level kMaxUrdfDepth + 1.
+    EXPECT_EQ(e.line(), 1);
+    EXPECT_EQ(e.column(), 17 + 3 * (kMaxUrdfDepth - 1)) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+  }
+}
+
+TEST(UrdfDepth, TheLimitItselfIsAccepted) {
+  REQUIRE_URDF();
+  EXPECT_EQ(scan(nested_robot(kMaxUrdfDepth)).max_depth, kMaxUrdfDepth);
+  // The whole import, not only the scan: the file converts.
+  const std::string yaml = urdf_to_model_yaml(nested_robot(kMaxUrdfDepth), "ok.urdf", {}, nullptr);
+  EXPECT_EQ(parse_model_file(yaml, "ok.yaml").model.num_bodies(), 1);
+  const ModelFileError e = refusal(nested_robot(kMaxUrdfDepth + 1));
+  EXPECT_NE(e.problem().find(kTooDeep), std::string::npos) << e.what();
+  EXPECT_EQ(e.line(), 4) << e.what();
+}
+
+TEST(UrdfDepth, ASelfClosingElementIsALevel) {
+  const std::string inner = "<robot>" + repeat("<a>", kMaxUrdfDepth - 2);
+  EXPECT_EQ(scan(inner + "<b/>").problem, "");
+  EXPECT_EQ(scan(inner + "<b/>").max_depth, kMaxUrdfDepth);
+  EXPECT_NE(scan(inner + "<a><b/>").problem.find(kTooDeep), std::string::npos);
+}
+
+TEST(UrdfDepth, MarkupThatIsNotAnElementIsNotALevel) {
+  const std::string deep = repeat("<a>", 2 * kMaxUrdfDepth);
+  // Comments, CDATA sections, DOCTYPE and the XML declaration hold no elements.
+  for (const std::string& s : std::vector<std::string>{
+           "<robot><!--" + deep + "--></robot>", "<robot><![CDATA[" + deep + "]]></robot>",
+           "<!DOCTYPE robot><?xml version=\"1.0\"?><robot><!-- -- > --></robot>"}) {
+    const detail::XmlScan r = scan(s);
+    EXPECT_EQ(r.problem, "") << s;
+    EXPECT_EQ(r.max_depth, 1) << s;
+  }
+  // Quoted attribute values may hold '>', "/>" and end tags: the tag goes on.
+  EXPECT_EQ(scan("<robot a=\"/>\" b='>' c=\"</robot>\"><c/></robot>").max_depth, 2);
+  EXPECT_NE(scan("<robot a=\"</robot>\" b='/>'>" + deep).problem.find(kTooDeep), std::string::npos);
+  // An end tag outside every element closes nothing (TinyXML skips it).
+  EXPECT_NE(scan(repeat("</a>", 50) + "<robot>" + deep).problem.find(kTooDeep), std::string::npos);
+}
+
+TEST(UrdfDepth, TheScanReadsAsTinyXmlDoes) {
+  // TinyXML ends "<?pi ...>" (anything but "<?xml") at the first '>', as XML would not: what
+  // follows is an element to it, and so to the scan.
+  EXPECT_EQ(scan("<robot><?pi > <a></a> ?></robot>").max_depth, 2);
+  // TinyXML reads "&#...;" to the next ';' when the characters before it are digits back to a
+  // '#', whatever lies between: here every end tag, so each <a> nests in the one before.
+  const detail::XmlScan hidden = scan("<robot>" + repeat("<a>&#</a>#1;", kMaxUrdfDepth));
+  EXPECT_NE(hidden.problem.find(kTooDeep), std::string::npos) << hidden.problem;
+  // Where the digits do not reach the '#', TinyXML stops with an error: nothing after is read.
+  EXPECT_EQ(scan("<robot><a>&#</a>x1;" + repeat("<a>", 2 * kMaxUrdfDepth)).problem, "");
+}
+
+TEST(UrdfDepth, TheScanIsOnePassOverAWideFile) {
+  // A million sibling elements: a scan that went back over the text would not finish.
+  const std::string wide = "<robot>" + repeat("<link name=\"a&#62;\"/>", 1000000) + "</robot>";
+  const detail::XmlScan r = scan(wide);
+  EXPECT_EQ(r.problem, "");
+  EXPECT_EQ(r.max_depth, 2);
+}
+
+TEST(UrdfDepth, TextTheParserWouldMisreadIsRefused) {
+  REQUIRE_URDF();
+  struct Case {
+    std::string text, problem;
+    int line, column;
+  };
+  const std::vector<Case> cases = {
+      {robot(massive("a")) + std::string(1, '\0') + "<a>", "a NUL byte", 5, 1},
+      {"<robot name=\"\xe9t\xe9\">", "not valid UTF-8", 1, 14},
+      {"<robot>\n  <link name=\"\xef\xbb\xbf\"/>", "U+FEFF", 2, 15},
+      {"<robot name=\"\xc0\xaf\"/>", "not valid UTF-8", 1, 14},
+  };
+  for (const Case& c : cases) {
+    const ModelFileError e = refusal(c.text);
+    EXPECT_NE(e.problem().find(c.problem), std::string::npos) << e.what();
+    EXPECT_EQ(e.line(), c.line) << e.what();
+    EXPECT_EQ(e.column(), c.column) << e.what();
+  }
+  // A byte order mark at the start is no error, nor is UTF-8 text.
+  const std::string yaml = urdf_to_model_yaml(
+      "\xef\xbb\xbf<robot name=\"r\xc3\xa9\">" + massive("\xe2\x98\x83") + "</robot>", "bom.urdf",
+      {}, nullptr);
+  EXPECT_EQ(parse_model_file(yaml, "bom.yaml").model.num_bodies(), 1);
+}
+
+TEST(UrdfImportLoads, OriginsThatSumPastADoubleAreRefusedNamingTheJoint) {
+  REQUIRE_URDF();
+  // Each origin is finite; through the folded massless link 'plate' they sum to infinity.
+  const std::string text =
+      robot("<link name=\"world\"/><link name=\"plate\"/>" + massive("a") +
+            joint("mount", "fixed", "world", "plate", "<origin xyz=\"1.5e308 0 0\"/>") +
+            joint("j", "fixed", "plate", "a", "<origin xyz=\"1.5e308 0 0\"/>"));
+  const ModelFileError e = refusal(text);
+  EXPECT_EQ(e.file(), "bad.urdf");
+  EXPECT_EQ(e.key_path(), "joint 'j'");
+  EXPECT_NE(e.problem().find("massless parent link 'plate' (folded into the ground) is not "
+                             "finite: [inf, 0, 0]"),
+            std::string::npos)
+      << e.what();
+  // The same through a body: folded onto 'a', the link 'tip' carries 'b' out of range.
+  const std::string below =
+      robot("<link name=\"world\"/><link name=\"tip\"/>" + massive("a") + massive("b") +
+            joint("j1", "revolute", "world", "a") +
+            joint("tip_mount", "fixed", "a", "tip", "<origin xyz=\"0 -1e308 0\"/>") +
+            joint("j2", "revolute", "tip", "b", "<origin xyz=\"0 -1e308 0\"/>"));
+  const ModelFileError f = refusal(below);
+  EXPECT_EQ(f.key_path(), "joint 'j2'");
+  EXPECT_NE(f.problem().find("(folded into body 'a') is not finite: [0, -inf, 0]"),
+            std::string::npos)
+      << f.what();
+}
+
+TEST(UrdfImportLoads, WhatTheLoaderRefusesIsRefusedByTheImport) {
+  REQUIRE_URDF();
+  // A value no element check covers (here the gravity option) is caught by reading the
+  // converted text back: the error names the URDF file, not a line of the YAML.
+  UrdfOptions options;
+  options.gravity = {0.0, 0.0, std::numeric_limits<double>::infinity()};
+  try {
+    urdf_to_model_yaml(robot(massive("a")), "g.urdf", options, nullptr);
+    ADD_FAILURE() << "accepted a non-finite gravity";
+  } catch (const ModelFileError& e) {
+    EXPECT_EQ(e.file(), "g.urdf");
+    EXPECT_EQ(e.line(), 0);
+    EXPECT_NE(e.problem().find("the converted model does not load (gravity"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(UrdfImportLoads, OneAxisRuleForTheImportAndTheLoader) {
+  REQUIRE_URDF();
+  REQUIRE_MAPPING_FORM();
+  // Any finite axis not all zero is a direction, however small: the import and the loader
+  // agree (the import refused [1e-200, 0, 0] as zero, the loader read it as the x axis).
+  for (const std::string x : {"1e-200", "1e-320", "1e200", "-3"}) {
+    const std::string text =
+        robot("<link name=\"world\"/>" + massive("a") +
+              joint("j", "revolute", "world", "a", "<axis xyz=\"" + x + " 0 0\"/>"));
+    const std::string yaml = urdf_to_model_yaml(text, "axis.urdf", {}, nullptr);
+    const ModelFile f = parse_model_file(yaml, "axis.yaml");
+    ASSERT_TRUE(f.jointed()) << yaml;
+    const Vec axis = f.joints->joint(0).axis.normalized();
+    EXPECT_EQ(axis, Vec(x[0] == '-' ? -1 : 1, 0, 0)) << x;
+    // The loader takes the same axis written by hand.
+    EXPECT_NO_THROW(parse_model_file(
+        "format: kanedyn-model/1\nbodies:\n  - name: a\n    parent: ground\n    mass: 1\n"
+        "    inertia: [1, 1, 1]\n    joint: {type: revolute, axis: [" +
+            x + ", 0, 0]}\n",
+        "hand.yaml"))
+        << x;
+  }
+  // And both refuse a zero axis.
+  EXPECT_NE(refusal(robot("<link name=\"world\"/>" + massive("a") +
+                          joint("j", "revolute", "world", "a", "<axis xyz=\"0 0 0\"/>")))
+                .problem()
+                .find("axis must be a nonzero finite vector"),
+            std::string::npos);
+  EXPECT_THROW(parse_model_file(
+                   "format: kanedyn-model/1\nbodies:\n  - name: a\n    parent: ground\n    mass: "
+                   "1\n    inertia: [1, 1, 1]\n    joint: {type: revolute, axis: [0, 0, 0]}\n",
+                   "hand.yaml"),
+               ModelFileError);
+}
+
 // ---- kanedyn import ----
 
 namespace {
@@ -675,6 +876,33 @@ TEST(UrdfCli, ErrorsAreOneLineAndWriteNothing) {
   // The output must not be the input.
   r = run_tool("import " + kData + "joints.urdf -o " + kData + "joints.urdf", &dir);
   EXPECT_EQ(r.exit_code, 1) << r.err;
+}
+
+TEST(UrdfCli, ImportWritesNothingWhenTheOriginsOverflow) {
+  REQUIRE_URDF();
+  const auto in = kanedyn::test::temp_dir("urdf_overflow_input") / "sum.urdf";
+  std::ofstream(in) << robot(
+      "<link name=\"world\"/><link name=\"plate\"/>" + massive("a") +
+      joint("mount", "fixed", "world", "plate", "<origin xyz=\"1.5e308 0 0\"/>") +
+      joint("j", "fixed", "plate", "a", "<origin xyz=\"1.5e308 0 0\"/>"));
+  std::filesystem::path dir;
+  const auto r = run_tool("import " + in.string() + " -o m.yaml", &dir);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find(in.string() + ": joint 'j': origin composed"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.yaml"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.yaml.partial"));
+}
+
+TEST(UrdfCli, ImportRefusesADeepFileInOneLine) {
+  REQUIRE_URDF();
+  const auto in = kanedyn::test::temp_dir("urdf_deep_input") / "deep.urdf";
+  std::ofstream(in) << "<robot>" + repeat("<a>", 100000) + repeat("</a>", 100000) + "</robot>";
+  std::filesystem::path dir;
+  const auto r = run_tool("info " + in.string(), &dir);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "kanedyn: error: " + in.string() +
+                       ":1:" + std::to_string(8 + 3 * (kMaxUrdfDepth - 1)) + ": elements " +
+                       kTooDeep + " levels, the limit for a URDF file (a robot needs under 20)\n");
 }
 
 TEST(UrdfCli, ExampleArmImports) {

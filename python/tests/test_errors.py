@@ -238,3 +238,19 @@ def test_eom_refuses_more_bodies_than_the_tool_prints(tmp_path) -> None:
         chain.eom()
     tool = run_tool(["eom", path])
     assert tool.returncode == 1 and "is more than the 300 bodies" in tool.stderr
+
+
+def test_a_deeply_nested_urdf_raises_model_error(tmp_path) -> None:
+    # The XML parser under liburdfdom recurses once per element level: 100,000 levels
+    # overflowed the stack and took the interpreter down. The file is refused before parsing.
+    levels = 100_000
+    path = tmp_path / "deep.urdf"
+    path.write_text("<robot>" + "<a>" * levels + "</a>" * levels + "</robot>")
+    with pytest.raises(kanedyn.ModelError) as caught:
+        kanedyn.load(path)
+    e = caught.value
+    if "without URDF support" in e.problem:
+        pytest.skip("this kanedyn was built without URDF support")
+    assert "nested deeper than 100 levels" in e.problem
+    assert e.file == str(path) and e.line == 1 and e.column == len("<robot>") + 3 * 99 + 1
+    assert "\n" not in str(e)

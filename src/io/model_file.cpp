@@ -30,12 +30,14 @@
 #include <unordered_map>
 #include <vector>
 
+#include "direction.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/io/urdf.hpp"
 #include "kanedyn/rotation.hpp"
 #include "model_tree.hpp"
+#include "urdf_convert.hpp"
 
 namespace kanedyn::io {
 
@@ -841,12 +843,9 @@ Vector4 read_rotation(const Reader& r, const Field& f) {
   const Mapping m = r.mapping(f);
   m.allow({"axis", "angle", "angle_deg"});
   const Field axis_field = m.require("axis");
-  Vector3 axis = r.vector3(axis_field);
-  // Any non-zero axis is a direction, however large or small its components; scaled by the
-  // largest so that its norm neither overflows nor underflows.
-  const double largest = axis.cwiseAbs().maxCoeff();
-  if (largest == 0.0) r.fail(axis_field, "the rotation axis must not be zero");
-  axis /= largest;
+  // Any non-zero axis is a direction, however large or small its components (direction.hpp).
+  const std::optional<Vector3> axis = detail::scaled_direction(r.vector3(axis_field));
+  if (!axis) r.fail(axis_field, "the rotation axis must not be zero");
   const auto angle = m.get("angle");
   const auto angle_deg = m.get("angle_deg");
   if (angle && angle_deg)
@@ -856,7 +855,7 @@ Vector4 read_rotation(const Reader& r, const Field& f) {
     r.fail(f.mark, child_path(f.path.str(), "angle"),
            "missing required key 'angle' (radians) or 'angle_deg' (degrees)");
   const double theta = angle ? r.number(*angle) : r.number(*angle_deg) * (std::numbers::pi / 180.0);
-  return euler_parameters_from_axis_angle(axis, theta);
+  return euler_parameters_from_axis_angle(*axis, theta);
 }
 
 Vector4 read_euler_parameters(const Reader& r, const Field& f) {
@@ -883,10 +882,9 @@ JointType joint_type_of(std::string_view name) {
 /// A direction: three numbers, not all zero, scaled by the largest (so that its norm neither
 /// overflows nor underflows); `what` names it in the message.
 Vector3 read_direction(const Reader& r, const Field& f, const std::string& what) {
-  Vector3 v = r.vector3(f);
-  const double largest = v.cwiseAbs().maxCoeff();
-  if (largest == 0.0) r.fail(f, what + " must not be zero");
-  return v / largest;
+  const std::optional<Vector3> v = detail::scaled_direction(r.vector3(f));
+  if (!v) r.fail(f, what + " must not be zero");
+  return *v;
 }
 
 /// The mapping form of `joint` (docs/model-format.md, "Joints"); its `at` goes to `at`.
@@ -1385,8 +1383,12 @@ ModelFile load_model_file(const std::string& path) {
     throw ModelFileError(path, 0, 0, "", e.what());
   }
   // A URDF robot reads as the model file `kanedyn import` writes for it (docs/urdf.md).
-  if (path.ends_with(".urdf"))
-    return parse_model_file(urdf_to_model_yaml(text, path, {}, nullptr), path);
+  if (path.ends_with(".urdf")) {
+    // The conversion reads its text back with parse_model_file: that model is the answer.
+    std::optional<ModelFile> file;
+    detail::convert_urdf(text, path, {}, nullptr, &file);
+    return std::move(*file);
+  }
   return parse_model_file(text, path);
 }
 

@@ -3,6 +3,8 @@
 // as a kanedyn-model/1 file with the mapping form of `joint`.
 #include "kanedyn/io/urdf.hpp"
 
+#include "urdf_convert.hpp"
+
 #ifdef KANEDYN_HAVE_URDF
 #include <console_bridge/console.h>
 #include <urdf_parser/urdf_parser.h>
@@ -19,8 +21,10 @@
 #include <unordered_set>
 #include <utility>
 
+#include "direction.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/model.hpp"
+#include "xml_scan.hpp"
 #endif
 
 namespace kanedyn::io {
@@ -29,8 +33,9 @@ namespace kanedyn::io {
 
 bool urdf_supported() { return false; }
 
-std::string urdf_to_model_yaml(const std::string&, const std::string& source_name,
-                               const UrdfOptions&, std::vector<std::string>*) {
+std::string detail::convert_urdf(const std::string&, const std::string& source_name,
+                                 const UrdfOptions&, std::vector<std::string>*,
+                                 std::optional<ModelFile>*) {
   throw ModelFileError(
       source_name, 0, 0, "",
       "this kanedyn was built without URDF support (configured with KANEDYN_URDF=OFF, "
@@ -179,8 +184,41 @@ std::mutex& console_mutex() {
   return m;
 }
 
-urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::string& source,
-                                         std::vector<std::string>& warnings) {
+/// urdfdom's model. Its links own their child links through shared pointers, so the links of
+/// a closed loop own each other and would never be freed: they are cut apart when it goes.
+class UrdfModel {
+ public:
+  explicit UrdfModel(urdf::ModelInterfaceSharedPtr model) : model_(std::move(model)) {}
+  UrdfModel(UrdfModel&& other) noexcept : model_(std::move(other.model_)) {}
+  UrdfModel(const UrdfModel&) = delete;
+  UrdfModel& operator=(const UrdfModel&) = delete;
+  UrdfModel& operator=(UrdfModel&&) = delete;
+  ~UrdfModel() {
+    if (!model_) return;
+    for (const auto& [name, link] : model_->links_) {
+      link->child_links.clear();
+      link->child_joints.clear();
+    }
+  }
+  explicit operator bool() const { return model_ != nullptr; }
+  const urdf::ModelInterface* operator->() const { return model_.get(); }
+
+ private:
+  urdf::ModelInterfaceSharedPtr model_;
+};
+
+UrdfModel parse_urdf(const std::string& text, const std::string& source,
+                     std::vector<std::string>& warnings) {
+  // TinyXML recurses once per element level: a deep file would overflow the stack.
+  if (const detail::XmlScan scan = detail::scan_xml(text, kMaxUrdfDepth); !scan.problem.empty())
+    throw ModelFileError(source, scan.line, scan.column, "", scan.problem);
+  // TinyXML steps past the terminating NUL at the end of an unterminated comment, CDATA
+  // section or quoted value (by the length of the delimiter it looked for): the padding keeps
+  // those reads inside the string, where they meet NULs and stop. The scan refused any NUL in
+  // the text, so TinyXML reads all of it.
+  std::string padded;
+  padded.reserve(text.size() + 8);
+  padded.append(text).append(8, '\0');
   std::lock_guard<std::mutex> lock(console_mutex());
   Capture capture;
   const console_bridge::LogLevel level = console_bridge::getLogLevel();
@@ -193,19 +231,22 @@ urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::str
       console_bridge::setLogLevel(level);
     }
   } restore{level};
-  urdf::ModelInterfaceSharedPtr model;
+  urdf::ModelInterfaceSharedPtr parsed;
   try {
-    model = urdf::parseURDF(text);
+    parsed = urdf::parseURDF(padded);
   } catch (const std::exception& e) {
     capture.errors.push_back(e.what());
   }
+  UrdfModel model(std::move(parsed));
   if (!model || !capture.errors.empty()) {
+    // urdfdom quotes the file's bytes; printable() cuts its input, and a control byte becomes
+    // four characters: 200 keeps the message under 1000.
     std::string why;
     for (const std::string& e : capture.errors) why += (why.empty() ? "" : "; ") + e;
     if (why.empty()) why = "no reason given";
     throw ModelFileError(
         source, 0, 0, "",
-        "not a valid URDF file (urdfdom could not parse it): " + printable(why, 400));
+        "not a valid URDF file (urdfdom could not parse it): " + printable(why, 200));
   }
   for (const std::string& w : capture.warnings) warnings.push_back("urdfdom: " + w);
   return model;
@@ -213,10 +254,11 @@ urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& text, const std::str
 
 }  // namespace
 
-std::string urdf_to_model_yaml(const std::string& urdf_text, const std::string& source_name,
-                               const UrdfOptions& options, std::vector<std::string>* notes_out) {
+std::string detail::convert_urdf(const std::string& urdf_text, const std::string& source_name,
+                                 const UrdfOptions& options, std::vector<std::string>* notes_out,
+                                 std::optional<ModelFile>* loaded) {
   std::vector<std::string> warnings;
-  const urdf::ModelInterfaceSharedPtr model = parse_urdf(urdf_text, source_name, warnings);
+  const UrdfModel model = parse_urdf(urdf_text, source_name, warnings);
   const auto fail = [&](const std::string& element, const std::string& problem) -> void {
     throw ModelFileError(source_name, 0, 0, element, problem);
   };
@@ -351,13 +393,21 @@ std::string urdf_to_model_yaml(const std::string& urdf_text, const std::string& 
       // The child's frame at zero joint position, in the frame `from` is fixed in.
       Place to{from.body, from.p + from.q * xyz, (from.q * quat(o.rotation)).normalized(),
                (from.absolute * quat(o.rotation)).normalized()};
+      // Each origin is finite, but their sum through folded links need not be (1.5e308 twice).
+      if (!to.p.allFinite())
+        fail(jname, "origin composed with those of the fixed joints above its massless parent " +
+                        quoted_name("link", joint.parent_link_name) + " (folded into " +
+                        (from.body < 0 ? std::string("the ground")
+                                       : "body '" + bodies[from.body].name + "'") +
+                        ") is not finite: " + vec(to.p));
       const double mass = mass_of(*child);
       if (mass > 0.0) {
         const int k = add_body(*child, &joint, to);
         bodies[k].joint_type = type;
         if (type == "revolute" || type == "prismatic") {
+          // The loader's rule (direction.hpp): any finite axis that is not all zero.
           bodies[k].axis = vec3(joint.axis);
-          if (!bodies[k].axis.allFinite() || bodies[k].axis.squaredNorm() == 0.0)
+          if (!detail::scaled_direction(bodies[k].axis))
             fail(jname, "axis must be a nonzero finite vector, got " + vec(bodies[k].axis));
         }
         to = Place{k, Vec::Zero(), Quat::Identity(), to.absolute};
@@ -446,10 +496,35 @@ std::string urdf_to_model_yaml(const std::string& urdf_text, const std::string& 
     y += "  - type: joint_spring  # <dynamics> of joint " + printable(b.joint) + "\n";
     y += "    body: \"" + b.name + "\"\n    damping: " + num(b.damping) + "\n";
   }
+  // What is written must load: read it back with the loader's own rules, so that no command
+  // refuses a file the import wrote. A refusal here is a value the checks above let through
+  // (a number that reads back out of range, say); it names the URDF's link.
+  try {
+    ModelFile file = parse_model_file(y, source_name);
+    if (loaded) loaded->emplace(std::move(file));
+  } catch (const ModelFileError& e) {
+    std::string element;
+    const std::string& path = e.key_path();
+    if (path.starts_with("bodies[")) {
+      std::size_t k = 0;
+      const auto [end, error] = std::from_chars(path.data() + 7, path.data() + path.size(), k);
+      if (error == std::errc() && end != path.data() + path.size() && *end == ']' &&
+          k < bodies.size())
+        element = quoted_name("link", bodies[k].link);
+    }
+    throw ModelFileError(source_name, 0, 0, element,
+                         "the converted model does not load (" +
+                             (path.empty() ? std::string() : path + ": ") + e.problem() + ")");
+  }
   if (notes_out) *notes_out = notes.lines();
   return y;
 }
 
 #endif
+
+std::string urdf_to_model_yaml(const std::string& urdf_text, const std::string& source_name,
+                               const UrdfOptions& options, std::vector<std::string>* notes) {
+  return detail::convert_urdf(urdf_text, source_name, options, notes, nullptr);
+}
 
 }  // namespace kanedyn::io
