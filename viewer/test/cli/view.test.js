@@ -1,5 +1,6 @@
 // `kanedyn view` on the command line: what the page holds, its name, the errors, the
-// .partial rule, decimation and the time it takes.
+// .partial rule and decimation. (How long a page takes is measured by hand, docs/cli.md: a
+// timed test fails on a loaded machine and proves nothing on a fast one.)
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync, readdirSync, readFileSync, writeFileSync, mkdirSync, symlinkSync } from 'node:fs';
@@ -106,12 +107,6 @@ test('the page is self-contained: no external script, style, link or frame', () 
   assert.doesNotMatch(html, /<(iframe|img)[\s>]/i);
   assert.doesNotMatch(html, /@import/i);
   assert.match(html, /Content-Security-Policy" content="default-src 'none'/);
-});
-
-test('writing the eight-body 10 s page takes under 0.5 s', () => {
-  // The best of three: the limit is the tool's, not the machine's other load.
-  const times = [0, 1, 2].map(() => kanedyn(dir, 'view', eight, 'eight.csv', '-o', 'timed.html').seconds);
-  assert.ok(Math.min(...times) < 0.5, `${times.map((s) => s.toFixed(3)).join(', ')} s`);
 });
 
 test('without a trajectory: the initial state, equal to kanedyn inspect', () => {
