@@ -708,6 +708,31 @@ TEST(UrdfDepth, TheScanIsOnePassOverAWideFile) {
   EXPECT_EQ(r.max_depth, 2);
 }
 
+TEST(UrdfDepth, AnElementWithTooManyAttributesIsRefused) {
+  REQUIRE_URDF();
+  // TinyXML's duplicate-attribute check is quadratic: 60,000 attributes took 11.5 s.
+  const auto attributes = [](int n) {
+    std::string a;
+    for (int i = 0; i < n; ++i) a += " a" + std::to_string(i) + "=\"1\"";
+    return a;
+  };
+  const std::string head = "<robot name=\"r\">\n<link name=\"l\"";
+  // The link's name is one of its attributes.
+  EXPECT_EQ(scan(head + attributes(detail::kMaxXmlAttributes - 1) + "/></robot>").problem, "");
+  EXPECT_NE(scan(head + attributes(detail::kMaxXmlAttributes) + "/></robot>").problem, "");
+  const ModelFileError e = refusal(head + attributes(60000) + "/></robot>");
+  EXPECT_NE(e.problem().find("an element with more than " +
+                             std::to_string(detail::kMaxXmlAttributes) + " attributes"),
+            std::string::npos)
+      << e.what();
+  // At the first attribute too many, on the link's line.
+  EXPECT_EQ(e.line(), 2);
+  EXPECT_EQ(e.column(), static_cast<int>(std::string("<link name=\"l\"").size() +
+                                         attributes(detail::kMaxXmlAttributes - 1).size()) +
+                            2)
+      << e.what();
+}
+
 TEST(UrdfDepth, TextTheParserWouldMisreadIsRefused) {
   REQUIRE_URDF();
   struct Case {

@@ -121,6 +121,8 @@ class Scanner {
   }
 
   int max_depth() const { return max_depth_; }
+  /// Whether run()'s offset is an element's attribute past kMaxXmlAttributes (else too deep).
+  bool too_many_attributes() const { return too_many_attributes_; }
 
  private:
   static constexpr std::size_t npos = std::string_view::npos;
@@ -259,6 +261,7 @@ class Scanner {
       stop();
       return;
     }
+    int attributes = 0;
     for (;;) {
       skip_space();
       const unsigned char c = at(i_);
@@ -278,6 +281,13 @@ class Scanner {
       if (c == '>') {
         ++i_;
         return;  // the content follows, at depth_
+      }
+      // TinyXML checks each attribute's name against the element's others: quadratic in
+      // their number (60,000 of them took 11 s).
+      if (++attributes > kMaxXmlAttributes) {
+        too_deep_ = i_;
+        too_many_attributes_ = true;
+        return;
       }
       if (!attribute()) return;
       if (at(i_) == 0) {
@@ -313,7 +323,8 @@ class Scanner {
   int depth_ = 0;
   int max_depth_ = 0;
   bool ok_ = true;
-  std::size_t too_deep_ = npos;
+  std::size_t too_deep_ = npos;  ///< where the text is refused: too deep, or too many attributes
+  bool too_many_attributes_ = false;
 };
 
 }  // namespace
@@ -332,8 +343,11 @@ XmlScan scan_xml(std::string_view text, int limit) {
   if (too_deep != std::string_view::npos) {
     scan.offset = too_deep;
     position(text, too_deep, scan.line, scan.column);
-    scan.problem = "elements nested deeper than " + std::to_string(limit) +
-                   " levels, the limit for a URDF file (a robot needs under 20)";
+    scan.problem = scanner.too_many_attributes()
+                       ? "an element with more than " + std::to_string(kMaxXmlAttributes) +
+                             " attributes, the limit for a URDF file (an element needs at most 6)"
+                       : "elements nested deeper than " + std::to_string(limit) +
+                             " levels, the limit for a URDF file (a robot needs under 20)";
   }
   return scan;
 }

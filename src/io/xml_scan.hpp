@@ -1,7 +1,8 @@
 // A check of XML text before it reaches TinyXML 2.6, the parser under liburdfdom: TinyXML
 // recurses once per element level (and its destructor once more), so a deeply nested file
 // overflows the stack, and its parse is quadratic in the depth. scan_xml() finds the nesting
-// depth in one pass, without recursion, so that the text can be refused before it is parsed.
+// depth in one pass, without recursion, so that the text can be refused before it is parsed
+// (and an element's attributes, whose duplicate check is quadratic too).
 #pragma once
 
 #include <cstddef>
@@ -9,6 +10,10 @@
 #include <string_view>
 
 namespace kanedyn::io::detail {
+
+/// The most attributes one element may have: TinyXML compares each attribute's name with the
+/// element's others, quadratic in their number. A URDF element has at most 6 (an inertia).
+inline constexpr int kMaxXmlAttributes = 100;
 
 /// What scan_xml() found. The depth counts elements: the root element is at depth 1, a child
 /// of it at 2 (a self-closing one too).
@@ -21,8 +26,8 @@ struct XmlScan {
 };
 
 /// Scans `text` as TinyXML 2.6 tokenizes it and refuses it (problem set) when an element is
-/// nested deeper than `limit`, or when the text holds a NUL byte, is not valid UTF-8, or holds
-/// U+FEFF after its start or U+FFFE or U+FFFF.
+/// nested deeper than `limit` or has more than kMaxXmlAttributes attributes, or when the text holds
+/// a NUL byte, is not valid UTF-8, or holds U+FEFF after its start or U+FFFE or U+FFFF.
 ///
 /// The depth must never be less than the depth TinyXML's recursion reaches, so the scan follows
 /// TinyXML's own reading, quirks included, and not XML's: a comment ends at the first "-->", a
