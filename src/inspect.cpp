@@ -204,8 +204,13 @@ Inspection inspect(const Model& model, const JointTree& tree, const VectorX& q, 
     jb.type = tree.joint(k).type;
     jb.q = q.segment(tree.coordinate_offset(k), coordinate_count(jb.type));
     jb.z = z.segment(tree.speed_offset(k), speed_count(jb.type));
-    jb.C_w = e.C.middleRows(3 * k, 3);
-    jb.C_sd = e.C.middleRows(3 * n + 3 * k, 3);
+    // A model of welds only has no speeds: [C] has no columns and no storage to offset into.
+    if (e.C.cols() == 0) {
+      jb.C_w = jb.C_sd = MatrixX(3, 0);
+    } else {
+      jb.C_w = e.C.middleRows(3 * k, 3);
+      jb.C_sd = e.C.middleRows(3 * n + 3 * k, 3);
+    }
     j.bodies.push_back(std::move(jb));
   }
   j.C = std::move(e.C);

@@ -436,13 +436,15 @@ void constraint_transpose_times(const JointTree& tree, const ConstraintMatrix& C
 MatrixX dense_constraint_matrix(const JointTree& tree, const ConstraintMatrix& C) {
   const int n = tree.num_bodies();
   MatrixX d = MatrixX::Zero(6 * n, tree.num_speeds());
+  // Blocks of no columns (welds) are skipped: with no speeds at all d has no storage, and a
+  // block of it at a row offset would be an offset from a null pointer.
   for (int k = 0; k < n; ++k) {
     for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
       const int c = C.w_body[at(b)], m = speed_count(tree.joint(c).type);
-      d.block(3 * k, tree.speed_offset(c), 3, m) = C.w_block[at(b)].leftCols(m);
+      if (m > 0) d.block(3 * k, tree.speed_offset(c), 3, m) = C.w_block[at(b)].leftCols(m);
     }
     const int m = speed_count(tree.joint(k).type);
-    d.block(3 * n + 3 * k, tree.speed_offset(k), 3, m) = C.s_block[at(k)].leftCols(m);
+    if (m > 0) d.block(3 * n + 3 * k, tree.speed_offset(k), 3, m) = C.s_block[at(k)].leftCols(m);
   }
   return d;
 }
