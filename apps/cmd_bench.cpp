@@ -199,7 +199,8 @@ void add_bench(CLI::App& app) {
       try {
         results.push_back(time_route(file, route, opt->reps, opt->simd_lanes));
       } catch (const ModelError& e) {
-        if (asked || route != Route::assembled) throw std::runtime_error(opt->path + ": " + e.what());
+        if (asked || route != Route::assembled)
+          throw std::runtime_error(opt->path + ": " + e.what());
         std::fprintf(stderr, "kanedyn: note: %s: %s; timing the recursive route alone\n",
                      opt->path.c_str(), e.what());
       }
