@@ -28,17 +28,18 @@ void run(const Options& o) {
   view::require_available();
   const io::ModelFile file = io::load_model_file(o.model);
   const bool have_traj = !o.trajectory.empty();
-  const io::Trajectory traj =
-      have_traj
-          ? io::read_trajectory(file.model, o.trajectory, file.jointed() ? &*file.joints : nullptr)
-          : view::initial_trajectory(file.model, file.initial);
   const std::string& named = have_traj ? o.trajectory : o.model;
   std::string out = o.out;
   if (out.empty()) out = std::filesystem::path(named).filename().replace_extension(".html");
   const bool to_stdout = out == "-";
   // Every input, by identity: the default page name of a model called run.html is the model.
+  // Checked before the trajectory, which may be long, is read.
   const std::vector<std::string> inputs{o.model, o.trajectory};
   if (!to_stdout) io::check_output_path(out, inputs);
+  const io::Trajectory traj =
+      have_traj
+          ? io::read_trajectory(file.model, o.trajectory, file.jointed() ? &*file.joints : nullptr)
+          : view::initial_trajectory(file.model, file.initial);
   const std::string text = view::page(
       file.model, file.path, traj,
       have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state",
