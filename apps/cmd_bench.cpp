@@ -79,9 +79,9 @@ BenchResult time_route(const io::ModelFile& file, Route route, long reps, int ma
     return std::runtime_error("the equations of motion are not finite at the initial state");
   };
   if (file.jointed()) {
-    JointDynamics dynamics(model, *file.joints);
-    VectorX qz(file.joint_q.size() + file.joint_z.size());
-    qz << file.joint_q, file.joint_z;
+    JointDynamics dynamics(model);
+    VectorX qz(file.q.size() + file.z.size());
+    qz << file.q, file.z;
     VectorX rates(qz.size());
     dynamics.derivative(qz, route, rates);  // warm-up (the assembled route builds its blocks)
     if (!rates.allFinite()) throw not_finite();

@@ -112,31 +112,30 @@ void print_tables(const io::ModelFile& file, const Data& data, const std::string
 
 /// Label of independent speed i as the trajectory CSV names its column: NAME.jdN of a jointed
 /// body, NAME.wC / NAME.sdC of a free one.
-std::string independent_speed_label(const Model& model, const JointTree& tree, int i) {
+std::string independent_speed_label(const Model& model, int i) {
   int k = -1;
-  const std::string column = joint_state_column(tree, tree.num_coordinates() + i, &k);
+  const std::string column = joint_state_column(model, model.num_coordinates() + i, &k);
   return k < 0 ? "?" : model.body(k).name + "." + column;
 }
 
 void print_projected(const io::ModelFile& file, const ProjectedEquations& e, bool full) {
   const Model& model = file.model;
-  const JointTree& tree = *file.joints;
-  const int n = tree.num_speeds();
+  const int n = model.num_speeds();
   std::printf(
       "\nprojected equations (docs/theory.md, \"Joints\"): [C]^T [A] [C] {z dot} = "
       "[C]^T ({f} - [A][C dot]{z}) + Q, y = [C] z\nn = %d independent speeds; [C] is %d x %d\n",
-      n, model.num_speeds(), n);
+      n, model.num_y(), n);
   if (full || n <= 6 * kTableBodies) {
     std::printf("\nA_z = [C]^T [A] [C], %d x %d\n", n, n);
     for (int i = 0; i < n; ++i) {
-      std::printf("%-12s", independent_speed_label(model, tree, i).c_str());
+      std::printf("%-12s", independent_speed_label(model, i).c_str());
       for (int j = 0; j < n; ++j) std::printf(" % 10.4g", e.A_z(i, j));
       std::printf("\n");
     }
   }
   std::printf("\n%-12s %18s %18s\n", "z", "f_z", "z dot");
   for (int i = 0; i < n; ++i)
-    std::printf("%-12s % .10e % .10e\n", independent_speed_label(model, tree, i).c_str(), e.f_z[i],
+    std::printf("%-12s % .10e % .10e\n", independent_speed_label(model, i).c_str(), e.f_z[i],
                 e.zdot[i]);
 }
 
@@ -212,7 +211,7 @@ void add_eom(CLI::App& app) {
     VectorX q, z;
     const State state = chosen_state(file, opt->state, t, where, q, z);
     std::optional<ProjectedEquations> projected;
-    if (file.jointed()) projected = projected_equations(file.model, *file.joints, q, z, data);
+    if (file.jointed()) projected = projected_equations(file.model, q, z, data);
     kane_equations(file.model, state, data);
     // Every number printed is finite, or nothing is printed (JSON has no NaN).
     const bool finite = data.kane.A.allFinite() && data.kane.f.allFinite() &&

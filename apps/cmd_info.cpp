@@ -1,10 +1,12 @@
 // `kanedyn info MODEL`: the topology of the notes (N, L(K), u_K, chains) and the total mass;
 // for a jointed model each body's joint and its coordinates.
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
 
 #include "commands.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
 #include "options.hpp"
@@ -23,8 +25,8 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
   out << "model: " << io::printable(file.path);
   // The name is free text from the file: no control byte reaches the terminal.
   if (!model.name().empty()) out << " (" << io::printable(model.name()) << ")";
-  out << "\nN = " << n << (n == 1 ? " body, " : " bodies, ") << model.num_coordinates()
-      << " coordinates x, " << model.num_speeds() << " speeds y\n";
+  out << "\nN = " << n << (n == 1 ? " body, " : " bodies, ") << model.num_x() << " coordinates x, "
+      << model.num_y() << " speeds y\n";
   out << "L(K) = (";
   for (int k = 0; k < n; ++k) out << (k ? ", " : "") << model.lower_body(k) + 1;
   out << ")\nu_K  = (";
@@ -39,12 +41,11 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
     out << chain_text(model, k) << "\n";
   }
   if (file.jointed()) {
-    const JointTree& tree = *file.joints;
-    out << "\njoints: " << tree.num_coordinates() << " joint coordinates q, " << tree.num_speeds()
+    out << "\njoints: " << model.num_coordinates() << " joint coordinates q, " << model.num_speeds()
         << " independent speeds z (y = [C] z)\n";
     out << "  K  name               joint        q (initial)\n";
     for (int k = 0; k < n; ++k) {
-      const Joint& jt = tree.joint(k);
+      const Joint& jt = model.joint(k);
       char head[96];
       std::snprintf(head, sizeof head, "%3d  %-18s %-12s ", k + 1, model.body(k).name.c_str(),
                     to_string(jt.type));
@@ -62,13 +63,14 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
                                                                : "angle about the axis";
         out << "[";
         for (int i = 0; i < nq; ++i)
-          out << (i ? ", " : "") << file.joint_q[tree.coordinate_offset(k) + i];
+          out << (i ? ", " : "") << file.q[model.coordinate_offset(k) + i];
         out << "] (" << what << ")";
       }
       out << "\n";
     }
-    if (!tree.loads().empty())
-      out << "joint loads (joint_spring, joint_force): " << tree.loads().size() << "\n";
+    const auto on_joints = std::count_if(model.forces().begin(), model.forces().end(),
+                                         [](const auto& f) { return f->acts_on_joints(); });
+    if (on_joints > 0) out << "joint loads (joint_spring, joint_force): " << on_joints << "\n";
   }
   out << "\ntotal mass = " << model.total_mass() << "\n";
   out << "roots (bodies attached to R):";

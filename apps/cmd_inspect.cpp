@@ -377,8 +377,7 @@ void add_inspect(CLI::App& app) {
     const State state = chosen_state(file, opt->state, t, where, q, z);
     const int row_index =
         opt->row.empty() ? -1 : parse_row(opt->path, opt->row, file.model.num_bodies());
-    const Inspection in = file.jointed() ? inspect(file.model, *file.joints, q, z, t, bodies)
-                                         : inspect(file.model, state, t, bodies);
+    const Inspection in = inspect(file.model, q, z, t, bodies);
     // Every number printed is finite, or nothing is printed (JSON has no NaN).
     if (const std::string bad = in.first_non_finite(); !bad.empty())
       throw std::runtime_error(opt->path + ": the quantities at this state are not finite (" + bad +

@@ -224,8 +224,7 @@ void warn_disk_space(const io::ModelFile& file, const SimulationSettings& s,
   const double free_bytes = static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
   const double rows = std::floor((s.t_end - s.t_start) / s.dt_out) + 2;
   // A number takes 18-22 characters in its shortest form, with its separator.
-  const double columns = static_cast<double>(
-      io::trajectory_columns(file.model, file.jointed() ? &*file.joints : nullptr).size());
+  const double columns = static_cast<double>(io::trajectory_columns(file.model).size());
   const double bytes = rows * columns * 20.0;
   if (bytes > free_bytes)
     warn("the trajectory will take about " + format("%.3g", bytes / 1e9) + " GB (" +
@@ -308,10 +307,9 @@ int run(const Options& o) {
   // too): the integrating thread only copies each output state (docs/performance.md). The
   // file is created with the first row, once the initial state has passed simulate()'s
   // checks: a run refused at its start leaves no file.
-  const JointTree* joints = file.jointed() ? &*file.joints : nullptr;
   std::optional<io::BackgroundTrajectoryWriter> writer;
   const auto open_writer = [&]() -> io::BackgroundTrajectoryWriter& {
-    if (!writer) writer.emplace(model, out, joints);
+    if (!writer) writer.emplace(model, out);
     return *writer;
   };
   Progress progress(base.t_start, base.t_end);
@@ -340,8 +338,8 @@ int run(const Options& o) {
   };
   SimulationStats stats;
   try {
-    stats = joints ? simulate(model, *joints, file.joint_q, file.joint_z, settings, joint_observer)
-                   : simulate(model, file.initial, settings, observer);
+    stats = file.jointed() ? simulate(model, file.q, file.z, settings, joint_observer)
+                           : simulate(model, file.initial, settings, observer);
   } catch (const std::exception& e) {
     progress.clear();
     try {
@@ -351,7 +349,7 @@ int run(const Options& o) {
     throw std::runtime_error(std::string(e.what()) + "; " + kept(false, 0.0));
   }
   progress.clear();
-  const long columns = static_cast<long>(io::trajectory_columns(model, joints).size());
+  const long columns = static_cast<long>(io::trajectory_columns(model).size());
   const long rows = writer ? writer->rows() : 0;
   if (stats.ok()) {
     if (o.no_output) {

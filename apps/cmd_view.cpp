@@ -36,14 +36,11 @@ void run(const Options& o) {
   // Checked before the trajectory, which may be long, is read.
   const std::vector<std::string> inputs{o.model, o.trajectory};
   if (!to_stdout) io::check_output_path(out, inputs);
-  const io::Trajectory traj =
-      have_traj
-          ? io::read_trajectory(file.model, o.trajectory, file.jointed() ? &*file.joints : nullptr)
-          : view::initial_trajectory(file.model, file.initial);
+  const io::Trajectory traj = have_traj ? io::read_trajectory(file.model, o.trajectory)
+                                        : view::initial_trajectory(file.model, file.q, file.z);
   const std::string text = view::page(
       file.model, file.path, traj,
-      have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state",
-      file.jointed() ? &*file.joints : nullptr);
+      have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state");
   if (to_stdout) {
     io::write_to_stdout(text);
     return;

@@ -72,12 +72,11 @@ State chosen_state(const io::ModelFile& file, const StateChoice& choice, double&
   if (choice.trajectory.empty()) {
     t = 0.0;
     where = "its initial state";
-    q = file.joint_q;
-    z = file.joint_z;
+    q = file.q;
+    z = file.z;
     return file.initial;
   }
-  const io::TrajectoryRow row = io::read_trajectory_row(file.model, choice.trajectory, choice.t,
-                                                        file.jointed() ? &*file.joints : nullptr);
+  const io::TrajectoryRow row = io::read_trajectory_row(file.model, choice.trajectory, choice.t);
   q = row.q;
   z = row.z;
   t = row.t;

@@ -26,17 +26,16 @@ namespace {
 
 struct JointedChain {
   std::unique_ptr<Model> model;
-  std::unique_ptr<JointTree> tree;
   VectorX q, z;
 };
 
 JointedChain revolute_chain(int n) {
   JointedChain c;
-  c.model = std::make_unique<Model>(chain_model(n).model);
   Joint joint;
   joint.type = JointType::revolute;
   joint.axis = Vector3::UnitX();
-  c.tree = std::make_unique<JointTree>(*c.model, std::vector<Joint>(static_cast<size_t>(n), joint));
+  c.model = std::make_unique<Model>(
+      with_joints(chain_model(n).model, std::vector<Joint>(static_cast<size_t>(n), joint)));
   // Small bends and rates (a hanging chain in motion), from a fixed seed.
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> angle(-0.05, 0.05), rate(-0.5, 0.5);
@@ -49,16 +48,15 @@ JointedChain human_jointed() {
   io::ModelFile f = io::load_model_file(KANEDYN_SOURCE_DIR "/examples/human_jointed.yaml");
   JointedChain c;
   c.model = std::make_unique<Model>(std::move(f.model));
-  c.tree = std::make_unique<JointTree>(std::move(*f.joints));  // holds no reference to the Model
-  c.q = f.joint_q;
-  c.z = f.joint_z;
+  c.q = f.q;
+  c.z = f.z;
   return c;
 }
 
 void run(benchmark::State& bench, const JointedChain& c, Route route) {
   const int n = c.model->num_bodies();
-  JointDynamics dyn(*c.model, *c.tree);
-  VectorX zdot(c.tree->num_speeds());
+  JointDynamics dyn(*c.model);
+  VectorX zdot(c.model->num_speeds());
   dyn.evaluate(c.q, c.z, route, zdot);  // the assembled route builds its blocks once
   for (auto _ : bench) {
     dyn.evaluate(c.q, c.z, route, zdot);

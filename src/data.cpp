@@ -52,7 +52,7 @@ Data::Data(const Model& model) : Data(model, DataOptions::for_model(model)) {}
 Data::Data(const Model& model, const DataOptions& opts)
     : options_(opts), work_(std::make_unique<detail::Workspace>()) {
   const auto n = static_cast<size_t>(model.num_bodies());
-  const auto m = static_cast<Eigen::Index>(model.num_speeds());
+  const auto m = static_cast<Eigen::Index>(model.num_y());
   if ((options_.partials || options_.kane_terms) && !model.has_flat_chains())
     throw ModelError("the model's " + std::to_string(model.num_bodies()) + " bodies have " +
                      std::to_string(model.chain_entries()) +

@@ -17,6 +17,84 @@ double ForceElement::potential_energy(const Model&, const State&, const Kinemati
 double ForceElement::damping_power(const Model&, const State&, const Kinematics&) const {
   return 0.0;
 }
+void ForceElement::apply_joint(const Model&, const VectorX&, const VectorX&,
+                               Eigen::Ref<VectorX>) const {}
+double ForceElement::joint_potential_energy(const Model&, const VectorX&) const { return 0.0; }
+double ForceElement::joint_damping_power(const Model&, const VectorX&) const { return 0.0; }
+
+JointLoad::JointLoad(int body, VectorX k, VectorX c, VectorX r, VectorX v, std::string kind)
+    : stiffness(std::move(k)),
+      damping(std::move(c)),
+      rest(std::move(r)),
+      value(std::move(v)),
+      body_(body),
+      kind_(std::move(kind)) {}
+
+std::string JointLoad::validate(const Model& model) const {
+  const JointType t = model.joint(body_).type;
+  const std::string who = "body " + model.body(body_).name + ": ";
+  if (t == JointType::free || t == JointType::weld || t == JointType::spherical)
+    return who + kind_ +
+           " acts on revolute, prismatic, cylindrical and universal joints, not on a " +
+           to_string(t) + " joint";
+  const int m = coordinate_count(t);
+  for (const VectorX* v : {&stiffness, &damping, &rest, &value})
+    if (v->size() != m)
+      return who + "a " + kind_ + " on a " + to_string(t) + " joint needs " + std::to_string(m) +
+             " entries per parameter, not " + std::to_string(v->size());
+  for (const VectorX* v : {&stiffness, &damping, &rest, &value})
+    if (!v->allFinite()) return who + "a " + kind_ + " parameter is not finite";
+  return "";
+}
+
+// On these joints z_K = dq_K/dt, so the rates are z's entries.
+void JointLoad::apply_joint(const Model& model, const VectorX& q, const VectorX& z,
+                            Eigen::Ref<VectorX> Q) const {
+  const int m = static_cast<int>(value.size());
+  const int o = model.coordinate_offset(body_), p = model.speed_offset(body_);
+  Q.segment(p, m) += value - stiffness.cwiseProduct(q.segment(o, m) - rest) -
+                     damping.cwiseProduct(z.segment(p, m));
+}
+
+double JointLoad::joint_potential_energy(const Model& model, const VectorX& q) const {
+  double e = 0.0;
+  const int o = model.coordinate_offset(body_);
+  for (Eigen::Index i = 0; i < rest.size(); ++i) {
+    const double d = q[o + i] - rest[i];
+    e += 0.5 * stiffness[i] * (d * d);
+  }
+  return e;
+}
+
+double JointLoad::joint_damping_power(const Model& model, const VectorX& z) const {
+  double p = 0.0;
+  const int o = model.speed_offset(body_);
+  for (Eigen::Index i = 0; i < damping.size(); ++i) p += damping[i] * (z[o + i] * z[o + i]);
+  return p;
+}
+
+void add_joint_forces(const Model& model, const VectorX& q, const VectorX& z,
+                      Eigen::Ref<VectorX> Q) {
+  if (!model.has_joint_force_elements()) return;
+  for (const auto& f : model.forces())
+    if (f->acts_on_joints()) f->apply_joint(model, q, z, Q);
+}
+
+double joint_potential_energy(const Model& model, const VectorX& q) {
+  double e = 0.0;
+  if (!model.has_joint_force_elements()) return e;
+  for (const auto& f : model.forces())
+    if (f->acts_on_joints()) e += f->joint_potential_energy(model, q);
+  return e;
+}
+
+double joint_damping_power(const Model& model, const VectorX& z) {
+  double p = 0.0;
+  if (!model.has_joint_force_elements()) return p;
+  for (const auto& f : model.forces())
+    if (f->acts_on_joints()) p += f->joint_damping_power(model, z);
+  return p;
+}
 
 Bushing::Bushing(int body, Vector3 k, Vector3 c, double kr, double cr)
     : stiffness(std::move(k)),

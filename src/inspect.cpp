@@ -184,16 +184,19 @@ std::vector<std::vector<int>> mass_matrix_structure(const Model& model) {
   return rows;
 }
 
-Inspection inspect(const Model& model, const JointTree& tree, const VectorX& q, const VectorX& z,
-                   double t, const std::vector<int>& bodies) {
+Inspection inspect(const Model& model, const VectorX& q, const VectorX& z, double t,
+                   const std::vector<int>& bodies) {
+  if (q.size() != model.num_coordinates() || z.size() != model.num_speeds())
+    throw std::invalid_argument("inspect: q and z do not have the model's sizes");
   const int n = model.num_bodies();
   State state(model);
-  joint_state(tree, q, z, state);
+  joint_state(model, q, z, state);
   Inspection out = inspect(model, state, t, bodies);
+  if (model.all_free()) return out;
   Data data(model, DataOptions{.partials = false});
-  ProjectedEquations e = projected_equations(model, tree, q, z, data);
+  ProjectedEquations e = projected_equations(model, q, z, data);
   JointInspection j;
-  j.n = tree.num_speeds();
+  j.n = model.num_speeds();
   j.q = q;
   j.z = z;
   j.ydot = e.C * e.zdot + e.Cdot_z;
@@ -201,9 +204,9 @@ Inspection inspect(const Model& model, const JointTree& tree, const VectorX& q, 
     const int k = b.K - 1;
     JointBodyInspection jb;
     jb.K = b.K;
-    jb.type = tree.joint(k).type;
-    jb.q = q.segment(tree.coordinate_offset(k), coordinate_count(jb.type));
-    jb.z = z.segment(tree.speed_offset(k), speed_count(jb.type));
+    jb.type = model.joint(k).type;
+    jb.q = q.segment(model.coordinate_offset(k), coordinate_count(jb.type));
+    jb.z = z.segment(model.speed_offset(k), speed_count(jb.type));
     // A model of welds only has no speeds: [C] has no columns and no storage to offset into.
     if (e.C.cols() == 0) {
       jb.C_w = jb.C_sd = MatrixX(3, 0);

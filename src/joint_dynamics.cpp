@@ -201,26 +201,24 @@ struct Link {
 }  // namespace
 
 struct JointDynamics::Impl {
-  Impl(const Model& m, const JointTree& t)
+  explicit Impl(const Model& m)
       : model(m),
-        tree(t),
         data(m, DataOptions::recursive_only()),
         state(m),
-        q(VectorX::Zero(t.num_coordinates())),
-        z(VectorX::Zero(t.num_speeds())),
-        qdot(VectorX::Zero(t.num_coordinates())),
+        q(VectorX::Zero(m.num_coordinates())),
+        z(VectorX::Zero(m.num_speeds())),
+        qdot(VectorX::Zero(m.num_coordinates())),
         q_seen(q),
         z_seen(z),
-        joint_force(VectorX::Zero(t.num_speeds())),
-        u(VectorX::Zero(t.num_speeds())) {
+        joint_force(VectorX::Zero(m.num_speeds())),
+        u(VectorX::Zero(m.num_speeds())) {
+    const Model& t = m;
     const int n = m.num_bodies();
-    if (t.num_bodies() != n)
-      throw std::invalid_argument("JointDynamics: the JointTree is not of this Model");
     speeds.assign(at(n), 0);
     offset.assign(at(n), 0);
     joint_type.assign(at(n), JointType::free);
     links.resize(at(n));
-    if (!m.forces().empty()) motions.resize(at(n));
+    if (m.has_body_force_elements()) motions.resize(at(n));
     for (const auto& element : m.forces())
       loads_read_positions = loads_read_positions || element->reads_positions();
     for (int k = 0; k < n; ++k) {
@@ -242,7 +240,6 @@ struct JointDynamics::Impl {
   }
 
   const Model& model;
-  const JointTree& tree;
   Data data;
   State state;
   VectorX q, z, qdot;      // derivative()'s (q; z) and q dot
@@ -252,7 +249,7 @@ struct JointDynamics::Impl {
   // whether the force elements need them in every evaluation (ForceElement::reads_positions).
   bool kinematics_complete = true;
   bool loads_read_positions = false;
-  VectorX joint_force;  // Q of the joint loads, in the order of z
+  VectorX joint_force;  // Q of the force elements on joint coordinates, in the order of z
   VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
   // The acceleration of the ground: -g when gravity enters as the ground's acceleration (no
   // force element), zero when compute_resultants supplies it with the other loads.
@@ -303,7 +300,7 @@ struct JointDynamics::Impl {
 // positions and velocities follow in complete_kinematics) and its loads (and each body's joint
 // table into tables when not null).
 void JointDynamics::Impl::update_state(std::vector<detail::JointMotion>* tables, bool complete) {
-  detail::joint_state(tree, q_seen, z_seen, state, tables);
+  detail::joint_state(model, q_seen, z_seen, state, tables);
   if (complete)
     compute_kinematics(model, state, data);
   else
@@ -325,10 +322,10 @@ void JointDynamics::Impl::complete_kinematics() {
 // the joint loads' Q. The notes' state is computed here only when force elements need it.
 void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
   joint_force.setZero();
-  add_joint_load_forces(tree, qq, zz, joint_force);
+  add_joint_forces(model, qq, zz, joint_force);
   q_seen = qq;
   z_seen = zz;
-  const bool loads = !model.forces().empty();
+  const bool loads = model.has_body_force_elements();
   if (loads)  // the joint tables come with the state, [R_K] with its kinematics
     update_state(&motions, loads_read_positions);
   else
@@ -342,7 +339,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     const JointType type = joint_type[i];
     const bool is_free = type == JointType::free;
     const int off = offset[i];
-    if (!loads) detail::joint_motion(tree, k, qq, zz.data() + off, scratch_motion);
+    if (!loads) detail::joint_motion(model, k, qq, zz.data() + off, scratch_motion);
     const detail::JointMotion& jm = loads ? motions[i] : scratch_motion;
     Link& l = links[i];
     const Matrix3& rj = root ? kIdentity3 : links[at(j)].R;
@@ -350,7 +347,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     if (loads)
       l.R = data.kinematics.R[i];
     else if (is_free)
-      l.R = rotation_matrix(qq.segment<4>(tree.coordinate_offset(k)));
+      l.R = rotation_matrix(qq.segment<4>(model.coordinate_offset(k)));
     else if (root)
       l.R = rotation_matrix(jm.rel);
     else
@@ -378,7 +375,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
       if (is_free)
         s.bottomRightCorner<3, 3>() = rj.transpose();
       else if (type == JointType::prismatic || type == JointType::cylindrical)
-        s.col(w_count - 1).tail<3>().noalias() = rj.transpose() * tree.axis_in_j(k);
+        s.col(w_count - 1).tail<3>().noalias() = rj.transpose() * model.axis_in_j(k);
     }
     // c_K = d/dt V_K at z dot = 0 with J's acceleration zero. With d/dt ([R]^T u) = w x [R]^T u
     // + [R]^T du/dt, w_rel = w_K - a w_J and the slide rate sd = [R_J]^T [T_K] z_K
@@ -620,8 +617,7 @@ void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
   f.solve_in_place(zdot);
 }
 
-JointDynamics::JointDynamics(const Model& model, const JointTree& tree)
-    : impl_(std::make_unique<Impl>(model, tree)) {}
+JointDynamics::JointDynamics(const Model& model) : impl_(std::make_unique<Impl>(model)) {}
 JointDynamics::JointDynamics(const JointDynamics& other)
     : impl_(std::make_unique<Impl>(*other.impl_)) {}
 JointDynamics::~JointDynamics() = default;
@@ -639,7 +635,7 @@ Data& JointDynamics::data() {
     impl_->complete_kinematics();
   return impl_->data;
 }
-const JointTree& JointDynamics::tree() const { return impl_->tree; }
+const Model& JointDynamics::model() const { return impl_->model; }
 
 void JointDynamics::evaluate(const VectorX& q, const VectorX& z, Route route,
                              Eigen::Ref<VectorX> zdot) {
@@ -653,11 +649,11 @@ void JointDynamics::evaluate(const VectorX& q, const VectorX& z, Route route,
 
 void JointDynamics::derivative(const VectorX& qz, Route route, Eigen::Ref<VectorX> dqz) {
   Impl& s = *impl_;
-  const int nq = s.tree.num_coordinates(), nz = s.tree.num_speeds();
+  const int nq = s.model.num_coordinates(), nz = s.model.num_speeds();
   s.q = qz.head(nq);
   s.z = qz.tail(nz);
-  normalize_joint_coordinates(s.tree, s.q);
-  joint_coordinate_rates(s.tree, s.q, s.z, s.qdot);
+  normalize_joint_coordinates(s.model, s.q);
+  joint_coordinate_rates(s.model, s.q, s.z, s.qdot);
   dqz.head(nq) = s.qdot;
   evaluate(s.q, s.z, route, dqz.tail(nz));
 }

@@ -17,13 +17,12 @@ struct JointMotion {
 };
 
 /// z_k points at body K's slice of z (speed_count entries), or is null for zero rates.
-JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k);
+JointMotion joint_motion(const Model& model, int k, const VectorX& q, const double* z_k);
 /// The same into m (every field written).
-void joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k,
-                  JointMotion& m);
+void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k, JointMotion& m);
 
 /// joint_state, also storing each body's JointMotion in motion (N entries) when not null.
-void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state,
+void joint_state(const Model& model, const VectorX& q, const VectorX& z, State& state,
                  std::vector<JointMotion>* motion);
 
 }  // namespace kanedyn::detail

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "kanedyn/forces.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/rotation.hpp"
 
@@ -29,7 +30,7 @@ bool has_axis(JointType t) {
 // The Euler-parameter slice of a body's q (spherical q, or a free body's eps_K), if any.
 int euler_slice(JointType t) { return t == JointType::free || t == JointType::spherical ? 4 : 0; }
 
-// Euler parameters of the turn q about a unit axis (the JointTree normalized it): what
+// Euler parameters of the turn q about a unit axis (the Model normalized it): what
 // euler_parameters_from_axis_angle gives without its rescaling of an arbitrary axis.
 Vector4 turn_about_unit_axis(const Vector3& axis, double q) {
   const double s = std::sin(0.5 * q);
@@ -128,74 +129,11 @@ Vector4 compose_euler_parameters(const Vector4& eps_j, const Vector4& rel) {
   return compose(eps_j, rel);
 }
 
-JointTree::JointTree(const Model& model, std::vector<Joint> joints, std::vector<JointLoad> loads)
-    : joints_(std::move(joints)), loads_(std::move(loads)) {
-  const int n = model.num_bodies();
-  if (static_cast<int>(joints_.size()) != n)
-    throw ModelError("joints: " + std::to_string(joints_.size()) + " joints for " +
-                     std::to_string(n) + " bodies");
-  q_offset_.assign(at(n + 1), 0);
-  z_offset_.assign(at(n + 1), 0);
-  axis_j_.assign(at(n), Vector3::Zero());
-  w_chain_.resize(at(n));
-  for (int k = 0; k < n; ++k) {
-    Joint& jt = joints_[at(k)];
-    const std::string problem = check_joint(jt);
-    if (!problem.empty()) throw ModelError("body " + model.body(k).name + ": " + problem);
-    jt.frame.normalize();
-    jt.axis.normalize();
-    for (Vector3& a : jt.axes) a.normalize();
-    lower_.push_back(model.lower_body(k));
-    q_offset_[at(k + 1)] = q_offset_[at(k)] + coordinate_count(jt.type);
-    z_offset_[at(k + 1)] = z_offset_[at(k)] + speed_count(jt.type);
-    // F's axis in J components: [R(frame)] maps J to F components.
-    axis_j_[at(k)] = rotation_matrix(jt.frame).transpose() * jt.axis;
-  }
-  for (const JointLoad& load : loads_) {
-    if (load.body < 0 || load.body >= n)
-      throw ModelError("joint load: body index " + std::to_string(load.body) + " out of range");
-    const JointType t = joints_[at(load.body)].type;
-    const std::string who = "body " + model.body(load.body).name + ": ";
-    if (t == JointType::free || t == JointType::weld || t == JointType::spherical)
-      throw ModelError(who +
-                       "joint loads act on revolute, prismatic, cylindrical and universal "
-                       "joints, not on a " +
-                       to_string(t) + " joint");
-    const int m = coordinate_count(t);
-    for (const VectorX* v : {&load.stiffness, &load.damping, &load.rest, &load.value})
-      if (v->size() != m)
-        throw ModelError(who + "a joint load on a " + std::string(to_string(t)) + " joint needs " +
-                         std::to_string(m) + " entries per parameter, not " +
-                         std::to_string(v->size()));
-  }
-  // The chains' total length grows as N^2 along a chain of joints; they are stored up to the
-  // Model's limit for flat chains (the recursive route of JointDynamics needs none of them).
-  long long entries = 0;
-  std::vector<long long> length(at(n), 0);
-  for (int k = 0; k < n; ++k) {
-    const int j = lower_[at(k)];
-    const JointType t = joints_[at(k)].type;
-    length[at(k)] = (speed_count(t) > 0 ? 1 : 0) + (is_free(t) || j == kGround ? 0 : length[at(j)]);
-    entries += length[at(k)];
-    if (!is_free(t)) constrained_ = true;
-  }
-  chain_entries_ = entries;
-  if (entries > Model::kMaxFlatChainEntries) return;
-  for (int k = 0; k < n; ++k) {
-    // w'_K = w_rel + [R_K][R_J]^T w'_J down to the first free body, whose w' is its own z.
-    for (int c = k; c != kGround; c = lower_[at(c)]) {
-      if (speed_count(joints_[at(c)].type) > 0) w_chain_[at(k)].push_back(c);
-      if (is_free(joints_[at(c)].type)) break;
-    }
-  }
-}
-
 namespace detail {
 
-void joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k,
-                  JointMotion& m) {
-  const Joint& jt = tree.joint(k);
-  const int o = tree.coordinate_offset(k);
+void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k, JointMotion& m) {
+  const Joint& jt = model.joint(k);
+  const int o = model.coordinate_offset(k);
   const auto rate = [z_k](int c) { return z_k ? z_k[c] : 0.0; };
   m.G.setZero();
   m.w_rel.setZero();
@@ -220,15 +158,15 @@ void joint_motion(const JointTree& tree, int k, const VectorX& q, const double* 
       m.w_rel = rate(0) * jt.axis;
       break;
     case JointType::prismatic:
-      m.slide = q[o] * tree.axis_in_j(k);
-      m.slide_rate = rate(0) * tree.axis_in_j(k);
+      m.slide = q[o] * model.axis_in_j(k);
+      m.slide_rate = rate(0) * model.axis_in_j(k);
       break;
     case JointType::cylindrical:
       joint_rel = turn_about_unit_axis(jt.axis, q[o]);
       m.G.col(0) = jt.axis;
       m.w_rel = rate(0) * jt.axis;
-      m.slide = q[o + 1] * tree.axis_in_j(k);
-      m.slide_rate = rate(1) * tree.axis_in_j(k);
+      m.slide = q[o + 1] * model.axis_in_j(k);
+      m.slide_rate = rate(1) * model.axis_in_j(k);
       break;
     case JointType::universal: {
       // a1 first, then a2 as the first turn carried it: a1 (fixed in F and in the intermediate
@@ -253,21 +191,21 @@ void joint_motion(const JointTree& tree, int k, const VectorX& q, const double* 
   m.rel = is_identity(jt.frame) ? joint_rel : compose(jt.frame, joint_rel);
 }
 
-JointMotion joint_motion(const JointTree& tree, int k, const VectorX& q, const double* z_k) {
+JointMotion joint_motion(const Model& model, int k, const VectorX& q, const double* z_k) {
   JointMotion m;
-  joint_motion(tree, k, q, z_k, m);
+  joint_motion(model, k, q, z_k, m);
   return m;
 }
 
-void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state,
+void joint_state(const Model& model, const VectorX& q, const VectorX& z, State& state,
                  std::vector<JointMotion>* motion) {
-  for (int k = 0; k < tree.num_bodies(); ++k) {
-    const int j = tree.lower_body(k);
-    const int o = tree.coordinate_offset(k);
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const int j = model.lower_body(k);
+    const int o = model.coordinate_offset(k);
     JointMotion own;
     JointMotion& m = motion ? (*motion)[at(k)] : own;
-    joint_motion(tree, k, q, z.data() + tree.speed_offset(k), m);
-    if (is_free(tree.joint(k).type)) {
+    joint_motion(model, k, q, z.data() + model.speed_offset(k), m);
+    if (is_free(model.joint(k).type)) {
       state.euler_parameters(k) = q.segment<4>(o);
       state.angular_velocity(k) = m.w_rel;
     } else if (j == kGround) {  // J is R: eps_J the identity, w'_J = 0
@@ -285,29 +223,29 @@ void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, Stat
 
 }  // namespace detail
 
-Vector4 joint_relative_rotation(const JointTree& tree, int k, const VectorX& q) {
-  return detail::joint_motion(tree, k, q, nullptr).rel;
+Vector4 joint_relative_rotation(const Model& model, int k, const VectorX& q) {
+  return detail::joint_motion(model, k, q, nullptr).rel;
 }
 
-Vector3 joint_translation(const JointTree& tree, int k, const VectorX& q) {
-  return detail::joint_motion(tree, k, q, nullptr).slide;
+Vector3 joint_translation(const Model& model, int k, const VectorX& q) {
+  return detail::joint_motion(model, k, q, nullptr).slide;
 }
 
-Matrix36 joint_rotation_block(const JointTree& tree, int k, const VectorX& q) {
-  return detail::joint_motion(tree, k, q, nullptr).G;
+Matrix36 joint_rotation_block(const Model& model, int k, const VectorX& q) {
+  return detail::joint_motion(model, k, q, nullptr).G;
 }
 
-Matrix36 joint_translation_block(const JointTree& tree, int k) {
+Matrix36 joint_translation_block(const Model& model, int k) {
   Matrix36 t = Matrix36::Zero();
-  switch (tree.joint(k).type) {
+  switch (model.joint(k).type) {
     case JointType::free:
       t.rightCols<3>().setIdentity();
       break;
     case JointType::prismatic:
-      t.col(0) = tree.axis_in_j(k);
+      t.col(0) = model.axis_in_j(k);
       break;
     case JointType::cylindrical:
-      t.col(1) = tree.axis_in_j(k);
+      t.col(1) = model.axis_in_j(k);
       break;
     default:
       break;
@@ -315,33 +253,33 @@ Matrix36 joint_translation_block(const JointTree& tree, int k) {
   return t;
 }
 
-Vector3 joint_rotation_rate_times_speeds(const JointTree& tree, int k, const VectorX& q,
+Vector3 joint_rotation_rate_times_speeds(const Model& model, int k, const VectorX& q,
                                          const VectorX& z) {
-  return detail::joint_motion(tree, k, q, z.data() + tree.speed_offset(k)).g_dot_z;
+  return detail::joint_motion(model, k, q, z.data() + model.speed_offset(k)).g_dot_z;
 }
 
-Vector3 joint_relative_angular_velocity(const JointTree& tree, int k, const VectorX& q,
+Vector3 joint_relative_angular_velocity(const Model& model, int k, const VectorX& q,
                                         const VectorX& z) {
-  return detail::joint_motion(tree, k, q, z.data() + tree.speed_offset(k)).w_rel;
+  return detail::joint_motion(model, k, q, z.data() + model.speed_offset(k)).w_rel;
 }
 
-void joint_state(const JointTree& tree, const VectorX& q, const VectorX& z, State& state) {
-  detail::joint_state(tree, q, z, state, nullptr);
+void joint_state(const Model& model, const VectorX& q, const VectorX& z, State& state) {
+  detail::joint_state(model, q, z, state, nullptr);
 }
 
 namespace {
 
-Eigen::Ref<const VectorX> speeds_of(const JointTree& tree, const VectorX& z, int c) {
-  return z.segment(tree.speed_offset(c), speed_count(tree.joint(c).type));
+Eigen::Ref<const VectorX> speeds_of(const Model& model, const VectorX& z, int c) {
+  return z.segment(model.speed_offset(c), speed_count(model.joint(c).type));
 }
 
 }  // namespace
 
-double normalize_joint_coordinates(const JointTree& tree, Eigen::Ref<VectorX> q) {
+double normalize_joint_coordinates(const Model& model, Eigen::Ref<VectorX> q) {
   double worst = 0.0;
-  for (int k = 0; k < tree.num_bodies(); ++k) {
-    if (euler_slice(tree.joint(k).type) == 0) continue;
-    auto e = q.segment<4>(tree.coordinate_offset(k));
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    if (euler_slice(model.joint(k).type) == 0) continue;
+    auto e = q.segment<4>(model.coordinate_offset(k));
     const double norm = e.norm();
     worst = std::max(worst, std::abs(norm - 1.0));
     e /= norm;
@@ -349,11 +287,11 @@ double normalize_joint_coordinates(const JointTree& tree, Eigen::Ref<VectorX> q)
   return worst;
 }
 
-void joint_coordinate_rates(const JointTree& tree, const VectorX& q, const VectorX& z,
+void joint_coordinate_rates(const Model& model, const VectorX& q, const VectorX& z,
                             Eigen::Ref<VectorX> qdot) {
-  for (int k = 0; k < tree.num_bodies(); ++k) {
-    const int o = tree.coordinate_offset(k), p = tree.speed_offset(k);
-    switch (tree.joint(k).type) {
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const int o = model.coordinate_offset(k), p = model.speed_offset(k);
+    switch (model.joint(k).type) {
       case JointType::free:  // Eqs. (39)-(41), (40)
         qdot.segment<4>(o) = euler_parameter_rates(q.segment<4>(o), z.segment<3>(p));
         qdot.segment<3>(o + 4) = z.segment<3>(p + 3);
@@ -362,22 +300,22 @@ void joint_coordinate_rates(const JointTree& tree, const VectorX& q, const Vecto
         qdot.segment<4>(o) = euler_parameter_rates(q.segment<4>(o), z.segment<3>(p));
         break;
       default:
-        qdot.segment(o, coordinate_count(tree.joint(k).type)) =
-            z.segment(p, speed_count(tree.joint(k).type));
+        qdot.segment(o, coordinate_count(model.joint(k).type)) =
+            z.segment(p, speed_count(model.joint(k).type));
         break;
     }
   }
 }
 
-ConstraintMatrix::ConstraintMatrix(const JointTree& tree) {
-  if (!tree.has_angular_chains())
-    throw ModelError("joints: " + std::to_string(tree.angular_chain_entries()) +
+ConstraintMatrix::ConstraintMatrix(const Model& model) {
+  if (!model.has_angular_chains())
+    throw ModelError("joints: " + std::to_string(model.angular_chain_entries()) +
                      " angular chain entries are too many for [C] (limit " +
                      std::to_string(Model::kMaxFlatChainEntries) + ")");
-  const int n = tree.num_bodies();
+  const int n = model.num_bodies();
   w_begin.push_back(0);
   for (int k = 0; k < n; ++k) {
-    for (int c : tree.angular_chain(k)) w_body.push_back(c);
+    for (int c : model.angular_chain(k)) w_body.push_back(c);
     w_begin.push_back(static_cast<int>(w_body.size()));
   }
   w_block.assign(w_body.size(), Matrix36::Zero());
@@ -385,81 +323,80 @@ ConstraintMatrix::ConstraintMatrix(const JointTree& tree) {
   R.assign(at(n), Matrix3::Identity());
 }
 
-void compute_constraint_matrix(const JointTree& tree, const VectorX& q, const State& state,
+void compute_constraint_matrix(const Model& model, const VectorX& q, const State& state,
                                ConstraintMatrix& C) {
-  const int n = tree.num_bodies();
+  const int n = model.num_bodies();
   for (int k = 0; k < n; ++k) C.R[at(k)] = rotation_matrix(state.euler_parameters(k));
   for (int k = 0; k < n; ++k) {
-    C.s_block[at(k)] = joint_translation_block(tree, k);
+    C.s_block[at(k)] = joint_translation_block(model, k);
     for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
       const int c = C.w_body[at(b)];
       // w_rel of c ([G_c] z_c, c components), carried to K components by [R_K][R_c]^T; c < K
       // has its [G_c] already, as the first block of its own chain.
       C.w_block[at(b)] =
-          c == k ? joint_rotation_block(tree, k, q)
+          c == k ? joint_rotation_block(model, k, q)
                  : Matrix36(C.R[at(k)] * C.R[at(c)].transpose() * C.w_block[at(C.w_begin[at(c)])]);
     }
   }
 }
 
-void constraint_times(const JointTree& tree, const ConstraintMatrix& C, const VectorX& z,
+void constraint_times(const Model& model, const ConstraintMatrix& C, const VectorX& z,
                       Eigen::Ref<VectorX> y) {
-  const int n = tree.num_bodies();
+  const int n = model.num_bodies();
   for (int k = 0; k < n; ++k) {
     Vector3 w = Vector3::Zero();
     for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
       const int c = C.w_body[at(b)];
-      w += C.w_block[at(b)].leftCols(speed_count(tree.joint(c).type)) * speeds_of(tree, z, c);
+      w += C.w_block[at(b)].leftCols(speed_count(model.joint(c).type)) * speeds_of(model, z, c);
     }
     y.segment<3>(3 * k) = w;
     y.segment<3>(3 * n + 3 * k) =
-        C.s_block[at(k)].leftCols(speed_count(tree.joint(k).type)) * speeds_of(tree, z, k);
+        C.s_block[at(k)].leftCols(speed_count(model.joint(k).type)) * speeds_of(model, z, k);
   }
 }
 
-void constraint_transpose_times(const JointTree& tree, const ConstraintMatrix& C, const VectorX& v,
+void constraint_transpose_times(const Model& model, const ConstraintMatrix& C, const VectorX& v,
                                 Eigen::Ref<VectorX> out) {
-  const int n = tree.num_bodies();
+  const int n = model.num_bodies();
   out.setZero();
   for (int k = 0; k < n; ++k) {
     for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
-      const int c = C.w_body[at(b)], m = speed_count(tree.joint(c).type);
-      out.segment(tree.speed_offset(c), m) +=
+      const int c = C.w_body[at(b)], m = speed_count(model.joint(c).type);
+      out.segment(model.speed_offset(c), m) +=
           C.w_block[at(b)].leftCols(m).transpose() * v.segment<3>(3 * k);
     }
-    const int m = speed_count(tree.joint(k).type);
-    out.segment(tree.speed_offset(k), m) +=
+    const int m = speed_count(model.joint(k).type);
+    out.segment(model.speed_offset(k), m) +=
         C.s_block[at(k)].leftCols(m).transpose() * v.segment<3>(3 * n + 3 * k);
   }
 }
 
-MatrixX dense_constraint_matrix(const JointTree& tree, const ConstraintMatrix& C) {
-  const int n = tree.num_bodies();
-  MatrixX d = MatrixX::Zero(6 * n, tree.num_speeds());
+MatrixX dense_constraint_matrix(const Model& model, const ConstraintMatrix& C) {
+  const int n = model.num_bodies();
+  MatrixX d = MatrixX::Zero(6 * n, model.num_speeds());
   // Blocks of no columns (welds) are skipped: with no speeds at all d has no storage, and a
   // block of it at a row offset would be an offset from a null pointer.
   for (int k = 0; k < n; ++k) {
     for (int b = C.w_begin[at(k)]; b < C.w_begin[at(k + 1)]; ++b) {
-      const int c = C.w_body[at(b)], m = speed_count(tree.joint(c).type);
-      if (m > 0) d.block(3 * k, tree.speed_offset(c), 3, m) = C.w_block[at(b)].leftCols(m);
+      const int c = C.w_body[at(b)], m = speed_count(model.joint(c).type);
+      if (m > 0) d.block(3 * k, model.speed_offset(c), 3, m) = C.w_block[at(b)].leftCols(m);
     }
-    const int m = speed_count(tree.joint(k).type);
-    if (m > 0) d.block(3 * n + 3 * k, tree.speed_offset(k), 3, m) = C.s_block[at(k)].leftCols(m);
+    const int m = speed_count(model.joint(k).type);
+    if (m > 0) d.block(3 * n + 3 * k, model.speed_offset(k), 3, m) = C.s_block[at(k)].leftCols(m);
   }
   return d;
 }
 
-void constraint_rate_times_speeds(const JointTree& tree, const ConstraintMatrix& C,
-                                  const VectorX& q, const VectorX& z, const State& state,
-                                  Eigen::Ref<VectorX> out) {
-  const int n = tree.num_bodies();
+void constraint_rate_times_speeds(const Model& model, const ConstraintMatrix& C, const VectorX& q,
+                                  const VectorX& z, const State& state, Eigen::Ref<VectorX> out) {
+  const int n = model.num_bodies();
   out.setZero();  // the s' dot part: [T_K] is constant in J (prismatic, cylindrical axes)
   for (int k = 0; k < n; ++k) {
-    const Joint& jt = tree.joint(k);
+    const Joint& jt = model.joint(k);
     if (is_free(jt.type)) continue;  // w'_K = z_K: [C] rows constant
-    const Vector3 w_rel = joint_relative_angular_velocity(tree, k, q, z);
-    Vector3 b = joint_rotation_rate_times_speeds(tree, k, q, z);
-    const int j = tree.lower_body(k);
+    const Vector3 w_rel = joint_relative_angular_velocity(model, k, q, z);
+    Vector3 b = joint_rotation_rate_times_speeds(model, k, q, z);
+    const int j = model.lower_body(k);
     if (j != kGround) {
       // d/dt [R_K][R_J]^T = -[w_rel~][R_K][R_J]^T (from d[R]/dt = -[w'~][R], README).
       const Matrix3 r_kj = C.R[at(k)] * C.R[at(j)].transpose();
@@ -469,52 +406,24 @@ void constraint_rate_times_speeds(const JointTree& tree, const ConstraintMatrix&
   }
 }
 
-void add_joint_load_forces(const JointTree& tree, const VectorX& q, const VectorX& z,
-                           Eigen::Ref<VectorX> Q) {
-  for (const JointLoad& l : tree.loads()) {
-    const int m = static_cast<int>(l.value.size());
-    const int o = tree.coordinate_offset(l.body), p = tree.speed_offset(l.body);
-    Q.segment(p, m) += l.value - l.stiffness.cwiseProduct(q.segment(o, m) - l.rest) -
-                       l.damping.cwiseProduct(z.segment(p, m));
-  }
-}
-
-double joint_load_potential_energy(const JointTree& tree, const VectorX& q) {
-  double e = 0.0;
-  for (const JointLoad& l : tree.loads()) {
-    const VectorX d = q.segment(tree.coordinate_offset(l.body), l.rest.size()) - l.rest;
-    e += 0.5 * l.stiffness.dot(d.cwiseProduct(d));
-  }
-  return e;
-}
-
-double joint_load_damping_power(const JointTree& tree, const VectorX& z) {
-  double p = 0.0;
-  for (const JointLoad& l : tree.loads()) {
-    const auto r = z.segment(tree.speed_offset(l.body), l.damping.size());
-    p += l.damping.dot(r.cwiseProduct(r));
-  }
-  return p;
-}
-
-ProjectedEquations projected_equations(const Model& model, const JointTree& tree, const VectorX& q,
-                                       const VectorX& z, Data& data) {
+ProjectedEquations projected_equations(const Model& model, const VectorX& q, const VectorX& z,
+                                       Data& data) {
   if (!data.options().kane_terms || !data.options().dense_mass_matrix)
     throw std::invalid_argument(
         "projected_equations needs a Data with DataOptions::kane_terms and dense_mass_matrix");
   ProjectedEquations e;
   e.state = State(model);
-  joint_state(tree, q, z, e.state);
-  ConstraintMatrix C(tree);
-  compute_constraint_matrix(tree, q, e.state, C);
-  e.C = dense_constraint_matrix(tree, C);
-  e.Cdot_z = VectorX::Zero(model.num_speeds());
-  constraint_rate_times_speeds(tree, C, q, z, e.state, e.Cdot_z);
+  joint_state(model, q, z, e.state);
+  ConstraintMatrix C(model);
+  compute_constraint_matrix(model, q, e.state, C);
+  e.C = dense_constraint_matrix(model, C);
+  e.Cdot_z = VectorX::Zero(model.num_y());
+  constraint_rate_times_speeds(model, C, q, z, e.state, e.Cdot_z);
   kane_equations(model, e.state, data);  // [A] (Eq. 37) and {f} (Eq. 38) of the free tree
   const MatrixX& A = data.kane.A;
   e.A_z = e.C.transpose() * A * e.C;
   e.f_z = e.C.transpose() * (data.kane.f - A * e.Cdot_z);
-  add_joint_load_forces(tree, q, z, e.f_z);
+  add_joint_forces(model, q, z, e.f_z);
   e.zdot = e.A_z.ldlt().solve(e.f_z);
   return e;
 }

@@ -63,7 +63,7 @@ void compute_kinematics(const Model& model, const State& state, Data& data) {
 }
 
 MatrixX angular_velocity_partial(const Model& model, int k) {
-  MatrixX m = MatrixX::Zero(3, model.num_speeds());  // Eq. (8)
+  MatrixX m = MatrixX::Zero(3, model.num_y());  // Eq. (8)
   m.block<3, 3>(0, 3 * k).setIdentity();
   return m;
 }

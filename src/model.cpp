@@ -7,6 +7,7 @@
 #include <unordered_set>
 
 #include "kanedyn/forces.hpp"
+#include "kanedyn/rotation.hpp"
 
 namespace kanedyn {
 
@@ -55,11 +56,13 @@ std::string check_inertia(const Matrix3& inertia) {
 }
 
 Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
-             std::vector<std::shared_ptr<const ForceElement>> forces, std::string name)
+             std::vector<std::shared_ptr<const ForceElement>> forces, std::string name,
+             std::vector<Joint> joints)
     : bodies_(std::move(bodies)),
       gravity_(std::move(gravity)),
       forces_(std::move(forces)),
-      name_(std::move(name)) {
+      name_(std::move(name)),
+      joints_(std::move(joints)) {
   const int n = num_bodies();
   if (n == 0) throw ModelError("model: a model needs at least one body");
   if (!gravity_.allFinite()) fail("gravity", "has a non-finite component");
@@ -102,6 +105,7 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
       chain_offset_.push_back(static_cast<int>(chain_flat_.size()));
     }
   }
+  set_up_joints();
   inverse_inertia_.resize(static_cast<size_t>(n));
   for (int k = 0; k < n; ++k) {
     inverse_inertia_[static_cast<size_t>(k)] = body(k).inertia.inverse();
@@ -114,7 +118,60 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
     if (f->body() < 0 || f->body() >= n)
       fail(where, "body index " + std::to_string(f->body()) + " out of range");
     if (const std::string e = f->validate(*this); !e.empty()) fail(where, e);
+    (f->acts_on_joints() ? joint_forces_ : body_forces_) = true;
   }
+}
+
+void Model::set_up_joints() {
+  const int n = num_bodies();
+  const auto at = [](int i) { return static_cast<size_t>(i); };
+  if (joints_.empty()) joints_.resize(at(n));
+  if (static_cast<int>(joints_.size()) != n)
+    throw ModelError("joints: " + std::to_string(joints_.size()) + " joints for " +
+                     std::to_string(n) + " bodies");
+  q_offset_.assign(at(n + 1), 0);
+  z_offset_.assign(at(n + 1), 0);
+  axis_j_.assign(at(n), Vector3::Zero());
+  w_chain_.resize(at(n));
+  for (int k = 0; k < n; ++k) {
+    Joint& jt = joints_[at(k)];
+    const std::string problem = check_joint(jt);
+    if (!problem.empty()) fail(body_label(k, body(k).name), problem);
+    jt.frame.normalize();
+    jt.axis.normalize();
+    for (Vector3& a : jt.axes) a.normalize();
+    q_offset_[at(k + 1)] = q_offset_[at(k)] + coordinate_count(jt.type);
+    z_offset_[at(k + 1)] = z_offset_[at(k)] + speed_count(jt.type);
+    // F's axis in J components: [R(frame)] maps J to F components.
+    axis_j_[at(k)] = rotation_matrix(jt.frame).transpose() * jt.axis;
+    if (jt.type != JointType::free) all_free_ = false;
+  }
+  // The angular chains' total length grows as N^2 along a chain of joints; they are stored up
+  // to the limit for flat chains (the recursive route needs none of them). An all-free model
+  // has one entry a body.
+  std::vector<long long> length(at(n), 0);
+  for (int k = 0; k < n; ++k) {
+    const int j = lower_body(k);
+    const JointType t = joints_[at(k)].type;
+    length[at(k)] =
+        (speed_count(t) > 0 ? 1 : 0) + (t == JointType::free || j == kGround ? 0 : length[at(j)]);
+    w_chain_entries_ += length[at(k)];
+  }
+  if (w_chain_entries_ > kMaxFlatChainEntries) return;
+  for (int k = 0; k < n; ++k) {
+    // w'_K = w_rel + [R_K][R_J]^T w'_J down to the first free body, whose w' is its own z.
+    for (int c = k; c != kGround; c = lower_body(c)) {
+      if (speed_count(joints_[at(c)].type) > 0) w_chain_[at(k)].push_back(c);
+      if (joints_[at(c)].type == JointType::free) break;
+    }
+  }
+}
+
+Model with_joints(const Model& model, std::vector<Joint> joints,
+                  std::vector<std::shared_ptr<const ForceElement>> more_forces) {
+  std::vector<std::shared_ptr<const ForceElement>> forces = model.forces();
+  forces.insert(forces.end(), more_forces.begin(), more_forces.end());
+  return Model(model.bodies(), model.gravity(), std::move(forces), model.name(), std::move(joints));
 }
 
 int Model::body_index(const std::string& name) const {

@@ -57,23 +57,23 @@ std::string describe_state_component(const Model& model, int component, int* bod
   return text;
 }
 
-std::string joint_state_column(const JointTree& tree, int component, int* body) {
+std::string joint_state_column(const Model& model, int component, int* body) {
   // (q; z) body by body: a free body's q is (eps_K, s'_K) and z (w'_K, s'_K dot), the notes'
   // columns; the other joints' are j1.. and jd1...
   static const char* const kFreeQ[7] = {"e1", "e2", "e3", "e4", "s1", "s2", "s3"};
   static const char* const kFreeZ[6] = {"w1", "w2", "w3", "sd1", "sd2", "sd3"};
-  const int n = tree.num_bodies(), nq = tree.num_coordinates();
+  const int n = model.num_bodies(), nq = model.num_coordinates();
   int k = -1;
   std::string column;
   const bool speed = component >= nq;
   const int i = speed ? component - nq : component;
   for (int b = 0; b < n && component >= 0; ++b) {
-    const int begin = speed ? tree.speed_offset(b) : tree.coordinate_offset(b);
-    const int end = speed ? tree.speed_offset(b + 1) : tree.coordinate_offset(b + 1);
+    const int begin = speed ? model.speed_offset(b) : model.coordinate_offset(b);
+    const int end = speed ? model.speed_offset(b + 1) : model.coordinate_offset(b + 1);
     if (i < begin || i >= end) continue;
     k = b;
     const int r = i - begin;
-    if (tree.joint(b).type == JointType::free)
+    if (model.joint(b).type == JointType::free)
       column = speed ? kFreeZ[r] : kFreeQ[r];
     else
       column = (speed ? "jd" : "j") + std::to_string(r + 1);
@@ -82,10 +82,9 @@ std::string joint_state_column(const JointTree& tree, int component, int* body) 
   return column;
 }
 
-std::string describe_joint_state_component(const Model& model, const JointTree& tree, int component,
-                                           int* body) {
+std::string describe_joint_state_component(const Model& model, int component, int* body) {
   int k = -1;
-  const std::string column = joint_state_column(tree, component, &k);
+  const std::string column = joint_state_column(model, component, &k);
   if (body) *body = k;
   if (k < 0) return "no body";
   return "body '" + model.body(k).name + "' (" + column + ")";
@@ -229,19 +228,19 @@ class Run {
   }
 
   /// A jointed tree: the integrated state is (q; z).
-  Run(const Model& model, const JointTree& tree, const VectorX& q0, const VectorX& z0,
-      const SimulationSettings& settings, const JointObserver& observer)
-      : Run(model, settings, &tree, tree.num_coordinates() + tree.num_speeds()) {
+  Run(const Model& model, const VectorX& q0, const VectorX& z0, const SimulationSettings& settings,
+      const JointObserver& observer)
+      : Run(model, settings, &model, model.num_coordinates() + model.num_speeds()) {
     joint_observer_ = &observer;
-    jd_.emplace(model, tree);
-    nq_ = tree.num_coordinates();
+    jd_.emplace(model);
+    nq_ = model.num_coordinates();
     out_q_ = q0;
     drift_q_ = q0;
-    normalize_joint_coordinates(tree, out_q_);
+    normalize_joint_coordinates(model, out_q_);
     z_ << out_q_, z0;
     out_z_ = z0;
     const bool finite = out_q_.allFinite() && z0.allFinite();
-    if (finite) joint_state(tree, out_q_, out_z_, work_);
+    if (finite) joint_state(model, out_q_, out_z_, work_);
     initial_energy(finite, work_);
   }
 
@@ -266,7 +265,7 @@ class Run {
   }
 
  private:
-  Run(const Model& model, const SimulationSettings& settings, const JointTree* tree, int size)
+  Run(const Model& model, const SimulationSettings& settings, const Model* tree, int size)
       : model_(model),
         s_(settings),
         tree_(tree),
@@ -291,7 +290,7 @@ class Run {
   /// The total energy (notes' state, plus the joint springs' potentials of q).
   double energy_of(const State& state, const VectorX& q) {
     const double e = total_energy(model_, state, data_);
-    return tree_ ? e + joint_load_potential_energy(*tree_, q) : e;
+    return tree_ ? e + joint_potential_energy(model_, q) : e;
   }
 
   /// dz/dt at z: the Eq. (1) state from z, forward_dynamics, ({x dot}; {y dot}).
@@ -325,9 +324,9 @@ class Run {
   double project(VectorX& z) {
     if (tree_) {
       auto q = z.head(nq_);
-      if (s_.project_euler_parameters) return normalize_joint_coordinates(*tree_, q);
+      if (s_.project_euler_parameters) return normalize_joint_coordinates(model_, q);
       drift_q_ = q;  // the drift alone: normalize a copy (sized once, no allocation)
-      return normalize_joint_coordinates(*tree_, drift_q_);
+      return normalize_joint_coordinates(model_, drift_q_);
     }
     if (!s_.project_euler_parameters) {
       double drift = 0.0;
@@ -356,9 +355,9 @@ class Run {
     if (tree_) {
       out_q_ = z.head(nq_);
       out_z_ = z.tail(size_ - nq_);
-      if (s_.project_euler_parameters) normalize_joint_coordinates(*tree_, out_q_);
+      if (s_.project_euler_parameters) normalize_joint_coordinates(model_, out_q_);
       if (*joint_observer_) {
-        joint_state(*tree_, out_q_, out_z_, out_state_);
+        joint_state(model_, out_q_, out_z_, out_state_);
         if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
         (*joint_observer_)(t, out_state_, out_q_, out_z_, data_);
       }
@@ -422,7 +421,7 @@ class Run {
             const std::string& after) {
     stats_.status = status;
     const std::string who =
-        tree_ ? describe_joint_state_component(model_, *tree_, component, &stats_.failed_body)
+        tree_ ? describe_joint_state_component(model_, component, &stats_.failed_body)
               : describe_state_component(model_, component, &stats_.failed_body);
     stats_.message = before + (component >= 0 ? ": " + who + after : "");
   }
@@ -529,8 +528,8 @@ class Run {
       out_z_ = z_.tail(size_ - nq_);
       const bool finite = z_.allFinite();
       if (finite) {
-        normalize_joint_coordinates(*tree_, out_q_);
-        joint_state(*tree_, out_q_, out_z_, work_);
+        normalize_joint_coordinates(model_, out_q_);
+        joint_state(model_, out_q_, out_z_, work_);
       }
       stats_.energy_final =
           finite ? energy_of(work_, out_q_) : std::numeric_limits<double>::quiet_NaN();
@@ -545,7 +544,7 @@ class Run {
 
   const Model& model_;
   const SimulationSettings& s_;
-  const JointTree* tree_;  ///< null for the free tree
+  const Model* tree_;  ///< the model integrated in (q; z); null for the notes' (x; y)
   const Observer* observer_ = nullptr;
   const JointObserver* joint_observer_ = nullptr;
   std::optional<JointDynamics> jd_;
@@ -564,22 +563,20 @@ class Run {
 
 SimulationStats simulate(const Model& model, const State& initial,
                          const SimulationSettings& settings, const Observer& observer) {
-  if (initial.x.size() != model.num_coordinates() || initial.y.size() != model.num_speeds())
+  if (initial.x.size() != model.num_x() || initial.y.size() != model.num_y())
     throw std::invalid_argument("simulate: the state does not have the model's size (7N + 6N)");
   validate_settings(model, settings);
   Run run(model, initial, settings, observer);
   return run.run();
 }
 
-SimulationStats simulate(const Model& model, const JointTree& tree, const VectorX& q0,
-                         const VectorX& z0, const SimulationSettings& settings,
-                         const JointObserver& observer) {
-  if (tree.num_bodies() != model.num_bodies() || q0.size() != tree.num_coordinates() ||
-      z0.size() != tree.num_speeds())
+SimulationStats simulate(const Model& model, const VectorX& q0, const VectorX& z0,
+                         const SimulationSettings& settings, const JointObserver& observer) {
+  if (q0.size() != model.num_coordinates() || z0.size() != model.num_speeds())
     throw std::invalid_argument(
-        "simulate: the joint coordinates and speeds do not have the joint tree's sizes");
+        "simulate: the joint coordinates and speeds do not have the model's sizes");
   validate_settings(model, settings);
-  Run run(model, tree, q0, z0, settings, observer);
+  Run run(model, q0, z0, settings, observer);
   return run.run();
 }
 

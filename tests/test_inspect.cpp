@@ -155,8 +155,8 @@ TEST(Inspect, SelectsBodiesButSumsOverAll) {
 TEST(Inspect, JointedModelAddsTheJointsAtItsJointState) {
   const io::ModelFile file = io::load_model_file(kExamples + "/human_jointed.yaml");
   ASSERT_TRUE(file.jointed());
-  const JointTree& tree = *file.joints;
-  const Inspection in = inspect(file.model, tree, file.joint_q, file.joint_z, 0.25, {1, 7});
+  const Model& tree = file.model;
+  const Inspection in = inspect(file.model, file.q, file.z, 0.25, {1, 7});
   const Inspection free = inspect(file.model, file.initial, 0.25, {1, 7});
   EXPECT_EQ(in.ydot, free.ydot);
   EXPECT_EQ(in.bodies[1].v_G_y, free.bodies[1].v_G_y);
@@ -164,14 +164,14 @@ TEST(Inspect, JointedModelAddsTheJointsAtItsJointState) {
   ASSERT_TRUE(in.joints);
   const JointInspection& j = *in.joints;
   EXPECT_EQ(j.n, tree.num_speeds());
-  EXPECT_EQ(j.q, file.joint_q);
+  EXPECT_EQ(j.q, file.q);
   ASSERT_EQ(j.bodies.size(), 2u);
   const int n = file.model.num_bodies();
   for (const JointBodyInspection& b : j.bodies) {
     const int k = b.K - 1;
     EXPECT_EQ(b.type, tree.joint(k).type);
     EXPECT_EQ(b.q.size(), coordinate_count(b.type));
-    EXPECT_EQ(b.z, file.joint_z.segment(tree.speed_offset(k), speed_count(b.type)));
+    EXPECT_EQ(b.z, file.z.segment(tree.speed_offset(k), speed_count(b.type)));
     EXPECT_EQ(b.C_w, j.C.middleRows(3 * k, 3));
     EXPECT_EQ(b.C_sd, j.C.middleRows(3 * n + 3 * k, 3));
   }

@@ -31,20 +31,20 @@ bool takes_joint_loads(JointType t) {
 
 // A joint spring with damping and a constant joint force on a loadable joint, with probability
 // 2/3 (damping 0 when `damped` is false: a conservative spring).
-std::vector<JointLoad> random_joint_loads(std::mt19937& rng, const std::vector<Joint>& joints,
-                                          bool damped = true) {
-  std::vector<JointLoad> loads;
+std::vector<std::shared_ptr<const ForceElement>> random_joint_loads(
+    std::mt19937& rng, const std::vector<Joint>& joints, bool damped = true) {
+  std::vector<std::shared_ptr<const ForceElement>> loads;
   for (size_t k = 0; k < joints.size(); ++k) {
     if (!takes_joint_loads(joints[k].type) || test::uniform(rng, 0, 1) > 2.0 / 3.0) continue;
     const int m = coordinate_count(joints[k].type);
-    JointLoad l;
-    l.body = static_cast<int>(k);
-    l.stiffness = VectorX::NullaryExpr(m, [&] { return test::uniform(rng, 0.0, 20.0); });
-    l.damping =
+    VectorX stiffness = VectorX::NullaryExpr(m, [&] { return test::uniform(rng, 0.0, 20.0); });
+    VectorX damping =
         VectorX::NullaryExpr(m, [&] { return damped ? test::uniform(rng, 0.0, 2.0) : 0.0; });
-    l.rest = VectorX::NullaryExpr(m, [&] { return test::uniform(rng, -0.5, 0.5); });
-    l.value = VectorX::NullaryExpr(m, [&] { return damped ? test::uniform(rng, -3.0, 3.0) : 0.0; });
-    loads.push_back(l);
+    VectorX rest = VectorX::NullaryExpr(m, [&] { return test::uniform(rng, -0.5, 0.5); });
+    VectorX value =
+        VectorX::NullaryExpr(m, [&] { return damped ? test::uniform(rng, -3.0, 3.0) : 0.0; });
+    loads.push_back(
+        std::make_shared<const JointLoad>(static_cast<int>(k), stiffness, damping, rest, value));
   }
   return loads;
 }
@@ -65,12 +65,10 @@ class Tether final : public ForceElement {
   double k_;
 };
 
-// A model, its joints (JointTree keeps a copy of what it needs of the Model, but JointDynamics
-// keeps references to both: they live here together) and a random (q, z).
+// A model with joints (and joint loads) and a random (q, z).
 struct Case {
   std::string name;
   Model model;
-  JointTree tree;
   VectorX q, z;
 };
 
@@ -78,11 +76,10 @@ Case make_case(std::string name, Model model, const std::vector<JointType>& type
                std::mt19937& rng, bool joint_loads = true) {
   std::vector<Joint> joints;
   for (JointType t : types) joints.push_back(test::random_joint(rng, t));
-  std::vector<JointLoad> loads;
+  std::vector<std::shared_ptr<const ForceElement>> loads;
   if (joint_loads) loads = random_joint_loads(rng, joints);
-  JointTree tree(model, joints, loads);
-  Case c{std::move(name), std::move(model), std::move(tree), {}, {}};
-  test::random_joint_state(c.tree, rng, c.q, c.z);
+  Case c{std::move(name), with_joints(model, joints, loads), {}, {}};
+  test::random_joint_state(c.model, rng, c.q, c.z);
   return c;
 }
 
@@ -182,9 +179,9 @@ TEST(JointDynamics, BothRoutesAgreeWithTheProjectedEquations) {
   for (const Case& c : comparison_cases(1)) {
     SCOPED_TRACE(c.name);
     Data reference(c.model);  // with the dense [A] (at most 41 bodies here)
-    const ProjectedEquations e = projected_equations(c.model, c.tree, c.q, c.z, reference);
-    JointDynamics dyn(c.model, c.tree);
-    VectorX recursive(c.tree.num_speeds()), assembled(c.tree.num_speeds());
+    const ProjectedEquations e = projected_equations(c.model, c.q, c.z, reference);
+    JointDynamics dyn(c.model);
+    VectorX recursive(c.model.num_speeds()), assembled(c.model.num_speeds());
     dyn.evaluate(c.q, c.z, Route::recursive, recursive);
     dyn.evaluate(c.q, c.z, Route::assembled, assembled);
     EXPECT_LT(relative_difference(recursive, e.zdot), kRouteTolerance);
@@ -199,13 +196,13 @@ TEST(JointDynamics, StateKinematicsAndLoadsAreThoseOfTheJointState) {
   for (const Case& c : comparison_cases(2)) {
     SCOPED_TRACE(c.name);
     State expected(c.model);
-    joint_state(c.tree, c.q, c.z, expected);
+    joint_state(c.model, c.q, c.z, expected);
     Data fresh(c.model, DataOptions::recursive_only());
     compute_kinematics(c.model, expected, fresh);
     compute_resultants(c.model, expected, fresh);
     for (Route route : {Route::recursive, Route::assembled}) {
-      JointDynamics dyn(c.model, c.tree);
-      VectorX zdot(c.tree.num_speeds());
+      JointDynamics dyn(c.model);
+      VectorX zdot(c.model.num_speeds());
       dyn.evaluate(c.q, c.z, route, zdot);
       EXPECT_EQ(dyn.state().x, expected.x);
       EXPECT_EQ(dyn.state().y, expected.y);
@@ -229,16 +226,16 @@ TEST(JointDynamics, StateIsTheLastEvaluationsWhenAskedLater) {
     SCOPED_TRACE(c.name);
     std::mt19937 rng(7);
     VectorX q2, z2;
-    test::random_joint_state(c.tree, rng, q2, z2);
-    JointDynamics dyn(c.model, c.tree);
-    VectorX zdot(c.tree.num_speeds());
+    test::random_joint_state(c.model, rng, q2, z2);
+    JointDynamics dyn(c.model);
+    VectorX zdot(c.model.num_speeds());
     for (const bool data_first : {false, true}) {
       for (const bool second : {false, true}) {
         const VectorX& q = second ? q2 : c.q;
         const VectorX& z = second ? z2 : c.z;
         dyn.evaluate(q, z, Route::recursive, zdot);
         State expected(c.model);
-        joint_state(c.tree, q, z, expected);
+        joint_state(c.model, q, z, expected);
         Data fresh(c.model, DataOptions::recursive_only());
         compute_kinematics(c.model, expected, fresh);
         if (data_first) {
@@ -261,10 +258,10 @@ TEST(JointDynamics, AllFreeIsForwardDynamicsOfTheFreeModel) {
   for (const Model& model : test::models_of_every_size(rng)) {
     SCOPED_TRACE(model.num_bodies());
     const int n = model.num_bodies();
-    const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(n)));
+    const Model& tree = model;  // every joint free, the default
     VectorX q, z;
     test::random_joint_state(tree, rng, q, z);
-    JointDynamics dyn(model, tree);
+    JointDynamics dyn(tree);
     Data free(model);
     for (Route route : {Route::recursive, Route::assembled}) {
       VectorX zdot(tree.num_speeds());
@@ -296,10 +293,10 @@ TEST(JointDynamics, AllWeldToOneFreeRoot) {
       std::vector<JointType> types(static_cast<size_t>(n), JointType::weld);
       types[0] = JointType::free;
       const Case c = make_case("welded", std::move(model), types, rng);
-      ASSERT_EQ(c.tree.num_speeds(), 6);
+      ASSERT_EQ(c.model.num_speeds(), 6);
       Data reference(c.model);
-      const ProjectedEquations e = projected_equations(c.model, c.tree, c.q, c.z, reference);
-      JointDynamics dyn(c.model, c.tree);
+      const ProjectedEquations e = projected_equations(c.model, c.q, c.z, reference);
+      JointDynamics dyn(c.model);
       for (Route route : {Route::recursive, Route::assembled}) {
         VectorX zdot(6);
         dyn.evaluate(c.q, c.z, route, zdot);
@@ -383,10 +380,10 @@ TEST(JointDynamics, CopiesAreIndependentWorkspaces) {
   std::mt19937 rng(10);
   Case c = make_case("forest", test::random_loaded_model(rng, 10), random_types(rng, 10), rng);
   VectorX q2, z2;
-  test::random_joint_state(c.tree, rng, q2, z2);
+  test::random_joint_state(c.model, rng, q2, z2);
   for (Route route : {Route::recursive, Route::assembled}) {
-    JointDynamics dyn(c.model, c.tree);
-    VectorX zdot(c.tree.num_speeds()), copied(c.tree.num_speeds()), fresh(c.tree.num_speeds());
+    JointDynamics dyn(c.model);
+    VectorX zdot(c.model.num_speeds()), copied(c.model.num_speeds()), fresh(c.model.num_speeds());
     dyn.evaluate(c.q, c.z, route, zdot);
     const State before = dyn.state();
     const std::vector<Vector3> forces = dyn.data().loads.force;
@@ -395,7 +392,7 @@ TEST(JointDynamics, CopiesAreIndependentWorkspaces) {
     EXPECT_EQ(dyn.state().x, before.x);
     EXPECT_EQ(dyn.state().y, before.y);
     EXPECT_EQ(dyn.data().loads.force, forces);
-    JointDynamics(c.model, c.tree).evaluate(q2, z2, route, fresh);
+    JointDynamics(c.model).evaluate(q2, z2, route, fresh);
     EXPECT_EQ(copied, fresh);
     EXPECT_NE(copy.state().x, before.x);
   }
@@ -406,9 +403,9 @@ TEST(JointDynamics, NoAllocationPerEvaluation) {
     GTEST_SKIP() << "malloc is the sanitizer's here: Eigen's allocations are not counted";
   for (const Case& c : comparison_cases(5)) {
     SCOPED_TRACE(c.name);
-    JointDynamics dyn(c.model, c.tree);
-    VectorX zdot(c.tree.num_speeds());
-    VectorX qz(c.tree.num_coordinates() + c.tree.num_speeds()), dqz(qz.size());
+    JointDynamics dyn(c.model);
+    VectorX zdot(c.model.num_speeds());
+    VectorX qz(c.model.num_coordinates() + c.model.num_speeds()), dqz(qz.size());
     qz << c.q, c.z;
     for (Route route : {Route::recursive, Route::assembled}) {
       dyn.evaluate(c.q, c.z, route, zdot);  // the first call may build the route's structures
@@ -429,22 +426,22 @@ TEST(JointDynamics, NoAllocationPerEvaluation) {
 TEST(JointDynamics, DerivativeIsTheCoordinateRatesAndTheAccelerations) {
   for (const Case& c : comparison_cases(6)) {
     SCOPED_TRACE(c.name);
-    const int nq = c.tree.num_coordinates(), nz = c.tree.num_speeds();
+    const int nq = c.model.num_coordinates(), nz = c.model.num_speeds();
     VectorX q = c.q;
     // Off unit norm by up to 1e-7 (what an integrator's step leaves): derivative() normalizes.
-    for (int k = 0; k < c.tree.num_bodies(); ++k) {
-      const JointType t = c.tree.joint(k).type;
+    for (int k = 0; k < c.model.num_bodies(); ++k) {
+      const JointType t = c.model.joint(k).type;
       if (t == JointType::free || t == JointType::spherical)
-        q.segment<4>(c.tree.coordinate_offset(k)) *= 1.0 + 1e-7;
+        q.segment<4>(c.model.coordinate_offset(k)) *= 1.0 + 1e-7;
     }
     VectorX qz(nq + nz), dqz(nq + nz), zdot(nz), qdot(nq);
     qz << q, c.z;
-    JointDynamics dyn(c.model, c.tree);
+    JointDynamics dyn(c.model);
     for (Route route : {Route::recursive, Route::assembled}) {
       dyn.derivative(qz, route, dqz);
       VectorX qn = q;
-      normalize_joint_coordinates(c.tree, qn);
-      joint_coordinate_rates(c.tree, qn, c.z, qdot);
+      normalize_joint_coordinates(c.model, qn);
+      joint_coordinate_rates(c.model, qn, c.z, qdot);
       EXPECT_EQ(dqz.head(nq), qdot);
       dyn.evaluate(qn, c.z, route, zdot);
       EXPECT_EQ(dqz.tail(nz), zdot);
@@ -469,8 +466,8 @@ TEST(JointDynamics, FiniteDifferenceOfARunMatchesTheDerivative) {
       make_case("forest", test::random_loaded_model(rng, 9), random_types(rng, 9), rng));
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
-    JointDynamics dyn(c.model, c.tree);
-    const int size = c.tree.num_coordinates() + c.tree.num_speeds();
+    JointDynamics dyn(c.model);
+    const int size = c.model.num_coordinates() + c.model.num_speeds();
     Rk4 rk4(size, [&](double, const VectorX& x, VectorX& dx) {
       dyn.derivative(x, Route::recursive, dx);
     });
@@ -507,11 +504,11 @@ TEST(JointDynamics, EnergyIsConservedOnTheJointedEightBody) {
        {JointType::free, JointType::spherical, JointType::revolute, JointType::universal,
         JointType::cylindrical, JointType::prismatic, JointType::weld, JointType::revolute})
     joints.push_back(test::random_joint(rng, t));
-  const JointTree tree(model, joints, random_joint_loads(rng, joints, false));
-  ASSERT_FALSE(tree.loads().empty());
+  const Model tree = with_joints(model, joints, random_joint_loads(rng, joints, false));
+  ASSERT_TRUE(tree.has_joint_force_elements());
   VectorX q, z;
   test::random_joint_state(tree, rng, q, z);
-  JointDynamics dyn(model, tree);
+  JointDynamics dyn(tree);
   const int nq = tree.num_coordinates(), size = nq + tree.num_speeds();
   Data data(model, DataOptions::recursive_only());
   auto energy = [&](const VectorX& x) {
@@ -519,7 +516,7 @@ TEST(JointDynamics, EnergyIsConservedOnTheJointedEightBody) {
     VectorX qq = x.head(nq);
     normalize_joint_coordinates(tree, qq);
     joint_state(tree, qq, x.tail(size - nq), s);
-    return total_energy(model, s, data) + joint_load_potential_energy(tree, qq);
+    return total_energy(model, s, data) + joint_potential_energy(tree, qq);
   };
   Dopri5Options opt;
   opt.rtol = opt.atol = 1e-12;
@@ -566,10 +563,10 @@ TEST(JointDynamics, LongChainsRunOnlyTheRecursiveRoute) {
   Joint j;
   j.type = JointType::revolute;
   j.axis = Vector3::UnitX();
-  const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(n), j));
+  const Model tree = with_joints(model, std::vector<Joint>(static_cast<size_t>(n), j));
   EXPECT_FALSE(tree.has_angular_chains());
   EXPECT_THROW(ConstraintMatrix{tree}, ModelError);
-  JointDynamics dyn(model, tree);
+  JointDynamics dyn(tree);
   std::mt19937 rng(9);
   VectorX x(2 * n), dx(2 * n);
   for (int i = 0; i < n; ++i) {

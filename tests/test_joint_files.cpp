@@ -134,7 +134,7 @@ forces:
 TEST(JointFiles, TheMappingFormLoadsWithItsCoordinatesAndSpeeds) {
   const io::ModelFile f = io::parse_model_file(kJointed, "jointed.yaml");
   ASSERT_TRUE(f.jointed());
-  const JointTree& tree = *f.joints;
+  const Model& tree = f.model;
   // q: base 7, hinge 1, slider 1, cyl 2, uni 2, ball 4, weld 0; z: 6, 1, 1, 2, 2, 3, 0.
   EXPECT_EQ(tree.num_coordinates(), 17);
   EXPECT_EQ(tree.num_speeds(), 15);
@@ -142,20 +142,25 @@ TEST(JointFiles, TheMappingFormLoadsWithItsCoordinatesAndSpeeds) {
   EXPECT_EQ(tree.joint(6).type, JointType::weld);
   EXPECT_EQ(f.model.body(1).joint, Vector3(0.1, 0, -0.1));  // `at` is q'_K
   EXPECT_EQ(tree.joint(4).axes[1], Vector3::UnitY());       // normalized
-  const VectorX& q = f.joint_q;
+  const VectorX& q = f.q;
   EXPECT_EQ(q.segment<7>(0), (VectorX(7) << 0, 0, 0, 1, 0, 0, 1).finished());
   EXPECT_EQ(q[7], 0.4);
   EXPECT_EQ(q.segment<2>(9), Vector2(-0.2, 0.03));
   EXPECT_EQ(q.segment<4>(13), Vector4(0, 0, 0.6, 0.8));
-  EXPECT_EQ(f.joint_z.segment<6>(0), (VectorX(6) << 0.1, 0.2, 0.3, 0.05, 0, 0.2).finished());
-  EXPECT_EQ(f.joint_z.segment<3>(12), Vector3(0.3, -0.2, 0.5));
+  EXPECT_EQ(f.z.segment<6>(0), (VectorX(6) << 0.1, 0.2, 0.3, 0.05, 0, 0.2).finished());
+  EXPECT_EQ(f.z.segment<3>(12), Vector3(0.3, -0.2, 0.5));
   EXPECT_EQ(tree.joint(6).translation, Vector3(0, 0.1, 0));
   // The loads: the spring's scalar stiffness stands for its one coordinate; defaults 0.
-  ASSERT_EQ(tree.loads().size(), 3u);
-  EXPECT_EQ(tree.loads()[0].stiffness, VectorX::Constant(1, 3.0));
-  EXPECT_EQ(tree.loads()[0].rest, VectorX::Constant(1, 0.1));
-  EXPECT_EQ(tree.loads()[1].value, Vector2(0.5, -1));
-  EXPECT_EQ(tree.loads()[1].stiffness, Vector2::Zero());
+  std::vector<const JointLoad*> loads;
+  for (const auto& element : tree.forces())
+    if (const auto* l = dynamic_cast<const JointLoad*>(element.get())) loads.push_back(l);
+  ASSERT_EQ(loads.size(), 3u);
+  EXPECT_EQ(loads[0]->type(), "joint_spring");
+  EXPECT_EQ(loads[0]->stiffness, VectorX::Constant(1, 3.0));
+  EXPECT_EQ(loads[0]->rest, VectorX::Constant(1, 0.1));
+  EXPECT_EQ(loads[1]->type(), "joint_force");
+  EXPECT_EQ(loads[1]->value, Vector2(0.5, -1));
+  EXPECT_EQ(loads[1]->stiffness, Vector2::Zero());
   // The initial state is the notes' x, y at (q, z): the hinge is F (J turned 0.3 about z)
   // turned 0.4 about F's x axis, computed here from rotation matrices.
   const Matrix3 r_hinge = rotation_matrix(f.initial.euler_parameters(1));
@@ -351,7 +356,8 @@ TEST(JointFiles, EveryRefusalNamesThePlaceTheKeyAndTheProblem) {
 /// The largest violation of the joints in a row of the notes' state (x, y), measured from
 /// the Euler parameters and speeds alone with rotation matrices (Eqs. 3-4): what each joint
 /// type's table row allows of K relative to J.
-double joint_violation(const Model& model, const JointTree& tree, const State& s) {
+double joint_violation(const Model& model, const State& s) {
+  const Model& tree = model;
   double worst = 0.0;
   const auto note = [&](double v) { worst = std::max(worst, std::abs(v)); };
   for (int k = 0; k < model.num_bodies(); ++k) {
@@ -415,7 +421,7 @@ TEST(JointFiles, EveryRowOfALongRunHoldsEveryJoint) {
       test::run_in(dir, "simulate jointed.yaml -o run.csv --t-end 20 --dt-out 0.01");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const io::ModelFile f = io::parse_model_file(kJointed, "jointed.yaml");
-  const io::Trajectory traj = io::read_trajectory(f.model, (dir / "run.csv").string(), &*f.joints);
+  const io::Trajectory traj = io::read_trajectory(f.model, (dir / "run.csv").string());
   ASSERT_EQ(traj.rows(), 2001u);
   EXPECT_EQ(traj.columns.size(), 2u + 16u * 7u + (2 + 2 + 4 + 4 + 7));
   EXPECT_EQ(traj.columns[16], "base.sd3");
@@ -432,12 +438,12 @@ TEST(JointFiles, EveryRowOfALongRunHoldsEveryJoint) {
         s.angular_velocity(k)[i] = traj.at(r, c + 10 + i);
         s.translation_rate(k)[i] = traj.at(r, c + 13 + i);
       }
-      const JointType t = f.joints->joint(k).type;
+      const JointType t = f.model.joint(k).type;
       c +=
           16 +
           (t == JointType::free || t == JointType::weld ? 0 : coordinate_count(t) + speed_count(t));
     }
-    worst = std::max(worst, joint_violation(f.model, *f.joints, s));
+    worst = std::max(worst, joint_violation(f.model, s));
   }
   // Round-off: the poses are compositions of a few rotations of unit Euler parameters
   // (the CSV's shortest round-trip decimals are exact), so a few hundred ulp of O(1)
@@ -452,13 +458,13 @@ TEST(JointFiles, EnergyIsConservedWithoutDampingAndLostWithIt) {
   s.dt_out = 1.0;
   s.rtol = 1e-11;
   s.atol = 1e-12;
-  const SimulationStats stats = simulate(f.model, *f.joints, f.joint_q, f.joint_z, s);
+  const SimulationStats stats = simulate(f.model, f.q, f.z, s);
   ASSERT_TRUE(stats.ok()) << stats.message;
   // The joint force is a constant generalized force: not conservative, and left out of the
   // energy; this model has only zero-damping springs and gravity otherwise, so take it out.
   const io::ModelFile g = io::parse_model_file(edit(kJointed, "value: [0.5, -1]", "value: [0, 0]"),
                                                "conservative.yaml");
-  const SimulationStats c = simulate(g.model, *g.joints, g.joint_q, g.joint_z, s);
+  const SimulationStats c = simulate(g.model, g.q, g.z, s);
   ASSERT_TRUE(c.ok()) << c.message;
   // The spec's bound: 1e-8 relative over 10 s at rtol 1e-10 and below.
   EXPECT_LT(std::abs(c.relative_energy_change()), 1e-8)
@@ -468,7 +474,7 @@ TEST(JointFiles, EnergyIsConservedWithoutDampingAndLostWithIt) {
       io::parse_model_file(edit(edit(kJointed, "value: [0.5, -1]", "value: [0, 0]"), "stiffness: 3",
                                 "stiffness: 3\n    damping: 0.5"),
                            "damped.yaml");
-  const SimulationStats dd = simulate(d.model, *d.joints, d.joint_q, d.joint_z, s);
+  const SimulationStats dd = simulate(d.model, d.q, d.z, s);
   ASSERT_TRUE(dd.ok());
   EXPECT_LT(dd.energy_final, dd.energy_initial - 1e-3);
 }
@@ -488,7 +494,7 @@ TEST(JointFiles, AFreeFloatingJointedSystemKeepsItsMomentum) {
     p.push_back(linear_momentum(f.model, state, data));
     h.push_back(angular_momentum(f.model, state, data));
   };
-  ASSERT_TRUE(simulate(f.model, *f.joints, f.joint_q, f.joint_z, s, obs).ok());
+  ASSERT_TRUE(simulate(f.model, f.q, f.z, s, obs).ok());
   ASSERT_EQ(p.size(), 11u);
   // The joint force (internal: equal and opposite on the two bodies) changes neither.
   for (std::size_t i = 1; i < p.size(); ++i) {
@@ -530,7 +536,7 @@ TEST(JointFiles, ASimplePendulumHasItsSmallAnglePeriod) {
     t.push_back(time);
     q.push_back(jq[0]);
   };
-  ASSERT_TRUE(simulate(f.model, *f.joints, f.joint_q, f.joint_z, s, obs).ok());
+  ASSERT_TRUE(simulate(f.model, f.q, f.z, s, obs).ok());
   // Downward zero crossings, linearly interpolated between rows 1/400 of a period apart.
   std::vector<double> crossings;
   for (std::size_t i = 1; i < q.size(); ++i)
@@ -589,7 +595,7 @@ forces:
     EXPECT_NEAR(state.translation(0)[0], q[0], 1e-15);
     EXPECT_NEAR(state.translation(0)[2], 0.0, 1e-15);
   };
-  ASSERT_TRUE(simulate(f.model, *f.joints, f.joint_q, f.joint_z, s, obs).ok());
+  ASSERT_TRUE(simulate(f.model, f.q, f.z, s, obs).ok());
   // Truncation of dopri5 at rtol 1e-12 over 10 periods/(2 pi): well below 1e-9.
   EXPECT_LT(worst, 1e-9);
 }
@@ -623,7 +629,7 @@ bodies:
     compute_kinematics(f.model, state, data);
     if (t == 1.0) p_joint = data.kinematics.p_G[0];
   };
-  ASSERT_TRUE(simulate(f.model, *f.joints, f.joint_q, f.joint_z, s, jobs).ok());
+  ASSERT_TRUE(simulate(f.model, f.q, f.z, s, jobs).ok());
   std::vector<double> gaps;
   for (const double k : {1e4, 1e5, 1e6}) {
     std::vector<std::shared_ptr<const ForceElement>> forces{
@@ -725,10 +731,10 @@ TEST(JointFiles, TheJointedExamplesRunWithTheirJointsHeld) {
     long rows = 0;
     const JointObserver obs = [&](double, const State& state, const VectorX&, const VectorX&,
                                   Data&) {
-      worst = std::max(worst, joint_violation(f.model, *f.joints, state));
+      worst = std::max(worst, joint_violation(f.model, state));
       ++rows;
     };
-    const SimulationStats stats = simulate(f.model, *f.joints, f.joint_q, f.joint_z, s, obs);
+    const SimulationStats stats = simulate(f.model, f.q, f.z, s, obs);
     ASSERT_TRUE(stats.ok()) << stats.message;
     EXPECT_EQ(rows, 21);
     EXPECT_LT(worst, 1e-13);  // round-off, as in the long run above

@@ -28,18 +28,17 @@ Matrix3 turn(const Vector3& n, double angle) {
          std::sin(angle) * skew(n);
 }
 
+// A model with joints and a random state (q, z).
 struct Jointed {
   Model model;
-  JointTree tree;
   VectorX q, z;
 };
 
-Jointed make_jointed(Model model, const std::vector<JointType>& types, std::mt19937& rng) {
+Jointed make_jointed(const Model& base, const std::vector<JointType>& types, std::mt19937& rng) {
   std::vector<Joint> joints;
   for (JointType t : types) joints.push_back(test::random_joint(rng, t));
-  JointTree tree(model, joints);
-  Jointed j{std::move(model), std::move(tree), {}, {}};
-  test::random_joint_state(j.tree, rng, j.q, j.z);
+  Jointed j{with_joints(base, joints), {}, {}};
+  test::random_joint_state(j.model, rng, j.q, j.z);
   return j;
 }
 
@@ -79,7 +78,7 @@ std::vector<Jointed> test_trees(unsigned seed) {
 
 State state_of(const Jointed& j, const VectorX& q, const VectorX& z) {
   State s(j.model);
-  joint_state(j.tree, q, z, s);
+  joint_state(j.model, q, z, s);
   return s;
 }
 
@@ -94,7 +93,7 @@ constexpr double kRoundOff = 1e-12;
 // K's orientation and relative motion against the table, from the state alone: [R_rel] =
 // [R_K][R_J]^T, w_rel = w'_K - [R_rel] w'_J (body K), s'_K, s'_K dot (body J).
 void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
-  const Joint& jt = j.tree.joint(k);
+  const Joint& jt = j.model.joint(k);
   if (jt.type == JointType::free) return;
   const int l = j.model.lower_body(k);
   const Matrix3 r_j =
@@ -106,7 +105,7 @@ void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
   const Matrix3 r_fk = r_rel * r_f.transpose();  // F to K components
   const Vector3 n = jt.axis, n_j = r_f.transpose() * jt.axis;
   const Vector3 s_k = s.translation(k), sd_k = s.translation_rate(k);
-  const int o = j.tree.coordinate_offset(k), p = j.tree.speed_offset(k);
+  const int o = j.model.coordinate_offset(k), p = j.model.speed_offset(k);
   const VectorX& q = j.q;
   const VectorX& z = j.z;
   Matrix3 r_expected = Matrix3::Identity();
@@ -172,8 +171,8 @@ TEST(Joints, EachJointConfinesTheRelativeMotionAsTheTableSays) {
     const State s = state_of(j, j.q, j.z);
     for (int k = 0; k < j.model.num_bodies(); ++k) {
       expect_body_follows_joint(j, s, k);
-      if (j.tree.joint(k).type == JointType::free) {  // a free body keeps its own x, y
-        const int o = j.tree.coordinate_offset(k), p = j.tree.speed_offset(k);
+      if (j.model.joint(k).type == JointType::free) {  // a free body keeps its own x, y
+        const int o = j.model.coordinate_offset(k), p = j.model.speed_offset(k);
         EXPECT_EQ(VectorX(s.euler_parameters(k)), VectorX(j.q.segment<4>(o)));
         EXPECT_EQ(VectorX(s.translation(k)), VectorX(j.q.segment<3>(o + 4)));
         EXPECT_EQ(VectorX(s.angular_velocity(k)), VectorX(j.z.segment<3>(p)));
@@ -189,18 +188,18 @@ TEST(Joints, VelocitiesAreConstraintMatrixTimesSpeeds) {
   std::mt19937 rng(32);
   for (const Jointed& j : test_trees(33)) {
     const State s = state_of(j, j.q, j.z);
-    ConstraintMatrix C(j.tree);
-    compute_constraint_matrix(j.tree, j.q, s, C);
-    const MatrixX dense = dense_constraint_matrix(j.tree, C);
+    ConstraintMatrix C(j.model);
+    compute_constraint_matrix(j.model, j.q, s, C);
+    const MatrixX dense = dense_constraint_matrix(j.model, C);
     ASSERT_EQ(dense.rows(), 6 * j.model.num_bodies());
-    ASSERT_EQ(dense.cols(), j.tree.num_speeds());
+    ASSERT_EQ(dense.cols(), j.model.num_speeds());
     VectorX y(6 * j.model.num_bodies());
-    constraint_times(j.tree, C, j.z, y);
+    constraint_times(j.model, C, j.z, y);
     EXPECT_LT(test::max_abs(dense * j.z - s.y), kRoundOff);
     EXPECT_LT(test::max_abs(y - s.y), kRoundOff);
     const VectorX v = test::random_vector(rng, -1, 1).replicate(2 * j.model.num_bodies(), 1);
-    VectorX ct_v(j.tree.num_speeds());
-    constraint_transpose_times(j.tree, C, v, ct_v);
+    VectorX ct_v(j.model.num_speeds());
+    constraint_transpose_times(j.model, C, v, ct_v);
     EXPECT_LT(test::max_abs(dense.transpose() * v - ct_v), kRoundOff);
   }
 }
@@ -212,18 +211,18 @@ TEST(Joints, ConstraintBlocksFollowTheChainToTheFirstFreeBody) {
   std::mt19937 rng(45);
   const Jointed j = eight_body_jointed(rng);
   using Chain = std::vector<int>;
-  EXPECT_EQ(j.tree.angular_chain(0), (Chain{0}));
-  EXPECT_EQ(j.tree.angular_chain(2), (Chain{2, 1, 0}));
-  EXPECT_EQ(j.tree.angular_chain(6), (Chain{0}));
-  EXPECT_EQ(j.tree.angular_chain(7), (Chain{7, 0}));
-  EXPECT_EQ(j.tree.num_speeds(), 6 + 3 + 1 + 2 + 2 + 1 + 0 + 1);
+  EXPECT_EQ(j.model.angular_chain(0), (Chain{0}));
+  EXPECT_EQ(j.model.angular_chain(2), (Chain{2, 1, 0}));
+  EXPECT_EQ(j.model.angular_chain(6), (Chain{0}));
+  EXPECT_EQ(j.model.angular_chain(7), (Chain{7, 0}));
+  EXPECT_EQ(j.model.num_speeds(), 6 + 3 + 1 + 2 + 2 + 1 + 0 + 1);
   const State s = state_of(j, j.q, j.z);
-  ConstraintMatrix C(j.tree);
-  compute_constraint_matrix(j.tree, j.q, s, C);
-  const MatrixX dense = dense_constraint_matrix(j.tree, C);
+  ConstraintMatrix C(j.model);
+  compute_constraint_matrix(j.model, j.q, s, C);
+  const MatrixX dense = dense_constraint_matrix(j.model, C);
   // Column by column: [C] e_i is y for the unit speed i, which joint_state gives as well.
-  for (int i = 0; i < j.tree.num_speeds(); ++i) {
-    const VectorX e = VectorX::Unit(j.tree.num_speeds(), i);
+  for (int i = 0; i < j.model.num_speeds(); ++i) {
+    const VectorX e = VectorX::Unit(j.model.num_speeds(), i);
     EXPECT_LT(test::max_abs(dense.col(i) - state_of(j, j.q, e).y), kRoundOff) << "column " << i;
   }
   // Body 8's w' rows: nothing from bodies 2..6 (columns 6..14).
@@ -235,7 +234,7 @@ TEST(Joints, ConstraintBlocksFollowTheChainToTheFirstFreeBody) {
 
 // q(t) from q(0) by one classical Runge-Kutta step of the joints' kinematic equations, with
 // z(t) = z + t zd. Its error is O(t^5) (~1e-25 at t = 1e-5), far below what is measured.
-VectorX coordinates_at(const JointTree& tree, const VectorX& q, const VectorX& z, const VectorX& zd,
+VectorX coordinates_at(const Model& tree, const VectorX& q, const VectorX& z, const VectorX& zd,
                        double t) {
   auto f = [&](const VectorX& qq, double tt) {
     VectorX r(tree.num_coordinates());
@@ -258,9 +257,9 @@ TEST(Joints, CoordinatesMoveAtTheRateOfTheNotesKinematicEquations) {
   for (const Jointed& j : test_trees(35)) {
     const VectorX zd = VectorX::Zero(j.z.size());
     const State s0 = state_of(j, j.q, j.z);
-    const State sp = state_of(j, coordinates_at(j.tree, j.q, j.z, zd, kStep), j.z);
-    const State sm = state_of(j, coordinates_at(j.tree, j.q, j.z, zd, -kStep), j.z);
-    VectorX xdot(j.model.num_coordinates());
+    const State sp = state_of(j, coordinates_at(j.model, j.q, j.z, zd, kStep), j.z);
+    const State sm = state_of(j, coordinates_at(j.model, j.q, j.z, zd, -kStep), j.z);
+    VectorX xdot(j.model.num_x());
     compute_xdot(j.model, s0, xdot);  // Eqs. (39)-(40) with y = [C] z
     EXPECT_LT(test::max_abs((sp.x - sm.x) / (2 * kStep) - xdot), kFiniteDifference)
         << "N " << j.model.num_bodies();
@@ -270,7 +269,7 @@ TEST(Joints, CoordinatesMoveAtTheRateOfTheNotesKinematicEquations) {
 TEST(Joints, ConstraintRateTimesSpeedsIsTheDerivativeOfConstraintTimesSpeeds) {
   std::mt19937 rng(36);
   for (const Jointed& j : test_trees(37)) {
-    const JointTree& tree = j.tree;
+    const Model& tree = j.model;
     const int n6 = 6 * j.model.num_bodies();
     VectorX zd(j.z.size());
     for (int i = 0; i < zd.size(); ++i) zd[i] = test::uniform(rng, -1, 1);
@@ -311,7 +310,7 @@ TEST(Joints, SphericalRatesAreTheRelativeAngularVelocity) {
   Jointed j = make_jointed(test::random_tree(rng, {.min_bodies = 1, .max_bodies = 1}),
                            {JointType::spherical}, rng);
   VectorX qdot(4);
-  joint_coordinate_rates(j.tree, j.q, j.z, qdot);
+  joint_coordinate_rates(j.model, j.q, j.z, qdot);
   EXPECT_LT((angular_velocity_from_rates(j.q.head<4>(), qdot.head<4>()) - j.z.head<3>()).norm(),
             1e-14);
   EXPECT_LT(std::abs(j.q.head<4>().dot(qdot)), 1e-15);  // keeps |q| = 1
@@ -325,7 +324,7 @@ TEST(Joints, NormalizeRescalesEulerParametersOnly) {
   q.head<4>() *= 1.5;      // free eps
   q.segment<4>(7) *= 0.5;  // spherical q
   q[11] = 2.5;             // the revolute angle, unchanged
-  EXPECT_NEAR(normalize_joint_coordinates(j.tree, q), 0.5, 1e-15);
+  EXPECT_NEAR(normalize_joint_coordinates(j.model, q), 0.5, 1e-15);
   EXPECT_LT((q.head<4>() - j.q.head<4>()).norm(), 1e-15);
   EXPECT_LT((q.segment<4>(7) - j.q.segment<4>(7)).norm(), 1e-15);
   EXPECT_EQ(q[11], 2.5);
@@ -385,12 +384,12 @@ TEST(Joints, TreeRefusesBadJointsNamingTheBody) {
   bad.type = JointType::revolute;
   bad.axis = Vector3::Zero();
   try {
-    JointTree(model, {Joint{}, bad});
+    (void)with_joints(model, {Joint{}, bad});
     ADD_FAILURE() << "accepted";
   } catch (const ModelError& e) {
-    EXPECT_EQ(std::string(e.what()), "body b2: the axis of a revolute joint must not be zero");
+    EXPECT_EQ(std::string(e.what()), "body 2 'b2': the axis of a revolute joint must not be zero");
   }
-  EXPECT_THROW(JointTree(model, {Joint{}}), ModelError);
+  EXPECT_THROW((void)with_joints(model, {Joint{}}), ModelError);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -405,16 +404,15 @@ TEST(JointsProjected, RevolutePendulum) {
   b.mass = m;
   b.inertia = Vector3(0.08, 0.03, izz).asDiagonal();
   b.com = Vector3(0, -l, 0);
-  const Model model({b}, Vector3(0, -g, 0));
   Joint joint;
   joint.type = JointType::revolute;
   joint.axis = Vector3::UnitZ();
-  const JointTree tree(model, {joint});
+  const Model model({b}, Vector3(0, -g, 0), {}, "", {joint});
   Data data(model);
   for (double theta : {0.0, 0.3, -1.2, 2.5}) {
     for (double rate : {0.0, 1.7}) {
-      const ProjectedEquations e = projected_equations(model, tree, VectorX::Constant(1, theta),
-                                                       VectorX::Constant(1, rate), data);
+      const ProjectedEquations e =
+          projected_equations(model, VectorX::Constant(1, theta), VectorX::Constant(1, rate), data);
       const double expected = -(m * g * l / (izz + m * l * l)) * std::sin(theta);
       // Round-off of a 6x6 system with O(10) entries: 1e-12.
       EXPECT_NEAR(e.zdot[0], expected, 1e-12) << "theta " << theta << " rate " << rate;
@@ -432,8 +430,9 @@ TEST(JointsProjected, PrismaticFreeFallIsGravityAlongTheAxis) {
     opt.gravity = test::random_vector(rng, -10, 10);
     Jointed j = make_jointed(test::random_tree(rng, opt), {JointType::prismatic}, rng);
     Data data(j.model);
-    const ProjectedEquations e = projected_equations(j.model, j.tree, j.q, j.z, data);
-    const Vector3 n = reference_rotation(j.tree.joint(0).frame).transpose() * j.tree.joint(0).axis;
+    const ProjectedEquations e = projected_equations(j.model, j.q, j.z, data);
+    const Vector3 n =
+        reference_rotation(j.model.joint(0).frame).transpose() * j.model.joint(0).axis;
     EXPECT_NEAR(e.zdot[0], j.model.gravity().dot(n), 1e-12);
   }
 }
@@ -455,8 +454,8 @@ TEST(JointsProjected, WeldedPairIsOneRigidBody) {
     opt.gravity = test::random_vector(rng, -10, 10);
     Jointed j = make_jointed(test::random_tree(rng, opt), {JointType::free, JointType::weld}, rng);
     const BodySpec &b1 = j.model.body(0), &b2 = j.model.body(1);
-    const Matrix3 r_f = reference_rotation(j.tree.joint(1).frame);  // body 1 to body 2 axes
-    const Vector3 p2 = b2.joint + j.tree.joint(1).translation + r_f.transpose() * b2.com;
+    const Matrix3 r_f = reference_rotation(j.model.joint(1).frame);  // body 1 to body 2 axes
+    const Vector3 p2 = b2.joint + j.model.joint(1).translation + r_f.transpose() * b2.com;
     BodySpec one = b1;
     one.mass = b1.mass + b2.mass;
     one.com = (b1.mass * b1.com + b2.mass * p2) / one.mass;
@@ -464,7 +463,7 @@ TEST(JointsProjected, WeldedPairIsOneRigidBody) {
                   r_f.transpose() * b2.inertia * r_f + b2.mass * point_inertia(p2 - one.com);
     const Model rigid({one}, j.model.gravity());
     Data data(j.model), rigid_data(rigid);
-    const ProjectedEquations e = projected_equations(j.model, j.tree, j.q, j.z, data);
+    const ProjectedEquations e = projected_equations(j.model, j.q, j.z, data);
     State s(rigid);
     s.x << e.state.euler_parameters(0), e.state.translation(0);
     s.y << e.state.angular_velocity(0), e.state.translation_rate(0);
@@ -480,11 +479,11 @@ TEST(JointsProjected, AllFreeIsTheUnconstrainedTree) {
   std::mt19937 rng(42);
   for (const Model& model : test::models_of_every_size(rng)) {
     if (model.num_bodies() > 30) continue;
-    const JointTree tree(model, std::vector<Joint>(static_cast<size_t>(model.num_bodies())));
+    const Model& tree = model;  // every joint free, the default
     VectorX q, z;
     test::random_joint_state(tree, rng, q, z);
     Data data(model);
-    const ProjectedEquations e = projected_equations(model, tree, q, z, data);
+    const ProjectedEquations e = projected_equations(model, q, z, data);
     // [C] only reorders: z is body by body, y is (w', s' dot); [C]^T [C] = [I] exactly.
     const int n = tree.num_speeds();
     EXPECT_EQ(test::max_abs(e.C.transpose() * e.C - MatrixX::Identity(n, n)), 0.0);
@@ -498,12 +497,11 @@ TEST(JointsProjected, AllFreeIsTheUnconstrainedTree) {
 
 // One classical Runge-Kutta step of (q, z) by the projected equations: the joints hold by
 // construction, so only energy and momentum can show an error of the dynamics.
-void projected_rk4_step(const Model& model, const JointTree& tree, Data& data, VectorX& q,
-                        VectorX& z, double h) {
+void projected_rk4_step(const Model& model, Data& data, VectorX& q, VectorX& z, double h) {
   auto rates = [&](const VectorX& qq, const VectorX& zz, VectorX& dq, VectorX& dz) {
     dq.resize(qq.size());
-    joint_coordinate_rates(tree, qq, zz, dq);
-    dz = projected_equations(model, tree, qq, zz, data).zdot;
+    joint_coordinate_rates(model, qq, zz, dq);
+    dz = projected_equations(model, qq, zz, data).zdot;
   };
   VectorX q1, z1, q2, z2, q3, z3, q4, z4;
   rates(q, z, q1, z1);
@@ -512,7 +510,7 @@ void projected_rk4_step(const Model& model, const JointTree& tree, Data& data, V
   rates(q + h * q3, z + h * z3, q4, z4);
   q += h / 6 * (q1 + 2 * q2 + 2 * q3 + q4);
   z += h / 6 * (z1 + 2 * z2 + 2 * z3 + z4);
-  normalize_joint_coordinates(tree, q);
+  normalize_joint_coordinates(model, q);
 }
 
 // The jointed eight-body system (every joint type) under gravity, no damping: the energy of
@@ -535,8 +533,7 @@ TEST(JointsProjected, EnergyAndMomentumAreConservedOnTheJointedEightBody) {
     const double e0 = total_energy(j.model, state(), data);
     const Vector3 p0 = linear_momentum(j.model, state(), data);
     const Vector3 h0 = angular_momentum(j.model, state(), data);
-    for (int step = 0; step < 500; ++step)
-      projected_rk4_step(j.model, j.tree, data, j.q, j.z, 1e-3);
+    for (int step = 0; step < 500; ++step) projected_rk4_step(j.model, data, j.q, j.z, 1e-3);
     const double scale = std::abs(e0) + kinetic_energy(j.model, state(), data);
     EXPECT_LT(std::abs(total_energy(j.model, state(), data) - e0), 1e-10 * scale);
     if (!gravity) {

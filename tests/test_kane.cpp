@@ -140,7 +140,7 @@ TEST(Kane, SolutionSatisfiesEquation36) {
     kane_equations(model, state, data);
     const VectorX r = data.kane.A * data.ydot - data.kane.f;
     const double tol =
-        4.0 * model.num_speeds() * std::numeric_limits<double>::epsilon() *
+        4.0 * model.num_y() * std::numeric_limits<double>::epsilon() *
         (inf_norm(data.kane.A) * test::max_abs(data.ydot) + test::max_abs(data.kane.f));
     EXPECT_LT(test::max_abs(r), tol) << "N " << model.num_bodies();
   }

@@ -129,7 +129,7 @@ TEST(Partials, PartialVelocityIsDerivativeOfVelocityWithRespectToY) {
     Data data(model), dp(model), dm(model);
     compute_kinematics(model, state, data);
     compute_partials_recursive(model, state, data);
-    for (int i = 0; i < model.num_speeds(); ++i) {
+    for (int i = 0; i < model.num_y(); ++i) {
       State sp = state, sm = state;
       sp.y[i] += 1.0;
       sm.y[i] -= 1.0;
@@ -214,7 +214,7 @@ TEST(Partials, AngularVelocityPartialIsTheSelection) {
   for (int k = 0; k < model.num_bodies(); ++k) {
     const MatrixX w = angular_velocity_partial(model, k);
     ASSERT_EQ(w.rows(), 3);
-    ASSERT_EQ(w.cols(), model.num_speeds());
+    ASSERT_EQ(w.cols(), model.num_y());
     EXPECT_EQ(w, angular_velocity_selection(model.num_bodies(), k));
   }
 }

@@ -210,7 +210,7 @@ TEST(SpeedRoutes, KaneEquationsFillTheDenseMatrixAndSolveEquation36) {
     const VectorX residual = data.kane.A * data.ydot - data.kane.f;
     // Backward stable elimination: |A ydot - f| ~ 6N eps (|A| |ydot| + |f|).
     EXPECT_LT(residual.cwiseAbs().maxCoeff(),
-              1e-14 * model.num_speeds() *
+              1e-14 * model.num_y() *
                   (test::max_abs(data.kane.A) * data.ydot.cwiseAbs().maxCoeff() +
                    test::max_abs(data.kane.f)));
     Data lean(model, DataOptions{.partials = false, .dense_mass_matrix = false});

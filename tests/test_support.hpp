@@ -300,7 +300,7 @@ inline constexpr JointType kAllJointTypes[] = {
 
 inline Vector3 random_unit(std::mt19937& rng) { return random_vector(rng, -1, 1).normalized(); }
 
-// A random joint of the given type: random frame, unnormalized axes (JointTree normalizes).
+// A random joint of the given type: random frame, unnormalized axes (the Model normalizes).
 inline Joint random_joint(std::mt19937& rng, JointType type) {
   Joint j;
   j.type = type;
@@ -314,7 +314,7 @@ inline Joint random_joint(std::mt19937& rng, JointType type) {
 
 // Random joint coordinates and speeds: angles in [-3, 3], slides in [-0.5, 0.5], Euler
 // parameters uniform (free bodies' s'_K in [-0.3, 0.3]); speeds in [-1, 1].
-inline void random_joint_state(const JointTree& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
+inline void random_joint_state(const Model& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
   q = VectorX::Zero(tree.num_coordinates());
   z = VectorX::Zero(tree.num_speeds());
   for (int k = 0; k < tree.num_bodies(); ++k) {

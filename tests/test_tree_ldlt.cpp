@@ -99,12 +99,12 @@ TEST(TreeLdlt, SolvesTheMassMatrixLikeDenseCholesky) {
     const Eigen::LLT<MatrixX> llt(data.kane.A);
     ASSERT_EQ(llt.info(), Eigen::Success);
     for (int trial = 0; trial < 3; ++trial) {
-      const VectorX b = trial == 0 ? data.kane.f : VectorX(VectorX::Random(model.num_speeds()));
+      const VectorX b = trial == 0 ? data.kane.f : VectorX(VectorX::Random(model.num_y()));
       VectorX x = b;
       ldlt.solve_in_place(model, x);
       const VectorX expected = llt.solve(b);
       EXPECT_LE((x - expected).norm(), 1e-10 * expected.norm()) << "N " << model.num_bodies();
-      const double tol = 4.0 * model.num_speeds() * std::numeric_limits<double>::epsilon() *
+      const double tol = 4.0 * model.num_y() * std::numeric_limits<double>::epsilon() *
                          (test::max_abs(data.kane.A) * test::max_abs(x) + test::max_abs(b));
       EXPECT_LT(test::max_abs(data.kane.A * x - b), tol) << "N " << model.num_bodies();
       // The same factor and solve as kane_equations' own (Eq. 36): the same bits.

@@ -565,7 +565,7 @@ Pose child(const Pose& parent, const Vec& xyz, const Mat& origin, const Vec& axi
 void expect_poses(const ModelFile& file, const VectorX& q, const std::vector<Pose>& expected) {
   ASSERT_TRUE(file.jointed());
   State state(file.model);
-  joint_state(*file.joints, q, VectorX::Zero(file.joints->num_speeds()), state);
+  joint_state(file.model, q, VectorX::Zero(file.model.num_speeds()), state);
   Data data(file.model);
   compute_kinematics(file.model, state, data);
   ASSERT_EQ(expected.size(), static_cast<std::size_t>(file.model.num_bodies()));
@@ -585,11 +585,11 @@ TEST(Urdf, JointedModelPlacesEveryLinkAsUrdfDoes) {
   {
     const ModelFile f = load_model_file(kData + "joints.urdf");
     ASSERT_TRUE(f.jointed());
-    VectorX q = f.joint_q;
+    VectorX q = f.q;
     const double a = 0.6, b = -1.1, d = 0.25;  // shoulder, elbow, slide
-    q[f.joints->coordinate_offset(2)] = a;
-    q[f.joints->coordinate_offset(3)] = b;
-    q[f.joints->coordinate_offset(4)] = d;
+    q[f.model.coordinate_offset(2)] = a;
+    q[f.model.coordinate_offset(3)] = b;
+    q[f.model.coordinate_offset(4)] = d;
     const Pose ground{Mat::Identity(), Vec::Zero()};
     const Pose base = child(ground, Vec(0.1, -0.2, 0.3), rpy(0, 0, 0.5));
     const Pose drone = child(base, Vec(1, 2, 3), rpy(0.1, 0.2, 0.3));
@@ -601,10 +601,10 @@ TEST(Urdf, JointedModelPlacesEveryLinkAsUrdfDoes) {
   }
   {
     const ModelFile f = load_model_file(kData + "flange.urdf");
-    VectorX q = f.joint_q;
+    VectorX q = f.q;
     const double a = 0.7, b = -0.4;  // j1, tool_joint
-    q[f.joints->coordinate_offset(0)] = a;
-    q[f.joints->coordinate_offset(1)] = b;
+    q[f.model.coordinate_offset(0)] = a;
+    q[f.model.coordinate_offset(1)] = b;
     const Pose pedestal = child({Mat::Identity(), Vec::Zero()}, Vec(0, 0, 0.1), rpy(0, 0, 0.3));
     const Pose link1 = child(pedestal, Vec(0.02, 0, 0.3), Mat::Identity(), Vec::UnitZ(), a);
     const Pose flange = child(link1, Vec(0, 0.01, 0.4), rpy(0.1, 0.2, 0.785398163397));
@@ -814,7 +814,7 @@ TEST(UrdfImportLoads, OneAxisRuleForTheImportAndTheLoader) {
     const std::string yaml = urdf_to_model_yaml(text, "axis.urdf", {}, nullptr);
     const ModelFile f = parse_model_file(yaml, "axis.yaml");
     ASSERT_TRUE(f.jointed()) << yaml;
-    const Vec axis = f.joints->joint(0).axis.normalized();
+    const Vec axis = f.model.joint(0).axis.normalized();
     EXPECT_EQ(axis, Vec(x[0] == '-' ? -1 : 1, 0, 0)) << x;
     // The loader takes the same axis written by hand.
     EXPECT_NO_THROW(parse_model_file(

@@ -47,15 +47,12 @@ Joint joint(JointType type, Vector3 axis = Vector3::UnitX()) {
   return j;
 }
 
-JointLoad load(int body, int count, double stiffness, double damping, double rest = 0,
-               double value = 0) {
-  JointLoad l;
-  l.body = body;
-  l.stiffness = VectorX::Constant(count, stiffness);
-  l.damping = VectorX::Constant(count, damping);
-  l.rest = VectorX::Constant(count, rest);
-  l.value = VectorX::Constant(count, value);
-  return l;
+std::shared_ptr<const kanedyn::ForceElement> load(int body, int count, double stiffness,
+                                                  double damping, double rest = 0,
+                                                  double value = 0) {
+  return std::make_shared<const JointLoad>(
+      body, VectorX::Constant(count, stiffness), VectorX::Constant(count, damping),
+      VectorX::Constant(count, rest), VectorX::Constant(count, value));
 }
 
 // The model's bodies and gravity with only the bushings on the given bodies.
@@ -68,11 +65,11 @@ kanedyn::Model with_bushings_on(const kanedyn::Model& m, const std::vector<int>&
 }
 
 void size_state(JointedCase& c) {
-  c.q = VectorX::Zero(c.tree.num_coordinates());
-  c.z = VectorX::Zero(c.tree.num_speeds());
-  for (int k = 0; k < c.tree.num_bodies(); ++k) {
-    const int o = c.tree.coordinate_offset(k);
-    if (c.tree.joint(k).type == JointType::free || c.tree.joint(k).type == JointType::spherical)
+  c.q = VectorX::Zero(c.model.num_coordinates());
+  c.z = VectorX::Zero(c.model.num_speeds());
+  for (int k = 0; k < c.model.num_bodies(); ++k) {
+    const int o = c.model.coordinate_offset(k);
+    if (c.model.joint(k).type == JointType::free || c.model.joint(k).type == JointType::spherical)
       c.q[o + 3] = 1.0;  // identity Euler parameters (e4 scalar)
   }
 }
@@ -98,8 +95,8 @@ std::unique_ptr<JointedCase> jointed_eight_body(const std::string& file) {
   // The elbow's axis: the upper arm's y turned 10 degrees about its long axis (a joint frame).
   joints[7] = joint(JointType::revolute, Vector3::UnitY());
   joints[7].frame = kanedyn::euler_parameters_from_axis_angle(Vector3::UnitZ(), 10 * M_PI / 180);
-  std::vector<JointLoad> loads{load(1, 1, 1500, 30), load(2, 2, 400, 8), load(3, 2, 400, 8),
-                               load(7, 1, 25, 0.3, 0.5)};
+  std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads{
+      load(1, 1, 1500, 30), load(2, 2, 400, 8), load(3, 2, 400, 8), load(7, 1, 25, 0.3, 0.5)};
   auto c = std::make_unique<JointedCase>(
       "eight-body-jointed", with_bushings_on(m, {0}, "eight-body-jointed"), joints, loads);
   size_state(*c);
@@ -109,7 +106,7 @@ std::unique_ptr<JointedCase> jointed_eight_body(const std::string& file) {
 std::unique_ptr<JointedCase> revolute_chain(int n, unsigned seed) {
   const kanedyn::GeneratedSystem g = kanedyn::chain_model(n, seed);
   std::vector<Joint> joints;
-  std::vector<JointLoad> loads;
+  std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads;
   for (int k = 0; k < n; ++k) {
     joints.push_back(joint(JointType::revolute, k % 2 == 0 ? Vector3::UnitY() : Vector3::UnitX()));
     loads.push_back(load(k, 1, 0, 0.1));
@@ -127,7 +124,7 @@ std::unique_ptr<JointedCase> every_joint_type(unsigned seed) {
                               JointType::cylindrical, JointType::universal, JointType::spherical,
                               JointType::weld,        JointType::revolute};
   std::vector<Joint> joints;
-  std::vector<JointLoad> loads;
+  std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads;
   for (int k = 0; k < 8; ++k) {
     Joint j = joint(types[k], random_unit(rng));
     if (types[k] != JointType::free) j.frame = random_turn(rng, M_PI);
@@ -149,9 +146,9 @@ std::unique_ptr<JointedCase> every_joint_type(unsigned seed) {
 
 void random_joint_state(JointedCase& c, std::mt19937& rng) {
   size_state(c);
-  for (int k = 0; k < c.tree.num_bodies(); ++k) {
-    const int o = c.tree.coordinate_offset(k);
-    switch (c.tree.joint(k).type) {
+  for (int k = 0; k < c.model.num_bodies(); ++k) {
+    const int o = c.model.coordinate_offset(k);
+    switch (c.model.joint(k).type) {
       case JointType::free:
         c.q.segment<4>(o) = random_turn(rng, 1.2);
         for (int i = 0; i < 3; ++i) c.q[o + 4 + i] = uniform(rng, -0.02, 0.02);
@@ -161,7 +158,7 @@ void random_joint_state(JointedCase& c, std::mt19937& rng) {
         break;
       case JointType::revolute:
       case JointType::universal:
-        for (int i = 0; i < kanedyn::coordinate_count(c.tree.joint(k).type); ++i)
+        for (int i = 0; i < kanedyn::coordinate_count(c.model.joint(k).type); ++i)
           c.q[o + i] = uniform(rng, -1.2, 1.2);
         break;
       case JointType::prismatic:
@@ -180,7 +177,7 @@ void random_joint_state(JointedCase& c, std::mt19937& rng) {
 
 JointedSystem describe_jointed(const JointedCase& c) {
   const kanedyn::Model& m = c.model;
-  const kanedyn::JointTree& tree = c.tree;
+  const kanedyn::Model& tree = c.model;
   JointedSystem sys;
   sys.name = c.name;
   sys.gravity = {m.gravity().x(), m.gravity().y(), m.gravity().z()};
@@ -213,13 +210,16 @@ JointedSystem describe_jointed(const JointedCase& c) {
   sys.q_offset.push_back(tree.num_coordinates());
   sys.z_offset.push_back(tree.num_speeds());
   std::vector<bool> loaded(sys.joints.size(), false);
-  for (const JointLoad& l : tree.loads()) {
+  for (const auto& element : m.forces()) {
+    const auto* load = dynamic_cast<const JointLoad*>(element.get());
+    if (!load) continue;
+    const JointLoad& l = *load;
     // One load per body: two springs with different rests would need their sum re-centred.
-    if (loaded[at(l.body)])
+    if (loaded[at(l.body())])
       throw std::runtime_error("peers: " + c.name + ": more than one joint load on body " +
-                               sys.bodies[at(l.body)].name);
-    loaded[at(l.body)] = true;
-    JointSpec& spec = sys.joints[at(l.body)];
+                               sys.bodies[at(l.body())].name);
+    loaded[at(l.body())] = true;
+    JointSpec& spec = sys.joints[at(l.body())];
     for (int i = 0; i < l.stiffness.size(); ++i) {
       spec.stiffness[at(i)] = l.stiffness[i];
       spec.damping[at(i)] = l.damping[i];
@@ -228,6 +228,7 @@ JointedSystem describe_jointed(const JointedCase& c) {
     }
   }
   for (const auto& f : m.forces()) {
+    if (f->acts_on_joints()) continue;  // the joint loads above
     const int k = f->body();
     const auto* bushing = dynamic_cast<const kanedyn::Bushing*>(f.get());
     if (!bushing || tree.joint(k).type != JointType::free)

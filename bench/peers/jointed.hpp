@@ -1,4 +1,4 @@
-// The jointed models of the peer comparison, built in kanedyn (Model + JointTree), their
+// The jointed models of the peer comparison, built in kanedyn (a Model with joints), their
 // random states, and their engine-neutral description (peer.hpp), shared by kanedyn_peers and
 // kanedyn_peers_trajectory.
 #pragma once
@@ -14,16 +14,15 @@
 
 namespace peers {
 
-/// A kanedyn jointed tree at a state. JointDynamics keeps references to the model and the
-/// tree, so a case is held by pointer and never moves.
+/// A kanedyn model with joints at a state. JointDynamics keeps a reference to the model, so a
+/// case is held by pointer and never moves.
 struct JointedCase {
   std::string name;
   kanedyn::Model model;
-  kanedyn::JointTree tree;
   kanedyn::VectorX q, z;
-  JointedCase(std::string n, kanedyn::Model m, std::vector<kanedyn::Joint> joints,
-              std::vector<kanedyn::JointLoad> loads)
-      : name(std::move(n)), model(std::move(m)), tree(model, std::move(joints), std::move(loads)) {}
+  JointedCase(std::string n, const kanedyn::Model& m, std::vector<kanedyn::Joint> joints,
+              std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads)
+      : name(std::move(n)), model(kanedyn::with_joints(m, std::move(joints), std::move(loads))) {}
   JointedCase(const JointedCase&) = delete;
   JointedCase& operator=(const JointedCase&) = delete;
 };

@@ -63,10 +63,9 @@ constexpr int kMaxConditionSpeeds = 1024;
 // kMaxConditionSpeeds). Solving M zdot = f backward-stably gives a relative error up to about
 // cond(M) eps in each engine, so that bounds what two correct engines may differ by.
 double mass_matrix_condition(const JointedCase& c) {
-  if (c.tree.num_speeds() > kMaxConditionSpeeds) return 0;
+  if (c.model.num_speeds() > kMaxConditionSpeeds) return 0;
   kanedyn::Data data(c.model, kanedyn::DataOptions{});
-  const kanedyn::ProjectedEquations e =
-      kanedyn::projected_equations(c.model, c.tree, c.q, c.z, data);
+  const kanedyn::ProjectedEquations e = kanedyn::projected_equations(c.model, c.q, c.z, data);
   const Eigen::SelfAdjointEigenSolver<kanedyn::MatrixX> eigen(e.A_z, Eigen::EigenvaluesOnly);
   return eigen.eigenvalues().maxCoeff() / eigen.eigenvalues().minCoeff();
 }
@@ -98,7 +97,7 @@ void print_table(const std::vector<std::unique_ptr<JointedCase>>& cases,
   std::cout << "\n";
   for (size_t ci = 0; ci < cases.size(); ++ci) {
     std::cout << "| " << cases[ci]->name << " | " << cases[ci]->model.num_bodies() << " | "
-              << cases[ci]->tree.num_speeds() << " |";
+              << cases[ci]->model.num_speeds() << " |";
     for (size_t ei = 0; ei < columns.size(); ++ei) std::cout << ' ' << entry(ci, ei) << " |";
     std::cout << "\n";
   }
@@ -132,8 +131,8 @@ bool compare_section(const JointedOptions& opt) {
   bool all_agree = true;
   for (size_t ci = 0; ci < cases.size(); ++ci) {
     JointedCase& c = *cases[ci];
-    kanedyn::JointDynamics ws(c.model, c.tree);
-    VectorX zdot(c.tree.num_speeds());
+    kanedyn::JointDynamics ws(c.model);
+    VectorX zdot(c.model.num_speeds());
     std::mt19937 rng(opt.seed);
     std::vector<VectorX> q0z0;  // the timed state
     double spread = 0;          // largest difference between two peers' z dot, relative
@@ -177,7 +176,7 @@ bool compare_section(const JointedOptions& opt) {
         }
     }
     std::cout << "# " << c.name << ": " << c.model.num_bodies() << " bodies, "
-              << c.tree.num_speeds() << " speeds; largest cond(M) "
+              << c.model.num_speeds() << " speeds; largest cond(M) "
               << (worst_condition > 0 ? format_sci(worst_condition) : std::string("not computed"))
               << "; largest difference between two peers' z dot " << format_sci(spread) << "\n";
     c.q = q0z0[0];
@@ -326,8 +325,8 @@ void scaling_section(const JointedOptions& opt) {
     const std::unique_ptr<JointedCase> c = revolute_chain(n, opt.seed);
     std::mt19937 rng(opt.seed);
     random_joint_state(*c, rng);
-    kanedyn::JointDynamics ws(c->model, c->tree);
-    VectorX zdot(c->tree.num_speeds());
+    kanedyn::JointDynamics ws(c->model);
+    VectorX zdot(c->model.num_speeds());
     Runner r;
     r.run_batch = [&](long count) {
       for (long b = 0; b < count; ++b) ws.evaluate(c->q, c->z, kanedyn::Route::recursive, zdot);
@@ -339,7 +338,7 @@ void scaling_section(const JointedOptions& opt) {
     time_interleaved(one, opt.budget);
     const Timing t = statistics(r);
     measured.emplace_back(n, t.median_ns * 1e-9);
-    std::cout << "| " << n << " | " << c->tree.num_speeds() << " | " << format_ns(t.median_ns)
+    std::cout << "| " << n << " | " << c->model.num_speeds() << " | " << format_ns(t.median_ns)
               << " | " << per_body(t.median_ns / n) << " | " << format_ns(t.min_ns) << " | "
               << t.evals << " |\n"
               << std::flush;

@@ -244,8 +244,8 @@ Trajectory run_kanedyn(const Case& c, double t_end, double dt_out, double rtol) 
 // notes' state and kinematics).
 Trajectory run_kanedyn_jointed(const peers::JointedCase& c, double t_end, double dt_out,
                                double rtol) {
-  kanedyn::JointDynamics ws(c.model, c.tree);
-  const int nq = c.tree.num_coordinates(), nz = c.tree.num_speeds(), n = c.model.num_bodies();
+  kanedyn::JointDynamics ws(c.model);
+  const int nq = c.model.num_coordinates(), nz = c.model.num_speeds(), n = c.model.num_bodies();
   kanedyn::Dopri5Options options;
   options.rtol = rtol;
   options.atol = rtol * 1e-2;
@@ -262,8 +262,8 @@ Trajectory run_kanedyn_jointed(const peers::JointedCase& c, double t_end, double
   Trajectory out;
   auto record = [&](double t, const kanedyn::VectorX& at) {
     kanedyn::VectorX q = at.head(nq);
-    kanedyn::normalize_joint_coordinates(c.tree, q);
-    kanedyn::joint_state(c.tree, q, at.tail(nz), state);
+    kanedyn::normalize_joint_coordinates(c.model, q);
+    kanedyn::joint_state(c.model, q, at.tail(nz), state);
     kanedyn::compute_kinematics(c.model, state, data);
     std::vector<peers::BodyPose> poses(static_cast<size_t>(n));
     for (int k = 0; k < n; ++k) {
@@ -339,7 +339,7 @@ std::vector<Case> make_cases(const Options& opt) {
       std::mt19937 rng(opt.seed);
       peers::random_joint_state(*j, rng);
       kanedyn::State state(j->model);
-      kanedyn::joint_state(j->tree, j->q, j->z, state);
+      kanedyn::joint_state(j->model, j->q, j->z, state);
       // 0.5 s: several swings of the stiffest joint (the lumbar spring, about 100 rad/s) from
       // a random state; RK4 at 1e-4 s has omega h ~ 0.01 there.
       cases.push_back({name, j->model, std::move(state), 0.5, 1e-4, j});

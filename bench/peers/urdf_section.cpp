@@ -77,7 +77,7 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
     return row;
   }
   const kanedyn::Model& model = file.model;
-  const kanedyn::JointTree& tree = *file.joints;
+  const kanedyn::Model& tree = file.model;
   const int n = tree.num_speeds();
   row.n = n;
 
@@ -136,12 +136,12 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
   // of the inertias here, far below rounding).
   skel->setTimeStep(1e-30);
 
-  kanedyn::JointDynamics ws(model, tree);
+  kanedyn::JointDynamics ws(model);
   kanedyn::Data data(model, kanedyn::DataOptions{});
   std::uniform_real_distribution<double> uniform(-1, 1);
   constexpr double eps = std::numeric_limits<double>::epsilon();
   for (int s = 0; s < opt.states; ++s) {
-    VectorX q = file.joint_q, z = VectorX::Zero(n), zdot(n);
+    VectorX q = file.q, z = VectorX::Zero(n), zdot(n);
     Eigen::VectorXd dq(n), dz(n);
     for (int i = 0; i < n; ++i) {
       q[q_index[static_cast<size_t>(i)]] = uniform(rng);
@@ -150,7 +150,7 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
       dz[dart_index[static_cast<size_t>(i)]] = z[i];
     }
     ws.evaluate(q, z, kanedyn::Route::recursive, zdot);
-    const MatrixX A = kanedyn::projected_equations(model, tree, q, z, data).A_z;
+    const MatrixX A = kanedyn::projected_equations(model, q, z, data).A_z;
 
     skel->setPositions(dq);
     skel->setVelocities(dz);

@@ -10,9 +10,12 @@
 
 namespace kanedyn {
 
-/// One force element. apply() adds its loads to data.loads.force (at G_K, inertial) and
+/// One force element, acting on bodies, on joint coordinates, or both (docs/theory.md, "Adding
+/// a force element"). apply() adds its loads to data.loads.force (at G_K, inertial) and
 /// data.loads.moment_b (body components) of the bodies it acts on. It may read the state and the
-/// kinematics already in data (R, p_O, p_G; see compute_kinematics). It must not allocate.
+/// kinematics already in data (R, p_O, p_G; see compute_kinematics). apply_joint() adds
+/// generalized forces on the joint coordinates of the Model (in the order of z). Neither may
+/// allocate.
 class ForceElement {
  public:
   virtual ~ForceElement() = default;
@@ -33,6 +36,18 @@ class ForceElement {
                                   const Kinematics& kin) const;
   /// Power removed from the system by the element's damping (>= 0).
   virtual double damping_power(const Model& model, const State& state, const Kinematics& kin) const;
+
+  /// True for an element that acts on joint coordinates through apply_joint() and on no body
+  /// through apply() (the Model keeps the two kinds apart, so that a model with only joint
+  /// springs needs no body loads).
+  virtual bool acts_on_joints() const { return false; }
+  /// Adds the element's generalized forces at (q, z) to Q (size of z). Nothing by default.
+  virtual void apply_joint(const Model& model, const VectorX& q, const VectorX& z,
+                           Eigen::Ref<VectorX> Q) const;
+  /// Potential energy stored on joint coordinates at q (0 by default).
+  virtual double joint_potential_energy(const Model& model, const VectorX& q) const;
+  /// Power removed by damping on joint speeds at z (>= 0; 0 by default).
+  virtual double joint_damping_power(const Model& model, const VectorX& z) const;
 };
 
 /// Spring-damper between body K and J = L(K) (or the inertial frame).
@@ -95,6 +110,43 @@ class ConstantTorque final : public ForceElement {
  private:
   int body_;
 };
+
+/// A load on one body's joint coordinates (the model format's joint_spring and joint_force):
+/// for coordinate i, Q_i = value_i - stiffness_i (q_i - rest_i) - damping_i dq_i/dt, potential
+/// energy 1/2 stiffness_i (q_i - rest_i)^2. Revolute, prismatic, cylindrical and universal
+/// joints only (there z = dq/dt). Each vector has coordinate_count() entries (a loader expands
+/// scalars); a joint_force has zero stiffness and damping, a joint_spring zero value.
+class JointLoad final : public ForceElement {
+ public:
+  /// kind: "joint_spring" or "joint_force", the type() the model file spells.
+  JointLoad(int body, VectorX stiffness, VectorX damping, VectorX rest, VectorX value,
+            std::string kind = "joint_spring");
+  std::string type() const override { return kind_; }
+  int body() const override { return body_; }
+  /// Refuses a free, weld or spherical joint, and vectors of the wrong size.
+  std::string validate(const Model& model) const override;
+  void apply(const Model&, const State&, const Kinematics&, Loads&) const override {}
+  bool reads_positions() const override { return false; }
+  bool acts_on_joints() const override { return true; }
+  void apply_joint(const Model& model, const VectorX& q, const VectorX& z,
+                   Eigen::Ref<VectorX> Q) const override;
+  double joint_potential_energy(const Model& model, const VectorX& q) const override;
+  double joint_damping_power(const Model& model, const VectorX& z) const override;
+
+  VectorX stiffness, damping, rest, value;
+
+ private:
+  int body_;
+  std::string kind_;
+};
+
+/// Adds every element's generalized forces on the joint coordinates at (q, z) to Q.
+void add_joint_forces(const Model& model, const VectorX& q, const VectorX& z,
+                      Eigen::Ref<VectorX> Q);
+/// Sum of the elements' potentials on joint coordinates at q (the joint springs').
+double joint_potential_energy(const Model& model, const VectorX& q);
+/// Power removed by the elements' damping on joint speeds at z (>= 0).
+double joint_damping_power(const Model& model, const VectorX& z);
 
 /// Per-body resultants {F_K} (at G_K, inertial) and {M'_K} (body) of gravity and every force
 /// element, into data.loads. Needs data.kinematics of the state (compute_kinematics).

@@ -57,7 +57,7 @@ struct JointInspection {
   MatrixX C;       ///< 6N x n
   VectorX Cdot_z;  ///< [C dot]{z}, 6N
   MatrixX A_z;     ///< [C]^T [A] [C], n x n
-  VectorX f_z;     ///< [C]^T ({f} - [A][C dot]{z}) + the joint loads' Q, n
+  VectorX f_z;     ///< [C]^T ({f} - [A][C dot]{z}) + Q of the joint force elements, n
   VectorX zdot;    ///< the solution of A_z {z dot} = f_z
   VectorX ydot;    ///< the jointed system's {y dot} = [C]{z dot} + [C dot]{z}, 6N
   std::vector<JointBodyInspection> bodies;  ///< the selected bodies, in numbering order
@@ -71,7 +71,8 @@ struct Inspection {
   VectorX F_y_star;  ///< the sum of every body's generalized inertia force, 6N
   VectorX ydot;      ///< the solution of Eq. (36), 6N (forward_dynamics, Route::recursive)
   std::vector<BodyInspection> bodies;  ///< the selected bodies, in numbering order
-  /// A jointed model's joints (the inspect overload with a JointTree); empty otherwise.
+  /// The joints when some joint is not free (the inspect overload with q and z); empty
+  /// otherwise.
   std::optional<JointInspection> joints;
 
   /// The first quantity with a number that is not finite ("ydot", "body 3 p_O",
@@ -92,12 +93,13 @@ struct Inspection {
 Inspection inspect(const Model& model, const State& state, double t = 0.0,
                    const std::vector<int>& bodies = {});
 
-/// The same at the notes' state of joint coordinates q and speeds z (joint_state), with the
-/// joints: Inspection::ydot stays the free tree's Eq. (36) at that state, and joints.ydot is the
-/// jointed system's. Forms the dense projected equations (O(N^2) memory: for inspection). Also
-/// throws ModelError when the tree's angular chains are not stored (has_angular_chains()).
-Inspection inspect(const Model& model, const JointTree& tree, const VectorX& q, const VectorX& z,
-                   double t = 0.0, const std::vector<int>& bodies = {});
+/// The same at the model's state q, z (its notes' state from joint_state). When some joint is
+/// not free, Inspection::joints holds the joints: Inspection::ydot stays the free tree's
+/// Eq. (36) at that state, and joints.ydot is the jointed system's; this forms the dense
+/// projected equations (O(N^2) memory: for inspection) and also throws ModelError when the
+/// model's angular chains are not stored (has_angular_chains()).
+Inspection inspect(const Model& model, const VectorX& q, const VectorX& z, double t = 0.0,
+                   const std::vector<int>& bodies = {});
 
 /// One nonzero 3x3 block of a partial velocity matrix (or its rate) in the notes' symbols.
 struct SymbolicBlock {

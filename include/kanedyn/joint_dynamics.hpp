@@ -13,22 +13,22 @@
 
 namespace kanedyn {
 
-/// The workspace of one (Model, JointTree) pair; both must outlive it. Copies are independent.
+/// The workspace of one Model, which must outlive it. Copies are independent.
 class JointDynamics {
  public:
-  JointDynamics(const Model& model, const JointTree& tree);
+  explicit JointDynamics(const Model& model);
   JointDynamics(const JointDynamics& other);
   JointDynamics& operator=(const JointDynamics&) = delete;
   ~JointDynamics();
 
   /// {z dot} at (q, z) into zdot (size n): Route::recursive is the O(N) articulated-body
   /// route, Route::assembled the projected Kane equations [C]^T [A] [C] {z dot} =
-  /// [C]^T ({f} - [A][C dot]{z}) + Q. Both include the joint loads of the tree. Afterwards
-  /// state() is the notes' (x, y) at (q, z) and data() its kinematics (compute_kinematics)
-  /// and loads (compute_resultants): computed here as far as the model's force elements need
-  /// them (the state, [R_K] and the loads for the built-in ones; everything for an element
-  /// whose ForceElement::reads_positions() is true), the rest on the first call of state() or
-  /// data() after this evaluation (the same functions on the same state: the same bits).
+  /// [C]^T ({f} - [A][C dot]{z}) + Q. Both include the force elements on joint coordinates.
+  /// Afterwards state() is the notes' (x, y) at (q, z) and data() its kinematics
+  /// (compute_kinematics) and loads (compute_resultants): computed here as far as the model's force
+  /// elements need them (the state, [R_K] and the loads for the built-in ones; everything for an
+  /// element whose ForceElement::reads_positions() is true), the rest on the first call of state()
+  /// or data() after this evaluation (the same functions on the same state: the same bits).
   /// Spherical q and free eps_K are used as given (unit norm assumed). Route::recursive
   /// needs O(N) memory for any tree; Route::assembled builds its blocks (one per pair of
   /// joints on one chain) on its first call and throws ModelError when there would be more
@@ -46,7 +46,7 @@ class JointDynamics {
   const State& state();
   /// Its kinematics and loads (see evaluate()).
   Data& data();
-  const JointTree& tree() const;
+  const Model& model() const;
 
  private:
   struct Impl;

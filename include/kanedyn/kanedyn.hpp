@@ -9,6 +9,7 @@
 #include "kanedyn/integrate.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/joint.hpp"
 #include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"

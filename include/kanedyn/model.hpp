@@ -1,6 +1,6 @@
 // Model: what does not change during a run. Topology from the
-// body-connection array L(K), mass properties, offsets q'_K and r'_K, gravity and force
-// elements. Built and validated once, immutable afterwards.
+// body-connection array L(K), mass properties, offsets q'_K and r'_K, every body's joint,
+// gravity and force elements. Built and validated once, immutable afterwards.
 #pragma once
 
 #include <memory>
@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/joint.hpp"
 #include "kanedyn/types.hpp"
 
 namespace kanedyn {
@@ -30,19 +31,51 @@ struct BodySpec {
   Vector3 joint = Vector3::Zero();  ///< {q'_K}: O_J to Q_K, body-J components (inertial for roots)
 };
 
-/// An unconstrained tree (or forest) of N rigid bodies. Body indices are 0-based: index k is
-/// body K = k+1 of the notes; lower_body(k) == kGround (-1) means L(K) = 0.
+/// A tree (or forest) of N rigid bodies, each with its joint to its lower body. Body indices
+/// are 0-based: index k is body K = k+1 of the notes; lower_body(k) == kGround (-1) means
+/// L(K) = 0. With every joint free (the default) it is the notes' unconstrained tree.
+///
+/// The state of every model is its joint coordinates q (num_coordinates()) and independent
+/// speeds z (num_speeds()), body by body (joint.hpp). The notes' {x} (7N) and {y} (6N) are a
+/// view computed from them (joint_state); for an all-free model they hold the same numbers.
 class Model {
  public:
   /// Validates everything (see docs/model-format.md) and derives the topology; throws
-  /// ModelError with a message naming the body or element at fault.
+  /// ModelError with a message naming the body or element at fault. joints: one per body, or
+  /// empty for every body free.
   Model(std::vector<BodySpec> bodies, Vector3 gravity = Vector3::Zero(),
-        std::vector<std::shared_ptr<const ForceElement>> forces = {}, std::string name = "");
+        std::vector<std::shared_ptr<const ForceElement>> forces = {}, std::string name = "",
+        std::vector<Joint> joints = {});
 
   int num_bodies() const { return static_cast<int>(bodies_.size()); }  ///< N
-  int num_speeds() const { return 6 * num_bodies(); }                  ///< 6N, size of {y}
-  int num_coordinates() const { return 7 * num_bodies(); }             ///< 7N, size of {x}
+  int num_y() const { return 6 * num_bodies(); }                       ///< 6N, size of {y}
+  int num_x() const { return 7 * num_bodies(); }                       ///< 7N, size of {x}
+  int num_coordinates() const { return q_offset_.back(); }             ///< size of q
+  int num_speeds() const { return z_offset_.back(); }                  ///< n, size of z
   const std::string& name() const { return name_; }
+
+  /// Body k's joint (axes and frame normalized).
+  const Joint& joint(int k) const { return joints_[static_cast<size_t>(k)]; }
+  /// True when every joint is free: the model is the notes' free tree, q and z are {x} and
+  /// {y} body by body.
+  bool all_free() const { return all_free_; }
+  /// Offset of body k's slice of q (k = N gives the size of q).
+  int coordinate_offset(int k) const { return q_offset_[static_cast<size_t>(k)]; }
+  /// Offset of body k's slice of z (k = N gives the size of z).
+  int speed_offset(int k) const { return z_offset_[static_cast<size_t>(k)]; }
+  /// The axis of a revolute, prismatic or cylindrical joint in body-J components.
+  const Vector3& axis_in_j(int k) const { return axis_j_[static_cast<size_t>(k)]; }
+  /// The bodies whose z enter w'_K: K (if it has speeds), then down its chain through welds
+  /// and joints up to and including the first free body (a free body's w' is its own z).
+  /// Only when has_angular_chains() (empty otherwise).
+  const std::vector<int>& angular_chain(int k) const { return w_chain_[static_cast<size_t>(k)]; }
+  /// The sum of the angular chains' lengths (the blocks of [C]'s w' rows), N^2/2 for a chain
+  /// of joints.
+  long long angular_chain_entries() const { return w_chain_entries_; }
+  /// True when the angular chains are stored: angular_chain_entries() <=
+  /// kMaxFlatChainEntries. ConstraintMatrix and projected_equations need them; the
+  /// recursive route does not.
+  bool has_angular_chains() const { return w_chain_entries_ <= kMaxFlatChainEntries; }
 
   const BodySpec& body(int k) const { return bodies_[static_cast<size_t>(k)]; }
   const std::vector<BodySpec>& bodies() const { return bodies_; }
@@ -114,15 +147,28 @@ class Model {
 
   const Vector3& gravity() const { return gravity_; }  ///< {g}, inertial components
   const std::vector<std::shared_ptr<const ForceElement>>& forces() const { return forces_; }
+  /// True when some force element loads bodies (ForceElement::apply), not only joint
+  /// coordinates (ForceElement::acts_on_joints).
+  bool has_body_force_elements() const { return body_forces_; }
+  /// True when some force element acts on joint coordinates.
+  bool has_joint_force_elements() const { return joint_forces_; }
   double total_mass() const { return total_mass_; }
   /// Inverse of [I'_GK], precomputed.
   const Matrix3& inverse_inertia(int k) const { return inverse_inertia_[static_cast<size_t>(k)]; }
 
  private:
+  void set_up_joints();
+
   std::vector<BodySpec> bodies_;
   Vector3 gravity_;
   std::vector<std::shared_ptr<const ForceElement>> forces_;
   std::string name_;
+  std::vector<Joint> joints_;
+  bool all_free_ = true, body_forces_ = false, joint_forces_ = false;
+  std::vector<int> q_offset_, z_offset_;
+  std::vector<Vector3> axis_j_;
+  std::vector<std::vector<int>> w_chain_;
+  long long w_chain_entries_ = 0;
   std::vector<int> depth_, root_, lower_;
   std::vector<std::vector<int>> children_;
   long long chain_entries_ = 0;
@@ -131,6 +177,11 @@ class Model {
   std::vector<Matrix3> inverse_inertia_;
   double total_mass_ = 0.0;
 };
+
+/// The same bodies, gravity, force elements and name with these joints (one per body), and
+/// more force elements (e.g. joint springs on the new joints) after the model's own.
+Model with_joints(const Model& model, std::vector<Joint> joints,
+                  std::vector<std::shared_ptr<const ForceElement>> more_forces = {});
 
 /// Checks that an inertia matrix is symmetric positive definite and that its principal
 /// moments satisfy the triangle inequalities; returns an empty string or the problem.

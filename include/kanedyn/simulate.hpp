@@ -119,23 +119,21 @@ SimulationStats simulate(const Model& model, const State& initial,
 using JointObserver = std::function<void(double t, const State& state, const VectorX& q,
                                          const VectorX& z, Data& data)>;
 
-/// The same for a jointed tree (docs/theory.md, "Joints"): integrates (q; z), so that every
+/// The same from joint coordinates (docs/theory.md, "Joints"): integrates (q; z), so that every
 /// joint holds by construction; the derivative is JointDynamics::derivative by settings.route
 /// (recursive: the O(N) route; assembled: the projected Kane equations). After each accepted
 /// step the spherical q and free eps_K are rescaled to unit norm (project_euler_parameters),
 /// and max_euler_drift records their drift. The energy adds the joint springs' potentials.
 /// Failures name the body and its column (describe_joint_state_component).
-SimulationStats simulate(const Model& model, const JointTree& tree, const VectorX& q0,
-                         const VectorX& z0, const SimulationSettings& settings,
-                         const JointObserver& observer = {});
+SimulationStats simulate(const Model& model, const VectorX& q0, const VectorX& z0,
+                         const SimulationSettings& settings, const JointObserver& observer = {});
 
 /// The column of a component of (q; z), as the trajectory CSV names it after the body name and
 /// a dot: a free body's e1..e4, s1..s3, w1..w3, sd1..sd3, another joint's j1.. and jd1..; ""
 /// outside (q; z). body (if not null) gets the 0-based body, or -1.
-std::string joint_state_column(const JointTree& tree, int component, int* body = nullptr);
+std::string joint_state_column(const Model& model, int component, int* body = nullptr);
 /// "body 'NAME' (COLUMN)" for a component of (q; z) (joint_state_column), "no body" outside.
-std::string describe_joint_state_component(const Model& model, const JointTree& tree, int component,
-                                           int* body = nullptr);
+std::string describe_joint_state_component(const Model& model, int component, int* body = nullptr);
 
 /// "body 'NAME' (COLUMN)" for a component of the 13N vector z = ({x}; {y}): COLUMN is the
 /// trajectory column suffix (e1..e4, s1..s3, w1..w3, sd1..sd3). Sets body to its index.

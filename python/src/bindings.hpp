@@ -28,8 +28,8 @@ class PyModel {
   const io::ModelFile& file() const { return file_; }
   const Model& model() const { return file_.model; }
   int N() const { return file_.model.num_bodies(); }
-  /// The joint tree of a jointed model, else nullptr (the notes' free tree).
-  const JointTree* joints() const { return file_.jointed() ? &*file_.joints : nullptr; }
+  /// The model when some joint is not free, else nullptr (the notes' free tree).
+  const Model* joints() const { return file_.jointed() ? &file_.model : nullptr; }
 
   struct Workspace {
     explicit Workspace(const Model& model)

@@ -62,10 +62,9 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
     e.ydot = to_numpy(data.ydot);
     e.xdot = to_numpy(data.xdot);
     e.F_y = to_numpy(data.kane.F_y);
-    if (const JointTree* tree = m.joints()) {
+    if (m.joints()) {
       py::gil_scoped_release again;
-      const ProjectedEquations p =
-          projected_equations(m.model(), *tree, m.file().joint_q, m.file().joint_z, data);
+      const ProjectedEquations p = projected_equations(m.model(), m.file().q, m.file().z, data);
       py::gil_scoped_acquire with;
       e.n = py::int_(p.zdot.size());
       e.C = to_numpy(p.C);
@@ -379,7 +378,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "joint", [](const PyModel& p) { return per_body(p, &BodySpec::joint); },
           "{q'_K}: O_J to Q_K, body-J components (inertial for a root), (N, 3)")
       .def_property_readonly(
-          "columns", [](const PyModel& p) { return io::trajectory_columns(p.model(), p.joints()); },
+          "columns", [](const PyModel& p) { return io::trajectory_columns(p.model()); },
           "the trajectory CSV's columns: t, NAME.x .. NAME.sd3 per body (and NAME.j*, "
           "NAME.jd* of a jointed body), energy")
       .def_property_readonly(
@@ -398,7 +397,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "joint_layout",
           [](const PyModel& p) {
             py::dict d;
-            if (const JointTree* t = p.joints())
+            if (const Model* t = p.joints())
               for (int k = 0; k < p.N(); ++k)
                 d[py::str(p.model().body(k).name)] =
                     py::make_tuple(t->coordinate_offset(k), coordinate_count(t->joint(k).type),
@@ -408,15 +407,11 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "jointed models: name -> (offset in q, count, offset in z, count); empty otherwise")
       .def_property_readonly(
           "initial_joint_coordinates",
-          [](const PyModel& p) {
-            return p.joints() ? to_numpy(p.file().joint_q) : to_numpy(VectorX());
-          },
+          [](const PyModel& p) { return p.joints() ? to_numpy(p.file().q) : to_numpy(VectorX()); },
           "jointed models: the initial q (a free body's slice is eps_K, s'_K); empty otherwise")
       .def_property_readonly(
           "initial_joint_speeds",
-          [](const PyModel& p) {
-            return p.joints() ? to_numpy(p.file().joint_z) : to_numpy(VectorX());
-          },
+          [](const PyModel& p) { return p.joints() ? to_numpy(p.file().z) : to_numpy(VectorX()); },
           "jointed models: the initial z (a free body's slice is w'_K, s'_K dot); empty otherwise")
       .def_property_readonly(
           "simulation", [](const PyModel& p) { return simulation_section(p.file().simulation); },
@@ -444,7 +439,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           [](const PyModel& p, py::object state_obj, double t, py::object bodies, py::object q_obj,
              py::object z_obj) {
             const std::vector<int> selected = body_indices(p.model(), bodies);
-            const JointTree* tree = p.joints();
+            const Model* tree = p.joints();
             if (!tree) {
               if (!q_obj.is_none() || !z_obj.is_none())
                 throw py::value_error("inspect(q=..., z=...): this model has no joints");
@@ -460,7 +455,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
             const VectorX q = qz.head(tree->num_coordinates()), z = qz.tail(tree->num_speeds());
             try {
               py::gil_scoped_release release;
-              return inspect(p.model(), *tree, q, z, t, selected);
+              return inspect(p.model(), q, z, t, selected);
             } catch (const ModelError& e) {
               throw py::value_error(e.what());
             }

@@ -17,6 +17,7 @@
 #include "bindings.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/trajectory.hpp"
 #include "kanedyn/joint_dynamics.hpp"
@@ -339,10 +340,10 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
 }  // namespace
 
 VectorX joint_arguments(const PyModel& m, py::object q_obj, py::object z_obj) {
-  const JointTree* tree = m.joints();
+  const Model* tree = m.joints();
   const int nq = tree->num_coordinates(), nz = tree->num_speeds();
   VectorX qz(nq + nz);
-  qz << m.file().joint_q, m.file().joint_z;
+  qz << m.file().q, m.file().z;
   if (!q_obj.is_none()) {
     const auto q = float64_array(q_obj, "q", {nq}, "(" + std::to_string(nq) + ",)");
     for (int i = 0; i < nq; ++i) qz[i] = doubles(q)[i * stride(q, 0)];
@@ -371,7 +372,7 @@ namespace {
 /// (q dot, z dot) of a jointed model at (q, z) (default: the initial ones), by the route.
 py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
                             const std::string& route_name) {
-  const JointTree* tree = m.joints();
+  const Model* tree = m.joints();
   if (!tree)
     throw py::value_error(
         "joint_derivatives(): this model has no joints (every body is free); use "
@@ -387,7 +388,7 @@ py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj
   VectorX d(nq + nz);
   {
     py::gil_scoped_release release;
-    JointDynamics dynamics(m.model(), *tree);
+    JointDynamics dynamics(m.model());
     dynamics.derivative(qz, route, d);
   }
   return py::make_tuple(to_numpy(VectorX(d.head(nq))), to_numpy(VectorX(d.tail(nz))));
@@ -485,7 +486,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   settings.observer_kinematics = store;
   settings.on_step = [&hook](double t) { return hook(t); };
   SimulationStats stats;
-  const JointTree* tree = m.joints();
+  const Model* tree = m.joints();
   if (tree && !initial_obj.is_none())
     throw py::value_error(
         "simulate(initial=...) of a jointed model: it starts from the file's joint coordinates "
@@ -493,7 +494,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   // The file is created with the first row, once the initial state has passed simulate()'s
   // checks: a run refused at its start leaves no file.
   const auto open_writer = [&]() -> io::BackgroundTrajectoryWriter& {
-    if (!writer) writer = std::make_unique<io::BackgroundTrajectoryWriter>(model, out, tree);
+    if (!writer) writer = std::make_unique<io::BackgroundTrajectoryWriter>(model, out);
     return *writer;
   };
   const auto keep = [&](double t, const State& state, Data& data) {
@@ -515,15 +516,14 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
     if (!store) return;
     keep(t, state, data);
     rows.energy.push_back(total_energy_of_kinematics(model, state, data) +
-                          joint_load_potential_energy(*tree, q));
+                          joint_potential_energy(*tree, q));
     rows.q.insert(rows.q.end(), q.begin(), q.end());
     rows.z.insert(rows.z.end(), z.begin(), z.end());
   };
   try {
     py::gil_scoped_release release;
-    stats =
-        tree ? simulate(model, *tree, m.file().joint_q, m.file().joint_z, settings, joint_observer)
-             : simulate(model, initial, settings, observer);
+    stats = tree ? simulate(model, m.file().q, m.file().z, settings, joint_observer)
+                 : simulate(model, initial, settings, observer);
     if (!hook.failed()) hook(stats.t_reached, true);  // the progress callback sees the end
   } catch (const std::exception& e) {
     const std::string kept = writer ? "; " + kept_note(*writer) : "";
@@ -617,7 +617,7 @@ void check_rows(const PyModel& m, const py::array& t, const py::array& x, const 
                 const py::array& energy, const py::array& qa, const py::array& za) {
   const Model& model = m.model();
   const int n = m.N();
-  const JointTree* tree = m.joints();
+  const Model* tree = m.joints();
   const py::ssize_t rows = t.shape(0);
   const auto fail = [](const std::string& problem) {
     throw py::value_error("to_csv: " + problem + "; nothing was written");
@@ -692,7 +692,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
   const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
   const auto y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
   const auto energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
-  const JointTree* tree = m.joints();
+  const Model* tree = m.joints();
   const int nq = tree ? tree->num_coordinates() : 0, nz = tree ? tree->num_speeds() : 0;
   py::array qa, za;
   if (tree) {
@@ -701,7 +701,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
   }
   check_rows(m, t, x, y, energy, qa, za);
   io::check_output_path(path, {m.file().path});
-  io::TrajectoryWriter writer(model, path, tree);
+  io::TrajectoryWriter writer(model, path);
   Data data(model, DataOptions::recursive_only());
   State state(model);
   VectorX q(nq), z(nz);
@@ -725,7 +725,7 @@ py::array_t<double> read_csv(const PyModel& m, py::handle path_obj) {
   io::Trajectory traj;
   try {
     py::gil_scoped_release release;
-    traj = io::read_trajectory(m.model(), path, m.joints());
+    traj = io::read_trajectory(m.model(), path);
   } catch (const std::runtime_error& e) {
     throw py::value_error(e.what());
   }

@@ -24,7 +24,7 @@ size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
 #ifdef KANEDYN_PYTHON_HAVE_VIEW
   view::require_available();
   const Model& model = m.model();
-  io::Trajectory traj{io::trajectory_columns(model, m.joints()), {}};
+  io::Trajectory traj{io::trajectory_columns(model), {}};
   const auto columns = static_cast<py::ssize_t>(traj.columns.size());
   const py::array table =
       float64_array(table_obj, "table", {-1, columns}, "(T, " + std::to_string(columns) + ")");
@@ -32,7 +32,7 @@ size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
   for (py::ssize_t r = 0; r < table.shape(0); ++r)
     for (py::ssize_t c = 0; c < columns; ++c)
       traj.values.push_back(doubles(table)[r * stride(table, 0) + c * stride(table, 1)]);
-  const std::string text = view::page(model, m.file().path, traj, source, m.joints());
+  const std::string text = view::page(model, m.file().path, traj, source);
   io::write_file_atomically(path, text, {m.file().path, input});
   return text.size();
 #else

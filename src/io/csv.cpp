@@ -22,6 +22,7 @@
 #include <thread>
 
 #include "kanedyn/energy.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/kinematics.hpp"
 
 namespace kanedyn::io {
@@ -48,14 +49,13 @@ std::string quoted(const std::string& path) { return "'" + path + "'"; }
 namespace {
 
 /// Throws for the row text [row, ...) whose number at `bad` is not finite, naming its column.
-[[noreturn]] void throw_non_finite(const Model& model, const JointTree* joints, const char* row,
-                                   const char* bad, double t) {
+[[noreturn]] void throw_non_finite(const Model& model, const char* row, const char* bad, double t) {
   const char* start = bad;
   while (start > row && start[-1] != ',') --start;
   const char* end = bad;
   while (*end != ',' && *end != '\n') ++end;
   const auto column = static_cast<size_t>(std::count(row, start, ','));
-  const auto columns = trajectory_columns(model, joints);
+  const auto columns = trajectory_columns(model);
   char time[32];
   std::snprintf(time, sizeof time, "%.10g", t);
   throw std::runtime_error("non-finite output at t = " + std::string(time) + ": column " +
@@ -66,15 +66,29 @@ namespace {
 }  // namespace
 
 namespace {
+/// The model when its rows carry joint coordinates (some joint is not free), else null.
+const Model* rows_with_joints(const Model& model) { return model.all_free() ? nullptr : &model; }
+
 /// The joint columns of body k: 0 for free and weld joints (and without joints).
-bool has_joint_columns(const JointTree* joints, int k) {
+bool has_joint_columns(const Model* joints, int k) {
   if (!joints) return false;
   const JointType t = joints->joint(k).type;
   return t != JointType::free && t != JointType::weld;
 }
+
+std::vector<std::string> trajectory_columns(const Model& model, const Model* joints);
 }  // namespace
 
-std::vector<std::string> trajectory_columns(const Model& model, const JointTree* joints) {
+std::vector<std::string> trajectory_columns(const Model& model) {
+  return trajectory_columns(model, rows_with_joints(model));
+}
+
+std::vector<std::string> trajectory_body_columns(const Model& model) {
+  return trajectory_columns(model, nullptr);
+}
+
+namespace {
+std::vector<std::string> trajectory_columns(const Model& model, const Model* joints) {
   static const char* const kSuffixes[] = {"x",  "y",  "z",  "e1", "e2", "e3",  "e4",  "s1",
                                           "s2", "s3", "w1", "w2", "w3", "sd1", "sd2", "sd3"};
   std::vector<std::string> columns{"t"};
@@ -90,9 +104,11 @@ std::vector<std::string> trajectory_columns(const Model& model, const JointTree*
   columns.emplace_back("energy");
   return columns;
 }
+}  // namespace
 
-TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path, const JointTree* joints)
-    : model_(model), joints_(joints), path_(std::move(path)) {
+TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path)
+    : model_(model), joints_(rows_with_joints(model)), path_(std::move(path)) {
+  const Model* joints = joints_;
   if (joints && joints->num_bodies() != model.num_bodies())
     throw std::invalid_argument("TrajectoryWriter: the joint tree is not the model's");
   check_output_path(path_);
@@ -103,7 +119,7 @@ TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path, const J
                            (2 + (16 + (joints ? 7 : 0)) * static_cast<size_t>(model.num_bodies()));
   buffer_ = std::make_unique_for_overwrite<char[]>(kFlushBytes + row_bytes);
   std::string header;
-  const auto columns = trajectory_columns(model, joints);
+  const auto columns = trajectory_columns(model);
   for (size_t i = 0; i < columns.size(); ++i) {
     if (i) header += ',';
     header += columns[i];
@@ -161,7 +177,7 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
   // Checked on the text, where a non-finite number is the only one holding 'n'.
   if (const char* bad =
           static_cast<const char*>(std::memchr(row, 'n', static_cast<size_t>(p - row))))
-    throw_non_finite(model_, joints_, row, bad, t);
+    throw_non_finite(model_, row, bad, t);
   used_ = static_cast<size_t>(p - buffer_.get());
   ++rows_;
   if (used_ >= kFlushBytes) flush();
@@ -223,14 +239,14 @@ void TrajectoryWriter::finish() {
 // a row), and at the end at most that many rows are left to write after the last one comes.
 
 struct BackgroundTrajectoryWriter::Impl {
-  Impl(const Model& model, std::string path, const JointTree* joints)
-      : writer(model, std::move(path), joints),
+  Impl(const Model& model, std::string path)
+      : writer(model, std::move(path)),
         data(model, DataOptions::recursive_only()),
         state(model),
-        nx(static_cast<size_t>(model.num_coordinates())),
-        ny(static_cast<size_t>(model.num_speeds())),
-        nq(joints ? static_cast<size_t>(joints->num_coordinates()) : 0),
-        nz(joints ? static_cast<size_t>(joints->num_speeds()) : 0),
+        nx(static_cast<size_t>(model.num_x())),
+        ny(static_cast<size_t>(model.num_y())),
+        nq(model.all_free() ? 0 : static_cast<size_t>(model.num_coordinates())),
+        nz(model.all_free() ? 0 : static_cast<size_t>(model.num_speeds())),
         q(VectorX::Zero(static_cast<Eigen::Index>(nq))),
         z(VectorX::Zero(static_cast<Eigen::Index>(nz))) {
     const size_t slot_bytes = sizeof(double) * slot_size();
@@ -294,11 +310,10 @@ struct BackgroundTrajectoryWriter::Impl {
         std::copy_n(p + 1 + nx, ny, state.y.data());
         compute_kinematics(model, state, data);
         const double energy = total_energy_of_kinematics(model, state, data);
-        if (const JointTree* joints = writer.joints()) {
+        if (const Model* joints = writer.joints()) {
           std::copy_n(p + 1 + nx + ny, nq, q.data());
           std::copy_n(p + 1 + nx + ny + nq, nz, z.data());
-          writer.write_row(p[0], state, data, energy + joint_load_potential_energy(*joints, q), &q,
-                           &z);
+          writer.write_row(p[0], state, data, energy + joint_potential_energy(*joints, q), &q, &z);
         } else {
           writer.write_row(p[0], state, data, energy);
         }
@@ -367,9 +382,8 @@ struct BackgroundTrajectoryWriter::Impl {
   std::thread thread;
 };
 
-BackgroundTrajectoryWriter::BackgroundTrajectoryWriter(const Model& model, std::string path,
-                                                       const JointTree* joints)
-    : impl_(std::make_unique<Impl>(model, std::move(path), joints)) {}
+BackgroundTrajectoryWriter::BackgroundTrajectoryWriter(const Model& model, std::string path)
+    : impl_(std::make_unique<Impl>(model, std::move(path))) {}
 
 BackgroundTrajectoryWriter::~BackgroundTrajectoryWriter() {
   try {

@@ -874,8 +874,8 @@ Vector4 read_euler_parameters(const Reader& r, const Field& f) {
 
 JointType joint_type_of(std::string_view name) {
   JointType t = JointType::free;
-  for (int i = 0; i < 7; ++i)
-    if (to_string(static_cast<JointType>(i)) == name) t = static_cast<JointType>(i);
+  for (const JointType type : kJointTypes)
+    if (to_string(type) == name) t = type;
   return t;
 }
 
@@ -1084,7 +1084,6 @@ struct BodiesSection {
   std::vector<BodySpec> specs;
   std::vector<std::optional<Field>> initial;  // the `initial:` entries, where given
   std::vector<Joint> joints;                  // free unless the mapping form says otherwise
-  bool constrained = false;                   // some joint is not free
 };
 
 BodiesSection read_bodies(const Reader& r, const Field& f) {
@@ -1149,7 +1148,6 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
     if (auto v = m.get("joint")) {
       if (v->node.IsMap()) {
         joint = read_joint(r, *v, b.joint);
-        section.constrained = section.constrained || joint.type != JointType::free;
       } else {
         b.joint = r.vector3(*v);
       }
@@ -1163,8 +1161,9 @@ BodiesSection read_bodies(const Reader& r, const Field& f) {
 
 /// A joint_spring or joint_force entry: each parameter a number (the same for every
 /// coordinate) or one number per coordinate of the body's joint.
-JointLoad read_joint_load(const Reader& r, const Mapping& m, const std::string& type,
-                          const Field& body_field, int body, const std::vector<Joint>& joints) {
+std::shared_ptr<const JointLoad> read_joint_load(const Reader& r, const Mapping& m,
+                                                 const std::string& type, const Field& body_field,
+                                                 int body, const std::vector<Joint>& joints) {
   const JointType jt = joints[static_cast<size_t>(body)].type;
   if (jt == JointType::free || jt == JointType::weld || jt == JointType::spherical)
     r.fail(body_field, type + " acts on joint coordinates, and body '" +
@@ -1188,19 +1187,15 @@ JointLoad read_joint_load(const Reader& r, const Mapping& m, const std::string& 
     if (non_negative && (value.array() < 0.0).any()) r.fail(*v, std::string(key) + " must be >= 0");
     return value;
   };
-  JointLoad load;
-  load.body = body;
-  load.stiffness = read("stiffness", true);
-  load.damping = read("damping", true);
-  load.rest = read("rest", false);
-  load.value = read("value", false);
-  return load;
+  VectorX stiffness = read("stiffness", true), damping = read("damping", true);
+  VectorX rest = read("rest", false), value = read("value", false);
+  return std::make_shared<const JointLoad>(body, std::move(stiffness), std::move(damping),
+                                           std::move(rest), std::move(value), type);
 }
 
 void read_force(const Reader& r, const Field& f, const BodyNames& names,
                 const std::vector<Joint>& joints,
-                std::vector<std::shared_ptr<const ForceElement>>& forces,
-                std::vector<JointLoad>& loads) {
+                std::vector<std::shared_ptr<const ForceElement>>& forces) {
   const Mapping m = r.mapping(f);
   // Keys no type knows first, so that a misspelt `type` is named as such.
   m.allow({"type", "body", "stiffness", "damping", "rotational_stiffness", "rotational_damping",
@@ -1220,7 +1215,7 @@ void read_force(const Reader& r, const Field& f, const BodyNames& names,
   if (type == "joint_spring" || type == "joint_force") {
     // A joint_force is its value: one left out is a mistake, not a zero (docs/model-format.md).
     if (type == "joint_force") (void)m.require("value");
-    loads.push_back(read_joint_load(r, m, type, body_field, body, joints));
+    forces.push_back(read_joint_load(r, m, type, body_field, body, joints));
     return;
   }
   if (type == "bushing") {
@@ -1299,10 +1294,9 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
 
   const BodyNames& names = bodies.names;
   std::vector<std::shared_ptr<const ForceElement>> forces;
-  std::vector<JointLoad> loads;
   if (const auto forces_field = top.get("forces"))
     for (const Field& item : r.list(*forces_field, "force entries"))
-      read_force(r, item, names, bodies.joints, forces, loads);
+      read_force(r, item, names, bodies.joints, forces);
 
   SimulationSection simulation;
   if (const auto v = top.get("simulation")) simulation = read_simulation(r, *v);
@@ -1321,27 +1315,25 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
   }
 
   try {
-    Model model(std::move(bodies.specs), gravity, std::move(forces), name);
+    Model model(std::move(bodies.specs), gravity, std::move(forces), name,
+                std::move(bodies.joints));
     ModelFile file{std::move(model), std::move(initial), std::move(simulation),
-                   source_name,      std::nullopt,       VectorX(),
-                   VectorX()};
-    if (bodies.constrained) {
-      file.joints.emplace(file.model, std::move(bodies.joints), std::move(loads));
-      const JointTree& tree = *file.joints;
-      file.joint_q = VectorX::Zero(tree.num_coordinates());
-      file.joint_z = VectorX::Zero(tree.num_speeds());
-      for (int k = 0; k < n; ++k) {
-        const size_t i = static_cast<size_t>(k);
-        if (tree.joint(k).type == JointType::free) {
-          // The notes' own coordinates and speeds: (eps_K, s'_K) and (w'_K, s'_K dot).
-          q[i] << file.initial.euler_parameters(k), file.initial.translation(k);
-          z[i] << file.initial.angular_velocity(k), file.initial.translation_rate(k);
-        }
-        file.joint_q.segment(tree.coordinate_offset(k), q[i].size()) = q[i];
-        file.joint_z.segment(tree.speed_offset(k), z[i].size()) = z[i];
+                   source_name,      VectorX(),          VectorX()};
+    const Model& m = file.model;
+    file.q = VectorX::Zero(m.num_coordinates());
+    file.z = VectorX::Zero(m.num_speeds());
+    for (int k = 0; k < n; ++k) {
+      const size_t i = static_cast<size_t>(k);
+      if (m.joint(k).type == JointType::free) {
+        // The notes' own coordinates and speeds: (eps_K, s'_K) and (w'_K, s'_K dot).
+        q[i] << file.initial.euler_parameters(k), file.initial.translation(k);
+        z[i] << file.initial.angular_velocity(k), file.initial.translation_rate(k);
       }
-      joint_state(tree, file.joint_q, file.joint_z, file.initial);
+      file.q.segment(m.coordinate_offset(k), q[i].size()) = q[i];
+      file.z.segment(m.speed_offset(k), z[i].size()) = z[i];
     }
+    // An all-free model's initial state is its `initial:` entries as read (the same numbers).
+    if (!m.all_free()) joint_state(m, file.q, file.z, file.initial);
     return file;
   } catch (const ModelError& e) {
     // Everything the Model checks was checked above with a location; this is a safety net,

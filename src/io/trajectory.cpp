@@ -45,10 +45,9 @@ size_t max_line_length(const std::vector<std::string>& columns) {
 /// Opens the trajectory (a regular file only: a FIFO or a device is refused without waiting
 /// on it) and checks that its header is this model's; `fail(line, problem)` builds the error.
 template <typename Fail>
-std::vector<std::string> open_and_check_header(const Model& model, const JointTree* joints,
-                                               const std::string& path,
+std::vector<std::string> open_and_check_header(const Model& model, const std::string& path,
                                                std::optional<LineReader>& in, const Fail& fail) {
-  std::vector<std::string> columns = trajectory_columns(model, joints);
+  std::vector<std::string> columns = trajectory_columns(model);
   std::string line;
   bool any = false;
   try {
@@ -86,7 +85,7 @@ bool next_line(LineReader& in, const std::vector<std::string>& columns, std::str
 /// A row is a state: every body's Euler parameters (e1..e4) and every spherical joint's q
 /// (j1..j4) have norm 1 within the model file's tolerance, 1e-6 (docs/model-format.md).
 template <typename Fail>
-void check_row_state(const Model& model, const JointTree* joints,
+void check_row_state(const Model& model, const Model* joints,
                      const std::vector<std::string>& columns, const std::vector<double>& row,
                      int line_no, const Fail& fail) {
   constexpr double kTolerance = 1e-6;
@@ -131,13 +130,13 @@ void parse_row(std::string_view line, int line_no, const std::vector<std::string
 
 }  // namespace
 
-TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t,
-                                  const JointTree* joints) {
+TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t) {
+  const Model* joints = model.all_free() ? nullptr : &model;
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
   std::optional<LineReader> in;
-  const std::vector<std::string> columns = open_and_check_header(model, joints, path, in, fail);
+  const std::vector<std::string> columns = open_and_check_header(model, path, in, fail);
   std::string line;
   // One pass: keep the row nearest to t and the times of its neighbours.
   const size_t width = columns.size();
@@ -182,10 +181,8 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
   out.line = best_line;
   out.state = State(model);
   const int n = model.num_bodies();
-  if (joints) {
-    out.q = VectorX::Zero(joints->num_coordinates());
-    out.z = VectorX::Zero(joints->num_speeds());
-  }
+  out.q = VectorX::Zero(model.num_coordinates());
+  out.z = VectorX::Zero(model.num_speeds());
   size_t b = 1;  // t, then 16 columns per body, each followed by its joint columns
   for (int k = 0; k < n; ++k) {
     for (int i = 0; i < 4; ++i)
@@ -196,9 +193,9 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
       out.state.angular_velocity(k)[i] = best[b + 10 + ii];
       out.state.translation_rate(k)[i] = best[b + 13 + ii];
     }
-    if (joints) {
-      const JointType type = joints->joint(k).type;
-      const int o = joints->coordinate_offset(k), p = joints->speed_offset(k);
+    {
+      const JointType type = model.joint(k).type;
+      const int o = model.coordinate_offset(k), p = model.speed_offset(k);
       if (type == JointType::free) {  // the notes' own: (eps, s'), (w', s' dot)
         for (int i = 0; i < 7; ++i) out.q[o + i] = best[b + 3 + static_cast<size_t>(i)];
         for (int i = 0; i < 6; ++i) out.z[p + i] = best[b + 10 + static_cast<size_t>(i)];
@@ -214,13 +211,14 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
   return out;
 }
 
-Trajectory read_trajectory(const Model& model, const std::string& path, const JointTree* joints) {
+Trajectory read_trajectory(const Model& model, const std::string& path) {
+  const Model* joints = model.all_free() ? nullptr : &model;
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
   std::optional<LineReader> in;
   Trajectory out;
-  out.columns = open_and_check_header(model, joints, path, in, fail);
+  out.columns = open_and_check_header(model, path, in, fail);
   std::vector<double> row(out.columns.size());
   std::string line;
   int line_no = 1;

@@ -170,6 +170,7 @@ std::shared_ptr<const Plan> compile(const Model& model, int kLanes, int renumber
   }
   // Loads grouped per body: the laws are linear in k, c, kr, cr and in the constant loads.
   for (const auto& element : model.forces()) {
+    if (element->acts_on_joints()) continue;  // no body loads: nothing for the pass
     const int k = plan_body(element->body());
     if (const auto* bushing = dynamic_cast<const Bushing*>(element.get())) {
       for (int i = 0; i < 3; ++i) {

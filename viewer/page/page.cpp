@@ -22,8 +22,10 @@
 
 #include "kanedyn/data.hpp"
 #include "kanedyn/energy.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/rotation.hpp"
 
@@ -133,8 +135,8 @@ Json body_json(const Model& model, int k) {
 /// revolute, prismatic or cylindrical axis is fixed in both and given in J, where Q_K is too;
 /// a universal joint's a1 is fixed in J and its a2, about which K turns last, in K (at zero
 /// angles K's axes are F's, so a2's K components are its F components).
-void add_joint_json(const JointTree& tree, int k, Json& o) {
-  const Joint& jt = tree.joint(k);
+void add_joint_json(const Model& model, int k, Json& o) {
+  const Joint& jt = model.joint(k);
   o["joint_type"] = to_string(jt.type);
   Json axes = Json::array();
   const auto axis = [&](const Vector3& v, const char* in) {
@@ -144,7 +146,7 @@ void add_joint_json(const JointTree& tree, int k, Json& o) {
     case JointType::revolute:
     case JointType::prismatic:
     case JointType::cylindrical:
-      axis(tree.axis_in_j(k), "parent");
+      axis(model.axis_in_j(k), "parent");
       break;
     case JointType::universal:
       // [R(frame)] maps J components to F components.
@@ -159,11 +161,13 @@ void add_joint_json(const JointTree& tree, int k, Json& o) {
 
 }  // namespace
 
-io::Trajectory initial_trajectory(const Model& model, const State& initial) {
+io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const VectorX& z) {
+  State initial(model);
+  joint_state(model, q, z, initial);
   Data data(model);
   compute_kinematics(model, initial, data);
   io::Trajectory out;
-  out.columns = io::trajectory_columns(model);
+  out.columns = io::trajectory_body_columns(model);
   out.values.push_back(0.0);
   for (int k = 0; k < model.num_bodies(); ++k) {
     const auto put = [&](const auto& v) {
@@ -175,7 +179,8 @@ io::Trajectory initial_trajectory(const Model& model, const State& initial) {
     put(initial.angular_velocity(k));
     put(initial.translation_rate(k));
   }
-  out.values.push_back(total_energy_of_kinematics(model, initial, data));
+  out.values.push_back(total_energy_of_kinematics(model, initial, data) +
+                       joint_potential_energy(model, q));
   return out;
 }
 
@@ -189,7 +194,7 @@ namespace {
 /// The trajectory with only the columns of the free-body layout, in its order: a jointed
 /// model's j and jd columns are left out (the page draws the bodies from their poses).
 io::Trajectory body_columns(const Model& model, const io::Trajectory& traj) {
-  const std::vector<std::string> wanted = io::trajectory_columns(model);
+  const std::vector<std::string> wanted = io::trajectory_body_columns(model);
   std::vector<std::size_t> from;
   std::size_t c = 0;
   for (const std::string& name : wanted) {
@@ -207,9 +212,8 @@ io::Trajectory body_columns(const Model& model, const io::Trajectory& traj) {
 }
 
 std::string page_data(const Model& model, const std::string& model_file,
-                      const io::Trajectory& given, const std::string& source,
-                      const JointTree* joints) {
-  const bool plain = given.columns == io::trajectory_columns(model);
+                      const io::Trajectory& given, const std::string& source) {
+  const bool plain = given.columns == io::trajectory_body_columns(model);
   const io::Trajectory filtered = plain ? io::Trajectory{} : body_columns(model, given);
   const io::Trajectory& traj = plain ? given : filtered;
   const std::size_t rows = traj.rows(), width = traj.columns.size();
@@ -245,7 +249,7 @@ std::string page_data(const Model& model, const std::string& model_file,
   m["bodies"] = Json::array();
   for (int k = 0; k < model.num_bodies(); ++k) {
     Json b = body_json(model, k);
-    if (joints) add_joint_json(*joints, k, b);
+    if (!model.all_free()) add_joint_json(model, k, b);
     m["bodies"].push_back(std::move(b));
   }
   d["model"] = std::move(m);
@@ -282,13 +286,13 @@ std::string page_data(const Model& model, const std::string& model_file,
 }  // namespace
 
 std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
-                 const std::string& source, const JointTree* joints) {
+                 const std::string& source) {
   require_available();
   const std::string page = viewer_template();
   const std::size_t at = page.find(kDataMarker);
   if (at == std::string::npos)
     throw std::logic_error("the viewer bundle has no data marker: the build is broken");
-  const std::string data = page_data(model, model_file, traj, source, joints);
+  const std::string data = page_data(model, model_file, traj, source);
   std::string text;
   text.reserve(page.size() + data.size());
   text.append(page, 0, at);

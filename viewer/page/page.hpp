@@ -25,15 +25,17 @@ void require_available();
 /// k: the page keeps rows 0, k, 2k, ... and the last; 1 up to kMaxRows rows.
 std::size_t stride(std::size_t rows);
 
-/// The one-row trajectory of a state at t = 0 (positions by compute_kinematics, energy by
-/// total_energy), in the columns of io::trajectory_columns(model).
-io::Trajectory initial_trajectory(const Model& model, const State& initial);
+/// The one-row trajectory of the state q, z at t = 0 (its notes' state by joint_state,
+/// positions by compute_kinematics, energy by total_energy with the joint springs'
+/// potentials), in the columns of io::trajectory_body_columns(model).
+io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const VectorX& z);
 
-/// The page's text. `traj` must have io::trajectory_columns(model) and at least one row
-/// (std::invalid_argument otherwise); `model_file` and `source` (the trajectory's name, or
-/// "initial state") are shown on the page. `joints`, when given, adds each body's joint type
-/// and axes for the page to draw. Throws std::runtime_error when !available().
+/// The page's text. `traj` must have io::trajectory_columns(model) or
+/// io::trajectory_body_columns(model) and at least one row (std::invalid_argument otherwise);
+/// `model_file` and `source` (the trajectory's name, or "initial state") are shown on the
+/// page. When some joint is not free, each body's joint type and axes are given for the page
+/// to draw. Throws std::runtime_error when !available().
 std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
-                 const std::string& source, const JointTree* joints = nullptr);
+                 const std::string& source);
 
 }  // namespace kanedyn::view

@@ -17,10 +17,13 @@
 namespace kanedyn::io {
 
 /// The header: t, then per body NAME.x NAME.y NAME.z NAME.e1..e4 NAME.s1..s3 NAME.w1..w3
-/// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns. With joints, a body
+/// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns. A body
 /// whose joint is neither free nor weld adds NAME.j1..j<n> (its q) and NAME.jd1..jd<m> (its z)
 /// right after its own columns.
-std::vector<std::string> trajectory_columns(const Model& model, const JointTree* joints = nullptr);
+std::vector<std::string> trajectory_columns(const Model& model);
+/// The columns of trajectory_columns() without any body's joint columns: t, 16 per body,
+/// energy.
+std::vector<std::string> trajectory_body_columns(const Model& model);
 
 /// Streams a trajectory to PATH.partial.
 class TrajectoryWriter {
@@ -30,7 +33,7 @@ class TrajectoryWriter {
   /// name is refused, and the file is opened with O_EXCL | O_NOFOLLOW, so that nothing is
   /// ever written through a link planted there. Throws std::runtime_error naming the file
   /// when it cannot be created.
-  TrajectoryWriter(const Model& model, std::string path, const JointTree* joints = nullptr);
+  TrajectoryWriter(const Model& model, std::string path);
   /// Writes the buffered rows and closes the file; PATH.partial stays if finish() did not run.
   ~TrajectoryWriter();
   TrajectoryWriter(const TrajectoryWriter&) = delete;
@@ -42,8 +45,8 @@ class TrajectoryWriter {
   /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails,
   /// or if a number of the row is not finite (naming the time and the column; the row is
   /// not written).
-  /// With joints, q and z (the joint coordinates and speeds of the row) are required and
-  /// give the j and jd columns.
+  /// When some joint is not free, q and z (the joint coordinates and speeds of the row) are
+  /// required and give the j and jd columns.
   void write_row(double t, const State& state, const Data& data, double energy,
                  const VectorX* q = nullptr, const VectorX* z = nullptr);
   /// Writes the buffered rows to the file (whole rows only).
@@ -59,13 +62,14 @@ class TrajectoryWriter {
   /// Data rows that have reached the file: rows() once flushed; fewer after a failed write.
   long rows_in_file() const { return rows_in_file_; }
   const Model& model() const { return model_; }
-  const JointTree* joints() const { return joints_; }
+  /// The model when its rows have joint coordinates (some joint is not free), else null.
+  const Model* joints() const { return joints_; }
 
  private:
   void write_out(const char* bytes, size_t size);
 
   const Model& model_;
-  const JointTree* joints_;
+  const Model* joints_;
   std::string path_;
   /// Rows waiting for the file: buffer_[0, used_). Sized at construction for the flush
   /// threshold plus one longest row, so a row is written into it without checks.
@@ -88,10 +92,9 @@ class BackgroundTrajectoryWriter {
   /// Creates PATH.partial with its header (throws as TrajectoryWriter) and starts the thread.
   /// A thread that cannot be started throws std::runtime_error, PATH.partial removed.
   /// The queue holds up to about 4 MB of states, at least 2 and at most 256.
-  /// With joints, rows are queued by the (t, state, q, z) overload and their energy adds the
-  /// joint springs' potentials.
-  BackgroundTrajectoryWriter(const Model& model, std::string path,
-                             const JointTree* joints = nullptr);
+  /// When some joint is not free, rows are queued by the (t, state, q, z) overload and their
+  /// energy adds the joint springs' potentials.
+  BackgroundTrajectoryWriter(const Model& model, std::string path);
   /// Writes what is queued and closes (as close()), swallowing errors; PATH.partial stays if
   /// finish() did not run.
   ~BackgroundTrajectoryWriter();

@@ -50,18 +50,16 @@ SimulationSettings simulation_settings(const SimulationSection& section);
 /// What a model file holds.
 struct ModelFile {
   Model model;
-  /// The notes' (x, y) at the start: the `initial:` entries (Euler parameters normalized), or,
-  /// for a jointed model, joint_state() of joint_q and joint_z.
+  /// The notes' (x, y) at the start: joint_state() of q and z (for an all-free model the
+  /// `initial:` entries, Euler parameters normalized).
   State initial;
   SimulationSection simulation;
   std::string path;  ///< as given
-  /// The joints, when some body's `joint` is the mapping form with a type other than free;
-  /// empty for the notes' free tree (then nothing below is set).
-  std::optional<JointTree> joints;
-  VectorX
-      joint_q;  ///< initial q (the layout of JointTree): `initial.joint`, v1 keys of free bodies
-  VectorX joint_z;  ///< initial z: `initial.joint_rate`, v1 keys of free bodies
-  bool jointed() const { return joints.has_value(); }
+  /// The initial state: joint coordinates q (`initial.joint`, and the v1 keys of free bodies)
+  /// and speeds z (`initial.joint_rate`, v1 keys of free bodies), in the Model's layout.
+  VectorX q, z;
+  /// True when some joint is not free (the file has the mapping form of `joint`).
+  bool jointed() const { return !model.all_free(); }
 };
 
 /// Reads and validates a model file; throws ModelFileError.

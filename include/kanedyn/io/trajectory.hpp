@@ -16,8 +16,8 @@ struct TrajectoryRow {
   double t = 0.0;
   State state;
   int line = 0;  ///< the row's line in the file (1 is the header)
-  /// Jointed models: the joint coordinates and speeds (j, jd columns; a free body's are its
-  /// e, s and w, sd columns); empty otherwise.
+  /// The joint coordinates and speeds, the model's state (j, jd columns; a free body's are its
+  /// e, s and w, sd columns).
   VectorX q, z;
 };
 
@@ -28,13 +28,12 @@ struct TrajectoryRow {
 /// file, the line and the problem: a header that is not this model's (the first differing
 /// column), a row with the wrong number of fields or a field that is not a number, no rows,
 /// or no row within half a step of t (naming the range of times, or the nearest rows).
-/// With joints, the header is trajectory_columns(model, joints) and q, z are filled.
-TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t,
-                                  const JointTree* joints = nullptr);
+/// The header is trajectory_columns(model).
+TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t);
 
 /// A whole trajectory: every row, as written.
 struct Trajectory {
-  std::vector<std::string> columns;  ///< the header: trajectory_columns(model, joints)
+  std::vector<std::string> columns;  ///< the header: trajectory_columns(model)
   std::vector<double> values;        ///< row-major: rows() x columns.size()
   std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
   double at(std::size_t row, std::size_t column) const {
@@ -44,7 +43,6 @@ struct Trajectory {
 
 /// Every row of the trajectory at `path`. Throws std::runtime_error naming the file, the line
 /// and the problem, as read_trajectory_row does, and also for a time that goes backwards.
-Trajectory read_trajectory(const Model& model, const std::string& path,
-                           const JointTree* joints = nullptr);
+Trajectory read_trajectory(const Model& model, const std::string& path);
 
 }  // namespace kanedyn::io

@@ -1,0 +1,65 @@
+// The joint of one body (docs/theory.md, "Joints"): its type, frame and axes, and the sizes of
+// its slices of the joint coordinates q and independent speeds z. Every body of a Model has
+// one; free, the default, is the notes' own body.
+//
+// Layout of q and z, body by body in numbering order (index k):
+//   free:        q = (eps_K (4), s'_K (3)),  z = (w'_K (3), s'_K dot (3))  -- the notes' own
+//   weld:        q = (),                     z = ()
+//   revolute:    q = (angle),                z = (d angle/dt)
+//   prismatic:   q = (d),                    z = (dd/dt)
+//   cylindrical: q = (angle, d),             z = (d angle/dt, dd/dt)
+//   universal:   q = (a1, a2),               z = (da1/dt, da2/dt)
+//   spherical:   q = (e1, e2, e3, e4) of K relative to F, z = angular velocity of K relative
+//                to J, body-K components (the spec's `joint_rate`)
+// Angles in radians, lengths in model units, rates per second.
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "kanedyn/types.hpp"
+
+namespace kanedyn {
+
+enum class JointType { free, weld, revolute, prismatic, cylindrical, universal, spherical };
+
+/// Every joint type, in the order of the enum.
+inline constexpr JointType kJointTypes[] = {
+    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
+    JointType::cylindrical, JointType::universal, JointType::spherical};
+
+/// "free", "weld", "revolute", ... as the model format spells them.
+const char* to_string(JointType type);
+
+/// The joint of body K at Q_K, relative to J = L(K) (the inertial frame for a root).
+struct Joint {
+  JointType type = JointType::free;
+  /// The joint frame F as Euler parameters of F relative to J (e4 scalar, unit): J's axes turned
+  /// into F's, so [R(frame)] maps body-J components to F components. Unused by free joints.
+  Vector4 frame{0.0, 0.0, 0.0, 1.0};
+  /// Revolute, prismatic, cylindrical: the axis in F components (normalized by the Model).
+  Vector3 axis = Vector3::UnitX();
+  /// Universal: a1, a2 in F components (normalized by the Model), perpendicular.
+  std::array<Vector3, 2> axes{Vector3::UnitX(), Vector3::UnitY()};
+  /// Weld: the constant s'_K, body-J components.
+  Vector3 translation = Vector3::Zero();
+};
+
+/// Entries of a body's slice of q: 7 for free (eps_K, s'_K), 0 weld, 1 revolute and
+/// prismatic, 2 cylindrical and universal, 4 spherical.
+int coordinate_count(JointType type);
+/// Entries of a body's slice of z: 6 free, 0 weld, 1 revolute and prismatic, 2 cylindrical
+/// and universal, 3 spherical.
+int speed_count(JointType type);
+
+/// The problem with a joint description, or "" when it is usable: a zero axis, universal axes
+/// zero or not perpendicular (|a1 . a2| > 1e-9 after normalizing), frame Euler parameters off
+/// unit norm by more than 1e-6.
+std::string check_joint(const Joint& joint);
+/// The problem with one body's slice of q, or "": a wrong count, or Euler parameters (a
+/// spherical q, a free body's eps_K) whose norm is off 1 by more than 1e-6.
+std::string check_joint_coordinates(JointType type, const VectorX& q);
+/// The problem with one body's slice of z (its `joint_rate`), or "": a wrong count.
+std::string check_joint_rates(JointType type, const VectorX& z);
+
+}  // namespace kanedyn
