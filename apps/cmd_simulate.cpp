@@ -321,11 +321,8 @@ int run(const Options& o) {
     watch.step(t);
     return g_signal == 0;
   };
-  const Observer observer = [&](double t, const State& state, Data&) {
-    if (!o.no_output) open_writer().write_row(t, state);
-  };
-  const JointObserver joint_observer = [&](double t, const State& state, const VectorX& q,
-                                           const VectorX& z, Data&) {
+  const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
+                                Data&) {
     if (!o.no_output) open_writer().write_row(t, state, q, z);
   };
   const auto kept = [&](bool with_time, double t) {
@@ -338,8 +335,7 @@ int run(const Options& o) {
   };
   SimulationStats stats;
   try {
-    stats = file.jointed() ? simulate(model, file.q, file.z, settings, joint_observer)
-                           : simulate(model, file.initial, settings, observer);
+    stats = simulate(model, file.q, file.z, settings, observer);
   } catch (const std::exception& e) {
     progress.clear();
     try {

@@ -80,9 +80,11 @@ SimulationStats simulate_like_the_command(const io::ModelFile& file, const std::
   Observer observer;
   if constexpr (std::is_same_v<Writer, io::BackgroundTrajectoryWriter>) {
     settings.observer_kinematics = false;  // the writer's thread computes them
-    observer = [&](double t, const State& state, Data&) { writer.write_row(t, state); };
+    observer = [&](double t, const State& state, const VectorX&, const VectorX&, Data&) {
+      writer.write_row(t, state);
+    };
   } else {
-    observer = [&](double t, const State& state, Data& data) {
+    observer = [&](double t, const State& state, const VectorX&, const VectorX&, Data& data) {
       writer.write_row(t, state, data, total_energy_of_kinematics(model, state, data));
     };
   }
@@ -95,7 +97,9 @@ SimulationStats simulate_like_the_command(const io::ModelFile& file, const std::
 std::vector<State> trajectory_states(const io::ModelFile& file) {
   std::vector<State> states;
   simulate(file.model, file.initial, SimulationSettings{},
-           [&](double, const State& state, Data&) { states.push_back(state); });
+           [&](double, const State& state, const VectorX&, const VectorX&, Data&) {
+             states.push_back(state);
+           });
   return states;
 }
 

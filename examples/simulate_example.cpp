@@ -15,9 +15,10 @@ int main(int argc, char** argv) {
   settings.t_end = 3.0;
   settings.dt_out = 0.5;
   const kanedyn::SimulationStats stats =
-      kanedyn::simulate(file.model, file.initial, settings,
-                        [&](double t, const kanedyn::State& state, kanedyn::Data& data) {
-                          const double energy = kanedyn::total_energy(file.model, state, data);
+      kanedyn::simulate(file.model, file.q, file.z, settings,
+                        [&](double t, const kanedyn::State&, const kanedyn::VectorX& q,
+                            const kanedyn::VectorX& z, kanedyn::Data& data) {
+                          const double energy = kanedyn::total_energy(file.model, q, z, data);
                           std::printf("t = %.2f  body 1 G_z = %.5f m  energy = %.6f J\n", t,
                                       data.kinematics.p_G[0].z(), energy);
                         });

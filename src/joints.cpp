@@ -275,6 +275,51 @@ Eigen::Ref<const VectorX> speeds_of(const Model& model, const VectorX& z, int c)
 
 }  // namespace
 
+void joint_coordinates(const Model& model, const State& state, VectorX& q, VectorX& z) {
+  const int n = model.num_bodies();
+  if (state.x.size() != model.num_x() || state.y.size() != model.num_y())
+    throw std::invalid_argument("joint_coordinates: the state does not have the model's size (" +
+                                std::to_string(model.num_x()) + " + " +
+                                std::to_string(model.num_y()) + ")");
+  q.resize(model.num_coordinates());
+  z.resize(model.num_speeds());
+  bool welds = false;
+  for (int k = 0; k < n; ++k) {
+    const JointType type = model.joint(k).type;
+    const int o = model.coordinate_offset(k), p = model.speed_offset(k);
+    if (type == JointType::free) {  // the notes' own coordinates and speeds
+      q.segment<4>(o) = state.euler_parameters(k);
+      q.segment<3>(o + 4) = state.translation(k);
+      z.segment<3>(p) = state.angular_velocity(k);
+      z.segment<3>(p + 3) = state.translation_rate(k);
+    } else if (type == JointType::weld) {
+      welds = true;
+    } else {
+      throw std::invalid_argument("body '" + model.body(k).name + "' has a " + to_string(type) +
+                                  " joint, whose coordinates are not taken from the notes' "
+                                  "state (x, y): give its joint coordinates q and speeds z");
+    }
+  }
+  if (!welds) return;
+  State held(model);
+  joint_state(model, q, z, held);
+  for (int k = 0; k < n; ++k) {
+    if (model.joint(k).type != JointType::weld) continue;
+    const auto off = [](const auto& a, const auto& b) {
+      return ((a - b).array().abs() > 1e-9 * (1.0 + b.array().abs())).any();
+    };
+    // Euler parameters of opposite sign are one orientation.
+    const bool turned = off(state.euler_parameters(k), held.euler_parameters(k)) &&
+                        off(state.euler_parameters(k), Vector4(-held.euler_parameters(k)));
+    if (turned || off(state.translation(k), held.translation(k)) ||
+        off(state.angular_velocity(k), held.angular_velocity(k)) ||
+        off(state.translation_rate(k), held.translation_rate(k)))
+      throw std::invalid_argument("body '" + model.body(k).name +
+                                  "' is welded, and its pose or speeds in the notes' state are "
+                                  "not those of the weld (beyond 1e-9 relative)");
+  }
+}
+
 double normalize_joint_coordinates(const Model& model, Eigen::Ref<VectorX> q) {
   double worst = 0.0;
   for (int k = 0; k < model.num_bodies(); ++k) {

@@ -7,12 +7,13 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
-#include <optional>
+#include <memory>
 #include <stdexcept>
 
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 
 namespace kanedyn {
@@ -214,34 +215,158 @@ long rk4_substeps(double span, double step) {
 
 namespace {
 
+/// What a run integrates, chosen once per run by the model (integrand_for): the vector the
+/// integrator advances, its derivative and projection, and the model's state (q, z) and notes'
+/// state of it. The Run is the same for every model.
+class Integrand {
+ public:
+  virtual ~Integrand() = default;
+  /// The vector the integrator advances, of size(), from the model's state.
+  virtual int size() const = 0;
+  virtual void pack(const VectorX& q, const VectorX& z, VectorX& v) const = 0;
+  virtual void derivative(const VectorX& v, VectorX& dv) = 0;
+  /// The largest | |e| - 1 | of v's Euler parameters; rescales them to unit norm when apply.
+  virtual double project(VectorX& v, bool apply) = 0;
+  /// The model's state of v: q, z and the notes' state, the Euler parameters normalized when
+  /// `normalize`.
+  virtual void unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state) = 0;
+  /// "body 'NAME' (COLUMN)" for a component of v.
+  virtual std::string describe(int component, int* body) const = 0;
+};
+
+/// The notes' free tree (every joint free): v = ({x}; {y}) in the layout of Eq. (1), the
+/// derivative by forward_dynamics on the route asked for. (q, z) hold the same numbers body by
+/// body.
+class NotesIntegrand final : public Integrand {
+ public:
+  NotesIntegrand(const Model& model, Route route)
+      : model_(model),
+        route_(route),
+        n_(model.num_bodies()),
+        data_(model, route == Route::assembled
+                         ? DataOptions{.partials = false, .dense_mass_matrix = false}
+                         : DataOptions::recursive_only()),
+        work_(model) {}
+  int size() const override { return 13 * n_; }
+  void pack(const VectorX& q, const VectorX& z, VectorX& v) const override {
+    State s(model_);
+    joint_state(model_, q, z, s);
+    v << s.x, s.y;
+  }
+  /// The stages of a step lie slightly off |eps_K| = 1; the equations are evaluated at the
+  /// normalized eps_K, so [R_K] is always a rotation and both routes of forward_dynamics see
+  /// the same state. {eps dot} = 1/2 [Ebar'(eps/|eps|)]^T {w'} is orthogonal to eps, so this
+  /// field keeps |eps_K| constant just as Eq. (39) does, and equals it on the constraint.
+  /// This runs six times a step: the copies go through memcpy (glibc's, as wide as the CPU
+  /// allows), with Eigen's portable SSE2 loops they took as many instructions as the
+  /// normalization.
+  void derivative(const VectorX& v, VectorX& dv) override {
+    copy(v.data(), 7 * n_, work_.x.data());
+    copy(v.data() + 7 * n_, 6 * n_, work_.y.data());
+    for (int k = 0; k < n_; ++k) work_.euler_parameters(k).normalize();
+    forward_dynamics(model_, work_, data_, route_);
+    copy(data_.xdot.data(), 7 * n_, dv.data());
+    copy(data_.ydot.data(), 6 * n_, dv.data() + 7 * n_);
+  }
+  double project(VectorX& v, bool apply) override {
+    double drift = 0.0;
+    for (int k = 0; k < n_; ++k) {
+      auto e = v.segment<4>(4 * k);
+      const double norm = e.norm();
+      drift = std::max(drift, std::abs(norm - 1.0));
+      if (apply) e /= norm;
+    }
+    return drift;
+  }
+  void unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state) override {
+    state.x = v.head(7 * n_);
+    state.y = v.tail(6 * n_);
+    if (normalize) state.normalize_euler_parameters();
+    joint_coordinates(model_, state, q, z);
+  }
+  std::string describe(int component, int* body) const override {
+    return describe_state_component(model_, component, body);
+  }
+
+ private:
+  static void copy(const double* from, int count, double* to) {
+    std::memcpy(to, from, sizeof(double) * static_cast<size_t>(count));
+  }
+  const Model& model_;
+  Route route_;
+  int n_;
+  Data data_;
+  State work_;
+};
+
+/// Any other model: v = (q; z), the derivative by JointDynamics on the route asked for.
+class JointIntegrand final : public Integrand {
+ public:
+  JointIntegrand(const Model& model, Route route)
+      : model_(model),
+        route_(route),
+        nq_(model.num_coordinates()),
+        dynamics_(model),
+        drift_q_(VectorX::Zero(nq_)) {}
+  int size() const override { return nq_ + model_.num_speeds(); }
+  void pack(const VectorX& q, const VectorX& z, VectorX& v) const override { v << q, z; }
+  /// Spherical q and free eps_K normalized as the notes' route does (JointDynamics::derivative).
+  void derivative(const VectorX& v, VectorX& dv) override { dynamics_.derivative(v, route_, dv); }
+  double project(VectorX& v, bool apply) override {
+    auto q = v.head(nq_);
+    if (apply) return normalize_joint_coordinates(model_, q);
+    drift_q_ = q;  // the drift alone: normalize a copy (sized once, no allocation)
+    return normalize_joint_coordinates(model_, drift_q_);
+  }
+  void unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state) override {
+    q = v.head(nq_);
+    z = v.tail(v.size() - nq_);
+    if (normalize) normalize_joint_coordinates(model_, q);
+    joint_state(model_, q, z, state);
+  }
+  std::string describe(int component, int* body) const override {
+    return describe_joint_state_component(model_, component, body);
+  }
+
+ private:
+  const Model& model_;
+  Route route_;
+  int nq_;
+  JointDynamics dynamics_;
+  VectorX drift_q_;
+};
+
+/// The route dispatch of a run: the notes' layout for the notes' free tree, (q; z) otherwise.
+std::unique_ptr<Integrand> integrand_for(const Model& model, Route route) {
+  if (model.all_free()) return std::make_unique<NotesIntegrand>(model, route);
+  return std::make_unique<JointIntegrand>(model, route);
+}
+
 /// Everything one run needs, allocated once.
 class Run {
  public:
-  Run(const Model& model, const State& initial, const SimulationSettings& settings,
-      const Observer& observer)
-      : Run(model, settings, nullptr, 13 * model.num_bodies()) {
-    observer_ = &observer;
-    State start = initial;
-    start.normalize_euler_parameters();
-    z_ << start.x, start.y;
-    initial_energy(start.x.allFinite() && start.y.allFinite(), start);
-  }
-
-  /// A jointed tree: the integrated state is (q; z).
   Run(const Model& model, const VectorX& q0, const VectorX& z0, const SimulationSettings& settings,
-      const JointObserver& observer)
-      : Run(model, settings, &model, model.num_coordinates() + model.num_speeds()) {
-    joint_observer_ = &observer;
-    jd_.emplace(model);
-    nq_ = model.num_coordinates();
-    out_q_ = q0;
-    drift_q_ = q0;
-    normalize_joint_coordinates(model, out_q_);
-    z_ << out_q_, z0;
-    out_z_ = z0;
-    const bool finite = out_q_.allFinite() && z0.allFinite();
-    if (finite) joint_state(model, out_q_, out_z_, work_);
-    initial_energy(finite, work_);
+      const Observer& observer)
+      : model_(model),
+        s_(settings),
+        observer_(observer),
+        integrand_(integrand_for(model, settings.route)),
+        size_(integrand_->size()),
+        q_(q0),
+        z_state_(z0),
+        data_(model, DataOptions::recursive_only()),
+        work_(model),
+        out_state_(model),
+        z_(VectorX::Zero(size_)),
+        z_out_(VectorX::Zero(size_)),
+        z_prev_(VectorX::Zero(size_)) {
+    stats_.t_reached = settings.t_start;
+    normalize_joint_coordinates(model, q_);
+    const bool finite = q_.allFinite() && z0.allFinite();
+    integrand_->pack(q_, z0, z_);
+    if (finite) joint_state(model, q_, z_state_, work_);
+    stats_.energy_initial =
+        finite ? energy_of(work_, q_) : std::numeric_limits<double>::quiet_NaN();
   }
 
   SimulationStats run() {
@@ -265,85 +390,17 @@ class Run {
   }
 
  private:
-  Run(const Model& model, const SimulationSettings& settings, const Model* tree, int size)
-      : model_(model),
-        s_(settings),
-        tree_(tree),
-        n_(model.num_bodies()),
-        size_(size),
-        data_(model, settings.route == Route::assembled && !tree
-                         ? DataOptions{.partials = false, .dense_mass_matrix = false}
-                         : DataOptions::recursive_only()),
-        work_(model),
-        out_state_(model),
-        z_(VectorX::Zero(size)),
-        z_out_(VectorX::Zero(size)),
-        z_prev_(VectorX::Zero(size)) {
-    stats_.t_reached = settings.t_start;
-  }
-
-  void initial_energy(bool finite, const State& start) {
-    stats_.energy_initial =
-        finite ? energy_of(start, out_q_) : std::numeric_limits<double>::quiet_NaN();
-  }
-
-  /// The total energy (notes' state, plus the joint springs' potentials of q).
+  /// The total energy at the notes' state of q (with the joint springs' potentials of q).
   double energy_of(const State& state, const VectorX& q) {
-    const double e = total_energy(model_, state, data_);
-    return tree_ ? e + joint_potential_energy(model_, q) : e;
+    compute_kinematics(model_, state, data_);
+    return total_energy_of_kinematics(model_, state, q, data_);
   }
 
-  /// dz/dt at z: the Eq. (1) state from z, forward_dynamics, ({x dot}; {y dot}).
-  /// The stages of a step lie slightly off |eps_K| = 1; the equations are evaluated at the
-  /// normalized eps_K, so [R_K] is always a rotation and both routes of forward_dynamics see
-  /// the same state. {eps dot} = 1/2 [Ebar'(eps/|eps|)]^T {w'} is orthogonal to eps, so this
-  /// field keeps |eps_K| constant just as Eq. (39) does, and equals it on the constraint.
-  /// This runs six times a step: the copies go through memcpy (glibc's, as wide as the CPU
-  /// allows), with Eigen's portable SSE2 loops they took as many instructions as the
-  /// normalization.
-  void derivative(const VectorX& z, VectorX& dz) {
-    if (tree_) {
-      // Spherical q and free eps_K normalized the same way (JointDynamics::derivative).
-      jd_->derivative(z, s_.route, dz);
-      return;
-    }
-    copy(z.data(), 7 * n_, work_.x.data());
-    copy(z.data() + 7 * n_, 6 * n_, work_.y.data());
-    for (int k = 0; k < n_; ++k) work_.euler_parameters(k).normalize();
-    forward_dynamics(model_, work_, data_, s_.route);
-    copy(data_.xdot.data(), 7 * n_, dz.data());
-    copy(data_.ydot.data(), 6 * n_, dz.data() + 7 * n_);
-  }
-  static void copy(const double* from, int count, double* to) {
-    std::memcpy(to, from, sizeof(double) * static_cast<size_t>(count));
-  }
   OdeFunction ode() {
-    return [this](double, const VectorX& z, VectorX& dz) { derivative(z, dz); };
+    return [this](double, const VectorX& v, VectorX& dv) { integrand_->derivative(v, dv); };
   }
 
-  double project(VectorX& z) {
-    if (tree_) {
-      auto q = z.head(nq_);
-      if (s_.project_euler_parameters) return normalize_joint_coordinates(model_, q);
-      drift_q_ = q;  // the drift alone: normalize a copy (sized once, no allocation)
-      return normalize_joint_coordinates(model_, drift_q_);
-    }
-    if (!s_.project_euler_parameters) {
-      double drift = 0.0;
-      for (int k = 0; k < n_; ++k)
-        drift = std::max(drift, std::abs(z.segment<4>(4 * k).norm() - 1.0));
-      return drift;
-    }
-    double drift = 0.0;
-    for (int k = 0; k < n_; ++k) {
-      auto e = z.segment<4>(4 * k);
-      const double norm = e.norm();
-      drift = std::max(drift, std::abs(norm - 1.0));
-      e /= norm;
-    }
-    return drift;
-  }
-
+  double project(VectorX& v) { return integrand_->project(v, s_.project_euler_parameters); }
   /// Output time i: t_start + i dt_out, snapped to t_end at the end.
   double output_time(long i) const {
     const double t = s_.t_start + static_cast<double>(i) * s_.dt_out;
@@ -352,23 +409,10 @@ class Run {
   bool outputs_done() const { return done_outputs_; }
 
   void emit(double t, const VectorX& z) {
-    if (tree_) {
-      out_q_ = z.head(nq_);
-      out_z_ = z.tail(size_ - nq_);
-      if (s_.project_euler_parameters) normalize_joint_coordinates(model_, out_q_);
-      if (*joint_observer_) {
-        joint_state(model_, out_q_, out_z_, out_state_);
-        if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
-        (*joint_observer_)(t, out_state_, out_q_, out_z_, data_);
-      }
-    } else {
-      out_state_.x = z.head(7 * n_);
-      out_state_.y = z.tail(6 * n_);
-      if (s_.project_euler_parameters) out_state_.normalize_euler_parameters();
-      if (*observer_) {
-        if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
-        (*observer_)(t, out_state_, data_);
-      }
+    if (observer_) {
+      integrand_->unpack(z, s_.project_euler_parameters, q_, z_state_, out_state_);
+      if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
+      observer_(t, out_state_, q_, z_state_, data_);
     }
     ++stats_.outputs;
     if (t >= s_.t_end) done_outputs_ = true;
@@ -420,9 +464,7 @@ class Run {
   void fail(SimulationStatus status, int component, const std::string& before,
             const std::string& after) {
     stats_.status = status;
-    const std::string who =
-        tree_ ? describe_joint_state_component(model_, component, &stats_.failed_body)
-              : describe_state_component(model_, component, &stats_.failed_body);
+    const std::string who = integrand_->describe(component, &stats_.failed_body);
     stats_.message = before + (component >= 0 ? ": " + who + after : "");
   }
 
@@ -512,7 +554,7 @@ class Run {
       // On failure z_ keeps the last good state, for the final energy.
       if (!check_state(dp.state(), t_old, t)) return;
       step_done(t, project(dp.mutable_state()));
-      copy(dp.state().data(), size_, z_.data());
+      std::memcpy(z_.data(), dp.state().data(), sizeof(double) * static_cast<size_t>(size_));
       const bool asked_on =
           emit_up_to(t, [&](double t_out, VectorX& z) { dp.dense_output(t_out, z); });
       if ((!asked_on || !keep_going(t)) && !outputs_done()) {
@@ -523,34 +565,19 @@ class Run {
   }
 
   void final_energy() {
-    if (tree_) {
-      out_q_ = z_.head(nq_);
-      out_z_ = z_.tail(size_ - nq_);
-      const bool finite = z_.allFinite();
-      if (finite) {
-        normalize_joint_coordinates(model_, out_q_);
-        joint_state(model_, out_q_, out_z_, work_);
-      }
-      stats_.energy_final =
-          finite ? energy_of(work_, out_q_) : std::numeric_limits<double>::quiet_NaN();
-      return;
-    }
-    work_.x = z_.head(7 * n_);
-    work_.y = z_.tail(6 * n_);
-    stats_.energy_final = work_.x.allFinite() && work_.y.allFinite()
-                              ? total_energy(model_, work_, data_)
-                              : std::numeric_limits<double>::quiet_NaN();
+    const bool finite = z_.allFinite();
+    // At the normalized state: with projection on, z_ is so already (every accepted step and
+    // the start), and normalizing again could change its last bits.
+    if (finite) integrand_->unpack(z_, !s_.project_euler_parameters, q_, z_state_, work_);
+    stats_.energy_final = finite ? energy_of(work_, q_) : std::numeric_limits<double>::quiet_NaN();
   }
 
   const Model& model_;
   const SimulationSettings& s_;
-  const Model* tree_;  ///< the model integrated in (q; z); null for the notes' (x; y)
-  const Observer* observer_ = nullptr;
-  const JointObserver* joint_observer_ = nullptr;
-  std::optional<JointDynamics> jd_;
-  int n_, size_, nq_ = 0;
-  VectorX out_q_, out_z_;
-  VectorX drift_q_;  // project()'s copy of q when the Euler parameters are not projected
+  const Observer& observer_;
+  std::unique_ptr<Integrand> integrand_;
+  int size_;
+  VectorX q_, z_state_;  ///< the model's state at an output (and at the start and the end)
   Data data_;
   State work_, out_state_;
   VectorX z_, z_out_, z_prev_;
@@ -561,23 +588,24 @@ class Run {
 
 }  // namespace
 
+SimulationStats simulate(const Model& model, const VectorX& q0, const VectorX& z0,
+                         const SimulationSettings& settings, const Observer& observer) {
+  if (q0.size() != model.num_coordinates() || z0.size() != model.num_speeds())
+    throw std::invalid_argument("simulate: the state (q, z) does not have the model's sizes (" +
+                                std::to_string(model.num_coordinates()) + " + " +
+                                std::to_string(model.num_speeds()) + ")");
+  validate_settings(model, settings);
+  Run run(model, q0, z0, settings, observer);
+  return run.run();
+}
+
 SimulationStats simulate(const Model& model, const State& initial,
                          const SimulationSettings& settings, const Observer& observer) {
   if (initial.x.size() != model.num_x() || initial.y.size() != model.num_y())
     throw std::invalid_argument("simulate: the state does not have the model's size (7N + 6N)");
-  validate_settings(model, settings);
-  Run run(model, initial, settings, observer);
-  return run.run();
-}
-
-SimulationStats simulate(const Model& model, const VectorX& q0, const VectorX& z0,
-                         const SimulationSettings& settings, const JointObserver& observer) {
-  if (q0.size() != model.num_coordinates() || z0.size() != model.num_speeds())
-    throw std::invalid_argument(
-        "simulate: the joint coordinates and speeds do not have the model's sizes");
-  validate_settings(model, settings);
-  Run run(model, q0, z0, settings, observer);
-  return run.run();
+  VectorX q, z;
+  joint_coordinates(model, initial, q, z);
+  return simulate(model, q, z, settings, observer);
 }
 
 }  // namespace kanedyn

@@ -66,15 +66,17 @@ TEST(SimulateCommand, WritesTheTrajectoryTheLibraryComputes) {
   s.t_end = 0.5;
   s.dt_out = 0.1;
   size_t row = 1;
-  simulate(file.model, file.initial, s, [&](double t, const State& st, Data& data) {
-    const double energy = total_energy(file.model, st, data);
-    ASSERT_LT(row, rows.size());
-    EXPECT_EQ(parse(rows[row][0]), t);
-    EXPECT_EQ(parse(rows[row][1 + 16 * 7 + 11]), st.angular_velocity(7)[1]);  // left_forearm.w2
-    EXPECT_EQ(parse(rows[row][3]), data.kinematics.p_G[0].z());               // torso.z
-    EXPECT_EQ(parse(rows[row].back()), energy);
-    ++row;
-  });
+  simulate(file.model, file.initial, s,
+           [&](double t, const State& st, const VectorX&, const VectorX&, Data& data) {
+             const double energy = total_energy(file.model, st, data);
+             ASSERT_LT(row, rows.size());
+             EXPECT_EQ(parse(rows[row][0]), t);
+             EXPECT_EQ(parse(rows[row][1 + 16 * 7 + 11]),
+                       st.angular_velocity(7)[1]);                        // left_forearm.w2
+             EXPECT_EQ(parse(rows[row][3]), data.kinematics.p_G[0].z());  // torso.z
+             EXPECT_EQ(parse(rows[row].back()), energy);
+             ++row;
+           });
   EXPECT_EQ(row, 7u);
 }
 

@@ -179,8 +179,9 @@ TEST(Rk4, FourthOrderOnTheTorqueFreeBody) {
     s.dt_out = kT;
     s.step = kT / n;
     State last;
-    const auto stats =
-        simulate(p.model, p.initial, s, [&](double, const State& st, Data&) { last = st; });
+    const auto stats = simulate(
+        p.model, p.initial, s,
+        [&](double, const State& st, const VectorX&, const VectorX&, Data&) { last = st; });
     ASSERT_TRUE(stats.ok()) << stats.message;
     EXPECT_EQ(stats.steps_accepted, n);
     EXPECT_EQ(stats.evaluations, 4L * n);
@@ -308,8 +309,9 @@ TEST(Dopri5, ErrorFollowsTheTolerance) {
     s.rtol = tol;
     s.atol = tol;
     State last;
-    const auto stats =
-        simulate(p.model, p.initial, s, [&](double, const State& st, Data&) { last = st; });
+    const auto stats = simulate(
+        p.model, p.initial, s,
+        [&](double, const State& st, const VectorX&, const VectorX&, Data&) { last = st; });
     ASSERT_TRUE(stats.ok()) << stats.message;
     tols.push_back(tol);
     errors.push_back(p.error(kT, last));
@@ -330,11 +332,13 @@ TEST(Dopri5, OutputTimesDoNotShortenSteps) {
     s.atol = 1e-9;
     *worst = 0.0;
     long outputs = 0;
-    const auto stats = simulate(p.model, p.initial, s, [&](double t, const State& st, Data&) {
-      *worst = std::max(*worst, p.error(t, st));
-      EXPECT_NEAR(t, outputs * dt_out, 1e-12);
-      ++outputs;
-    });
+    const auto stats =
+        simulate(p.model, p.initial, s,
+                 [&](double t, const State& st, const VectorX&, const VectorX&, Data&) {
+                   *worst = std::max(*worst, p.error(t, st));
+                   EXPECT_NEAR(t, outputs * dt_out, 1e-12);
+                   ++outputs;
+                 });
     EXPECT_TRUE(stats.ok());
     EXPECT_EQ(outputs, std::lround(kT / dt_out) + 1);
     return stats;

@@ -490,7 +490,7 @@ TEST(JointFiles, AFreeFloatingJointedSystemKeepsItsMomentum) {
   s.atol = 1e-12;
   Data data(f.model);
   std::vector<Vector3> p, h;
-  const JointObserver obs = [&](double, const State& state, const VectorX&, const VectorX&, Data&) {
+  const Observer obs = [&](double, const State& state, const VectorX&, const VectorX&, Data&) {
     p.push_back(linear_momentum(f.model, state, data));
     h.push_back(angular_momentum(f.model, state, data));
   };
@@ -531,8 +531,7 @@ TEST(JointFiles, ASimplePendulumHasItsSmallAnglePeriod) {
   s.rtol = 1e-12;
   s.atol = 1e-14;
   std::vector<double> t, q;
-  const JointObserver obs = [&](double time, const State&, const VectorX& jq, const VectorX&,
-                                Data&) {
+  const Observer obs = [&](double time, const State&, const VectorX& jq, const VectorX&, Data&) {
     t.push_back(time);
     q.push_back(jq[0]);
   };
@@ -585,8 +584,8 @@ forces:
   s.rtol = 1e-12;
   s.atol = 1e-14;
   double worst = 0.0;
-  const JointObserver obs = [&](double t, const State& state, const VectorX& q, const VectorX& z,
-                                Data&) {
+  const Observer obs = [&](double t, const State& state, const VectorX& q, const VectorX& z,
+                           Data&) {
     worst = std::max(worst,
                      std::abs(q[0] - (d_eq + a * std::cos(omega * t) + b * std::sin(omega * t))));
     worst = std::max(worst,
@@ -624,8 +623,7 @@ bodies:
   s.atol = 1e-12;
   Vector3 p_joint;
   Data data(f.model);
-  const JointObserver jobs = [&](double t, const State& state, const VectorX&, const VectorX&,
-                                 Data&) {
+  const Observer jobs = [&](double t, const State& state, const VectorX&, const VectorX&, Data&) {
     compute_kinematics(f.model, state, data);
     if (t == 1.0) p_joint = data.kinematics.p_G[0];
   };
@@ -636,7 +634,7 @@ bodies:
         std::make_shared<Bushing>(0, Vector3::Constant(k), Vector3::Zero(), 0.0, 0.0)};
     const Model free(f.model.bodies(), f.model.gravity(), forces);
     Vector3 p_free;
-    const Observer obs = [&](double t, const State&, Data& d) {
+    const Observer obs = [&](double t, const State&, const VectorX&, const VectorX&, Data& d) {
       if (t == 1.0) p_free = d.kinematics.p_G[0];
     };
     ASSERT_TRUE(simulate(free, f.initial, s, obs).ok());
@@ -729,8 +727,7 @@ TEST(JointFiles, TheJointedExamplesRunWithTheirJointsHeld) {
     s.dt_out = 0.05;
     double worst = 0.0;
     long rows = 0;
-    const JointObserver obs = [&](double, const State& state, const VectorX&, const VectorX&,
-                                  Data&) {
+    const Observer obs = [&](double, const State& state, const VectorX&, const VectorX&, Data&) {
       worst = std::max(worst, joint_violation(f.model, state));
       ++rows;
     };

@@ -11,9 +11,11 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
+#include "kanedyn/forces.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematic_equations.hpp"
 #include "kanedyn/rotation.hpp"
+#include "kanedyn/simulate.hpp"
 #include "test_support.hpp"
 
 namespace kanedyn {
@@ -541,6 +543,120 @@ TEST(JointsProjected, EnergyAndMomentumAreConservedOnTheJointedEightBody) {
       EXPECT_LT((angular_momentum(j.model, state(), data) - h0).norm(), 1e-10 * (1 + h0.norm()));
     }
   }
+}
+
+}  // namespace
+}  // namespace kanedyn
+
+namespace kanedyn {
+namespace {
+
+// The model's state from the notes' state: an all-free model's (q, z) are its x, y body by
+// body, exactly, and back; a joint with coordinates of its own is refused by name; a weld is
+// checked against its lower body.
+TEST(JointCoordinates, AllFreeIsTheNotesStateBodyByBody) {
+  std::mt19937 rng(61);
+  for (const Model& model : test::models_of_every_size(rng)) {
+    if (model.num_bodies() > 50) continue;
+    const State s = test::random_state(model, rng);
+    VectorX q, z;
+    joint_coordinates(model, s, q, z);
+    ASSERT_EQ(q.size(), 7 * model.num_bodies());
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      EXPECT_EQ(q.segment<4>(7 * k), s.euler_parameters(k));
+      EXPECT_EQ(q.segment<3>(7 * k + 4), s.translation(k));
+      EXPECT_EQ(z.segment<3>(6 * k), s.angular_velocity(k));
+      EXPECT_EQ(z.segment<3>(6 * k + 3), s.translation_rate(k));
+    }
+    State back(model);
+    joint_state(model, q, z, back);
+    EXPECT_EQ(back.x, s.x);
+    EXPECT_EQ(back.y, s.y);
+  }
+}
+
+TEST(JointCoordinates, RefusesJointsWithCoordinatesAndChecksWelds) {
+  std::mt19937 rng(62);
+  const Model base = test::random_tree(rng, {.min_bodies = 3, .max_bodies = 3});
+  Joint hinge;
+  hinge.type = JointType::revolute;
+  const Model hinged = with_joints(base, {Joint{}, hinge, Joint{}});
+  VectorX q, z;
+  try {
+    joint_coordinates(hinged, State(hinged), q, z);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("body 'b2' has a revolute joint"), std::string::npos)
+        << e.what();
+  }
+  Joint weld;
+  weld.type = JointType::weld;
+  weld.translation = Vector3(0.1, 0.2, 0.3);
+  const Model welded = with_joints(base, {Joint{}, weld, Joint{}});
+  VectorX q0 = VectorX::Zero(welded.num_coordinates()), z0 = VectorX::Zero(welded.num_speeds());
+  q0[3] = q0[10] = 1.0;  // identity Euler parameters of the two free bodies
+  z0[0] = 0.7;           // the root turns: the weld's body turns with it
+  State held(welded);
+  joint_state(welded, q0, z0, held);
+  joint_coordinates(welded, held, q, z);
+  EXPECT_EQ(q, q0);
+  EXPECT_EQ(z, z0);
+  State moved = held;
+  moved.translation(1).x() += 1e-6;  // beyond 1e-9 relative: not the weld's pose
+  EXPECT_THROW(joint_coordinates(welded, moved, q, z), std::invalid_argument);
+  EXPECT_THROW(joint_coordinates(welded, State(2), q, z), std::invalid_argument);
+}
+
+// A joint spring's energy needs q: the functions of the notes' state refuse such a model, and
+// those of (q, z) add 1/2 k (q - rest)^2 to the bodies' energy.
+TEST(JointCoordinates, EnergyOfAModelWithJointSpringsTakesTheJointCoordinates) {
+  std::mt19937 rng(63);
+  const Model base = test::random_tree(rng, {.min_bodies = 2, .max_bodies = 2});
+  Joint hinge;
+  hinge.type = JointType::revolute;
+  const auto spring =
+      std::make_shared<const JointLoad>(1, VectorX::Constant(1, 4.0), VectorX::Constant(1, 0.5),
+                                        VectorX::Constant(1, 0.25), VectorX::Zero(1));
+  const Model sprung = with_joints(base, {Joint{}, hinge}, {spring});
+  const Model bare = with_joints(base, {Joint{}, hinge});
+  VectorX q, z;
+  test::random_joint_state(sprung, rng, q, z);
+  Data data(sprung);
+  State s(sprung);
+  joint_state(sprung, q, z, s);
+  EXPECT_THROW(total_energy(sprung, s, data), std::invalid_argument);
+  EXPECT_THROW(potential_energy(sprung, s, data), std::invalid_argument);
+  EXPECT_THROW(damping_power(sprung, s, data), std::invalid_argument);
+  const double d = q[7] - 0.25;
+  // The spring's term is added last to the same sums: round-off of one addition.
+  EXPECT_NEAR(total_energy(sprung, q, z, data), total_energy(bare, s, data) + 0.5 * 4.0 * d * d,
+              1e-15 * (1.0 + std::abs(total_energy(bare, s, data))));
+  EXPECT_NEAR(damping_power(sprung, q, z, data), damping_power(bare, s, data) + 0.5 * z[6] * z[6],
+              1e-15 * (1.0 + damping_power(bare, s, data)));
+  EXPECT_EQ(kinetic_energy(sprung, q, z, data), kinetic_energy(bare, s, data));
+}
+
+// One observer for every model: an all-free run's (q, z) at each output are its notes' state
+// body by body, the same bits.
+TEST(JointCoordinates, SimulateGivesTheObserverTheModelsState) {
+  const Model model = test::eight_body_model(Vector3(0, 0, -9.81), true);
+  std::mt19937 rng(64);
+  const State initial = test::random_state(model, rng);
+  SimulationSettings settings;
+  settings.t_end = 0.2;
+  settings.dt_out = 0.05;
+  int rows = 0;
+  const auto stats =
+      simulate(model, initial, settings,
+               [&](double, const State& s, const VectorX& q, const VectorX& z, Data&) {
+                 VectorX eq, ez;
+                 joint_coordinates(model, s, eq, ez);
+                 EXPECT_EQ(q, eq);
+                 EXPECT_EQ(z, ez);
+                 ++rows;
+               });
+  ASSERT_TRUE(stats.ok()) << stats.message;
+  EXPECT_EQ(rows, 5);
 }
 
 }  // namespace

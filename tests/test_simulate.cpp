@@ -31,11 +31,13 @@ TEST(Simulate, ZeroDampingEightBodyKeepsEnergyOverTenSeconds) {
   s.rtol = 1e-10;
   s.atol = 1e-12;
   double e0 = 0.0, worst = 0.0;
-  const auto stats = simulate(model, initial, s, [&](double t, const State& st, Data& data) {
-    const double e = total_energy(model, st, data);
-    if (t == 0.0) e0 = e;
-    worst = std::max(worst, std::abs(e - e0));
-  });
+  const auto stats =
+      simulate(model, initial, s,
+               [&](double t, const State& st, const VectorX&, const VectorX&, Data& data) {
+                 const double e = total_energy(model, st, data);
+                 if (t == 0.0) e0 = e;
+                 worst = std::max(worst, std::abs(e - e0));
+               });
   ASSERT_TRUE(stats.ok()) << stats.message;
   // |E0| is not a near-cancellation of kinetic and potential terms (else "relative" says
   // little): it exceeds the kinetic energy here.
@@ -69,12 +71,14 @@ TEST(Simulate, FreeSystemKeepsLinearAndAngularMomentum) {
   s.atol = 1e-13;
   Vector3 p0, h0;
   double worst_p = 0.0, worst_h = 0.0;
-  const auto stats = simulate(model, initial, s, [&](double t, const State& st, Data& data) {
-    const Vector3 p = linear_momentum(model, st, data), h = angular_momentum(model, st, data);
-    if (t == 0.0) p0 = p, h0 = h;
-    worst_p = std::max(worst_p, (p - p0).norm());
-    worst_h = std::max(worst_h, (h - h0).norm());
-  });
+  const auto stats = simulate(
+      model, initial, s,
+      [&](double t, const State& st, const VectorX&, const VectorX&, Data& data) {
+        const Vector3 p = linear_momentum(model, st, data), h = angular_momentum(model, st, data);
+        if (t == 0.0) p0 = p, h0 = h;
+        worst_p = std::max(worst_p, (p - p0).norm());
+        worst_h = std::max(worst_h, (h - h0).norm());
+      });
   ASSERT_TRUE(stats.ok()) << stats.message;
   ASSERT_GT(p0.norm(), 1.0);
   ASSERT_GT(h0.norm(), 1.0);
@@ -96,10 +100,11 @@ TEST(Simulate, ProjectsEulerParametersAndReportsTheDrift) {
     s.atol = 1e-8;
     s.project_euler_parameters = project;
     double worst = 0.0;
-    const auto stats = simulate(model, initial, s, [&](double, const State& st, Data&) {
-      for (int k = 0; k < 8; ++k)
-        worst = std::max(worst, std::abs(st.euler_parameters(k).norm() - 1.0));
-    });
+    const auto stats = simulate(
+        model, initial, s, [&](double, const State& st, const VectorX&, const VectorX&, Data&) {
+          for (int k = 0; k < 8; ++k)
+            worst = std::max(worst, std::abs(st.euler_parameters(k).norm() - 1.0));
+        });
     ASSERT_TRUE(stats.ok());
     drift[project] = stats.max_euler_drift;
     worst_output[project] = worst;
@@ -124,8 +129,9 @@ TEST(Simulate, OutputTimesAreEvenlySpacedAndIncludeTheEnd) {
     s.t_end = 1.25;
     s.dt_out = 0.1;
     std::vector<double> times;
-    const auto stats = simulate(model, moving_state(model, 1), s,
-                                [&](double t, const State&, Data&) { times.push_back(t); });
+    const auto stats = simulate(
+        model, moving_state(model, 1), s,
+        [&](double t, const State&, const VectorX&, const VectorX&, Data&) { times.push_back(t); });
     ASSERT_TRUE(stats.ok());
     ASSERT_EQ(times.size(), 4u);
     EXPECT_EQ(times[0], 1.0);
@@ -162,7 +168,9 @@ TEST(Simulate, KaneAndRecursiveRoutesGiveTheSameTrajectory) {
     s.dt_out = 0.25;
     s.route = method;
     simulate(model, initial, s,
-             [&](double, const State& st, Data&) { states[route].push_back(st); });
+             [&](double, const State& st, const VectorX&, const VectorX&, Data&) {
+               states[route].push_back(st);
+             });
     ++route;
   }
   ASSERT_EQ(states[0].size(), states[1].size());
@@ -218,10 +226,12 @@ TEST(Simulate, NonFiniteStateStopsNamingTimeAndBody) {
     s.t_end = 2.0;
     s.dt_out = 0.1;
     long outputs = 0;
-    const auto stats = simulate(model, State(model), s, [&](double, const State& st, Data&) {
-      EXPECT_TRUE(st.x.allFinite() && st.y.allFinite());
-      ++outputs;
-    });
+    const auto stats =
+        simulate(model, State(model), s,
+                 [&](double, const State& st, const VectorX&, const VectorX&, Data&) {
+                   EXPECT_TRUE(st.x.allFinite() && st.y.allFinite());
+                   ++outputs;
+                 });
     EXPECT_EQ(stats.status, SimulationStatus::non_finite) << to_string(integrator);
     EXPECT_EQ(stats.failed_body, 1);
     EXPECT_NE(stats.message.find("body 'faller'"), std::string::npos) << stats.message;
@@ -263,7 +273,8 @@ TEST(Simulate, OnStepCanInterrupt) {
   s.on_step = [](double t) { return t < 0.5; };
   double last = -1;
   const auto stats =
-      simulate(model, moving_state(model, 2), s, [&](double t, const State&, Data&) { last = t; });
+      simulate(model, moving_state(model, 2), s,
+               [&](double t, const State&, const VectorX&, const VectorX&, Data&) { last = t; });
   EXPECT_EQ(stats.status, SimulationStatus::interrupted);
   EXPECT_GE(stats.t_reached, 0.5);
   EXPECT_LT(stats.t_reached, 1.0);
@@ -293,9 +304,10 @@ TEST(Simulate, RejectsInconsistentSettings) {
   EXPECT_THROW(simulate(model, State(3), SimulationSettings{}), std::invalid_argument);
   // The zero-length run is fine: one output.
   long outputs = 0;
-  EXPECT_TRUE(simulate(model, initial, with([](auto& s) { s.t_end = 0; }),
-                       [&](double, const State&, Data&) { ++outputs; })
-                  .ok());
+  EXPECT_TRUE(
+      simulate(model, initial, with([](auto& s) { s.t_end = 0; }),
+               [&](double, const State&, const VectorX&, const VectorX&, Data&) { ++outputs; })
+          .ok());
   EXPECT_EQ(outputs, 1);
 }
 
@@ -392,9 +404,11 @@ TEST(Simulate, ADivergingRunStopsWhereTheStateLeavesTheBound) {
   s.integrator = Integrator::rk4;
   s.step = s.dt_out = 0.05;
   double largest = 0.0;
-  const auto stats = simulate(model, displaced(model), s, [&](double, const State& st, Data&) {
-    largest = std::max({largest, st.x.cwiseAbs().maxCoeff(), st.y.cwiseAbs().maxCoeff()});
-  });
+  const auto stats = simulate(
+      model, displaced(model), s,
+      [&](double, const State& st, const VectorX&, const VectorX&, Data&) {
+        largest = std::max({largest, st.x.cwiseAbs().maxCoeff(), st.y.cwiseAbs().maxCoeff()});
+      });
   EXPECT_EQ(stats.status, SimulationStatus::non_finite);
   EXPECT_NE(stats.message.find("diverged in the step from t = "), std::string::npos)
       << stats.message;
@@ -432,7 +446,8 @@ TEST(Simulate, OnStepIsAskedBetweenTheRowsOfOneLongStep) {
   long calls = 0, rows = 0;
   s.on_step = [&](double) { return ++calls < 3; };
   const auto stats =
-      simulate(model, displaced(model), s, [&](double, const State&, Data&) { ++rows; });
+      simulate(model, displaced(model), s,
+               [&](double, const State&, const VectorX&, const VectorX&, Data&) { ++rows; });
   EXPECT_EQ(stats.status, SimulationStatus::interrupted);
   EXPECT_EQ(calls, 3);
   EXPECT_LE(rows, 1 + 3 * 64);
@@ -479,11 +494,13 @@ TEST(Examples, TennisRacketFlipsWithinTheDefaultRun) {
   // w2 starts at +6 rad/s about the intermediate axis and turns over (to about -6) and back;
   // energy stays (free body, dopri5 at the default tolerances).
   double w2_min = 1e9, first_flip = -1.0;
-  const auto stats = run_example("tennis_racket.yaml", 0.0, [&](double t, const State& st, Data&) {
-    const double w2 = st.angular_velocity(0)[1];
-    w2_min = std::min(w2_min, w2);
-    if (w2 < 0 && first_flip < 0) first_flip = t;
-  });
+  const auto stats =
+      run_example("tennis_racket.yaml", 0.0,
+                  [&](double t, const State& st, const VectorX&, const VectorX&, Data&) {
+                    const double w2 = st.angular_velocity(0)[1];
+                    w2_min = std::min(w2_min, w2);
+                    if (w2 < 0 && first_flip < 0) first_flip = t;
+                  });
   ASSERT_TRUE(stats.ok()) << stats.message;
   EXPECT_NEAR(stats.t_reached, 10.0, 1e-12);
   EXPECT_LT(w2_min, -5.9);
@@ -497,10 +514,12 @@ TEST(Examples, DoublePendulumBushingsActAsJoints) {
   // metres; the energy changes only by what the pins' damping takes from their vibration.
   double stretch = 0.0, height_min = 1e9;
   const auto stats =
-      run_example("double_pendulum.yaml", 2.0, [&](double, const State& st, Data& data) {
-        for (int k = 0; k < 2; ++k) stretch = std::max(stretch, st.translation(k).norm());
-        height_min = std::min(height_min, data.kinematics.p_G[1].z());
-      });
+      run_example("double_pendulum.yaml", 2.0,
+                  [&](double, const State& st, const VectorX&, const VectorX&, Data& data) {
+                    for (int k = 0; k < 2; ++k)
+                      stretch = std::max(stretch, st.translation(k).norm());
+                    height_min = std::min(height_min, data.kinematics.p_G[1].z());
+                  });
   ASSERT_TRUE(stats.ok()) << stats.message;
   EXPECT_LT(stretch, 1e-3);
   EXPECT_LT(height_min, -1.0);  // the lower link swings down past the pivot by a metre
@@ -512,9 +531,10 @@ TEST(Examples, Chain64HangsUnderGravity) {
   ASSERT_EQ(file.model.num_bodies(), 64);
   EXPECT_EQ(file.model.depth(63), 63);
   double end_z0 = 0.0, end_z = 0.0;
-  const auto stats = run_example("chain64.yaml", 0.1, [&](double t, const State&, Data& data) {
-    (t == 0.0 ? end_z0 : end_z) = data.kinematics.p_G[63].z();
-  });
+  const auto stats = run_example(
+      "chain64.yaml", 0.1, [&](double t, const State&, const VectorX&, const VectorX&, Data& data) {
+        (t == 0.0 ? end_z0 : end_z) = data.kinematics.p_G[63].z();
+      });
   ASSERT_TRUE(stats.ok()) << stats.message;
   EXPECT_LT(end_z, end_z0);  // released from rest: the free end falls
 }

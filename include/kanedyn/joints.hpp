@@ -46,6 +46,15 @@ Vector3 joint_relative_angular_velocity(const Model& model, int k, const VectorX
 /// bodies copy their slices. Needs state sized for N bodies. Unit spherical q assumed.
 void joint_state(const Model& model, const VectorX& q, const VectorX& z, State& state);
 
+/// The model's state (q, z) from the notes' state (x, y), where the joints allow it: a free
+/// body's slices are its (eps_K, s'_K) and (w'_K, s'_K dot), a weld has none. Throws
+/// std::invalid_argument naming the first body whose joint has coordinates of its own
+/// (revolute, prismatic, cylindrical, universal, spherical: their q is not read back from x,
+/// where angles lose their turns; give q), or a weld whose pose or speeds in (x, y) differ from
+/// those its joint gives (by more than 1e-9 (1 + |value|)), or a state of the wrong size.
+/// q and z are resized.
+void joint_coordinates(const Model& model, const State& state, VectorX& q, VectorX& z);
+
 /// Rescales every spherical q and every free eps_K to unit norm (the integrator's
 /// normalization, as State::normalize_euler_parameters); returns the largest | |e| - 1 |.
 double normalize_joint_coordinates(const Model& model, Eigen::Ref<VectorX> q);

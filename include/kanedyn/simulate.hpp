@@ -1,5 +1,5 @@
-// Simulation: integrate the equations of motion of a Model from a State, calling an observer
-// at evenly spaced output times. The library never prints; progress and interruption go
+// Simulation: integrate the equations of motion of a Model from its state (q, z), calling an
+// observer at evenly spaced output times. The library never prints; progress and interruption go
 // through an optional callback. See docs/simulation.md.
 #pragma once
 
@@ -42,11 +42,13 @@ struct SimulationSettings {
   std::function<bool(double t)> on_step;
 };
 
-/// Called at each output time with the state there; data holds the kinematics of that state
-/// (R, p_O, p_G, v_O, v_G: compute_kinematics; unless settings.observer_kinematics is false)
-/// and may be used as scratch (e.g. to call total_energy). Exceptions thrown by the observer
-/// leave simulate().
-using Observer = std::function<void(double t, const State& state, Data& data)>;
+/// Called at each output time with the model's state there: its notes' state (x, y), its joint
+/// coordinates q and speeds z (for an all-free model, the same numbers body by body), and data
+/// holding the kinematics of that state (R, p_O, p_G, v_O, v_G: compute_kinematics; unless
+/// settings.observer_kinematics is false), which may be used as scratch (e.g. to call
+/// total_energy). Exceptions thrown by the observer leave simulate().
+using Observer = std::function<void(double t, const State& state, const VectorX& q,
+                                    const VectorX& z, Data& data)>;
 
 /// A state component beyond this magnitude counts as diverged: its square, which the energy
 /// and the force laws form, nears the largest double (1.8e308).
@@ -107,26 +109,23 @@ double rk4_step_limit(const Model& model, int* force_index = nullptr);
 /// so that dt_out / step = 10 gives 10 steps, not 11).
 long rk4_substeps(double span, double step);
 
-/// Integrates from `initial` (its Euler parameters are normalized first) over
-/// [t_start, t_end]. Calls observer (if set) at every output time, the first at t_start.
-/// Throws std::invalid_argument for inconsistent settings or a state of the wrong size;
-/// integration failures are reported in the returned stats, not thrown.
-SimulationStats simulate(const Model& model, const State& initial,
+/// Integrates the model from its state (q0, z0) over [t_start, t_end] (docs/simulation.md);
+/// every joint holds by construction. The Euler parameters in q0 (a free body's eps_K, a
+/// spherical joint's q) are normalized first, and after each accepted step
+/// (project_euler_parameters); max_euler_drift records their drift. The derivative is the
+/// model's forward dynamics by settings.route (dynamics.hpp): for an all-free model the
+/// notes' Eqs. (36), (39)-(40) in the layout of Eq. (1), otherwise JointDynamics::derivative.
+/// The energy is total_energy at (q, z) (with the joint springs' potentials). Calls observer
+/// (if set) at every output time, the first at t_start. Throws std::invalid_argument for
+/// inconsistent settings or a state of the wrong size; integration failures are reported in
+/// the returned stats (naming the body and its column), not thrown.
+SimulationStats simulate(const Model& model, const VectorX& q0, const VectorX& z0,
                          const SimulationSettings& settings, const Observer& observer = {});
 
-/// Called at each output time of a jointed run: the notes' state computed from (q, z) by
-/// joint_state(), the joint coordinates and speeds themselves, and data as for Observer.
-using JointObserver = std::function<void(double t, const State& state, const VectorX& q,
-                                         const VectorX& z, Data& data)>;
-
-/// The same from joint coordinates (docs/theory.md, "Joints"): integrates (q; z), so that every
-/// joint holds by construction; the derivative is JointDynamics::derivative by settings.route
-/// (recursive: the O(N) route; assembled: the projected Kane equations). After each accepted
-/// step the spherical q and free eps_K are rescaled to unit norm (project_euler_parameters),
-/// and max_euler_drift records their drift. The energy adds the joint springs' potentials.
-/// Failures name the body and its column (describe_joint_state_component).
-SimulationStats simulate(const Model& model, const VectorX& q0, const VectorX& z0,
-                         const SimulationSettings& settings, const JointObserver& observer = {});
+/// The same from the notes' state (x, y), where the joints allow it (joint_coordinates):
+/// any state of an all-free model.
+SimulationStats simulate(const Model& model, const State& initial,
+                         const SimulationSettings& settings, const Observer& observer = {});
 
 /// The column of a component of (q; z), as the trajectory CSV names it after the body name and
 /// a dot: a free body's e1..e4, s1..s3, w1..w3, sd1..sd3, another joint's j1.. and jd1..; ""

@@ -97,9 +97,13 @@ constexpr double kUnitTolerance = 1e-6;
 /// A State from a Python State, or the model's initial state when obj is None; ValueError
 /// for a state of another model size or with a problem of copy_coordinates/copy_speeds.
 State state_argument(const PyModel& m, py::handle obj);
-/// (q; z) of a jointed model from the arguments q and z (None: the initial ones), checked:
+/// (q; z) of any model from the arguments q and z (None: the initial ones), checked:
 /// shapes, finite, unit Euler parameters (ValueError naming the body).
 VectorX joint_arguments(const PyModel& m, py::object q, py::object z);
+/// The model's state (q; z) from either a State (the notes' x, y, where the joints allow it:
+/// joint_coordinates, ValueError naming the body otherwise) or the arguments q and z; all
+/// None gives the initial state. ValueError when both a state and q or z are given.
+VectorX model_state_argument(const PyModel& m, py::object state, py::object q, py::object z);
 
 /// A path argument as open() takes one: str, bytes or os.PathLike (by os.fspath), encoded as
 /// os.fsencode does (so that a name os.listdir gave back round-trips). A NUL byte raises

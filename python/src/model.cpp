@@ -481,26 +481,35 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "rate=True (Eqs. 29-30), for P = 'O' or 'G': two lines, the y1 and y2 parts.")
       .def(
           "energy",
-          [](const PyModel& p, py::object state_obj) {
-            const State state = state_argument(p, state_obj);
+          [](const PyModel& p, py::object state_obj, py::object q_obj, py::object z_obj) {
+            const VectorX qz = model_state_argument(p, state_obj, q_obj, z_obj);
+            const Model& model = p.model();
+            const VectorX q = qz.head(model.num_coordinates()), z = qz.tail(model.num_speeds());
             PyModel::Lease work(p);  // a pooled Data: no workspace built per call
             Data& data = work->data;
-            return py::make_tuple(kinetic_energy(p.model(), state, data),
-                                  potential_energy(p.model(), state, data),
-                                  total_energy(p.model(), state, data));
+            return py::make_tuple(kinetic_energy(model, q, z, data),
+                                  potential_energy(model, q, z, data),
+                                  total_energy(model, q, z, data));
           },
-          py::arg("state") = py::none(),
-          "(kinetic, potential, total) energy at a state (total is the CSV's energy column).")
+          py::arg("state") = py::none(), py::kw_only(), py::arg("q") = py::none(),
+          py::arg("z") = py::none(),
+          "(kinetic, potential, total) energy at a state (default: the initial state), given as "
+          "a State (the notes' x, y: every body free, or the joints allow it) or as the joint "
+          "coordinates q= and speeds z=. The potential includes the joint springs'; total is "
+          "the CSV's energy column.")
       .def(
           "momentum",
-          [](const PyModel& p, py::object state_obj) {
-            const State state = state_argument(p, state_obj);
+          [](const PyModel& p, py::object state_obj, py::object q_obj, py::object z_obj) {
+            const VectorX qz = model_state_argument(p, state_obj, q_obj, z_obj);
+            const Model& model = p.model();
+            const VectorX q = qz.head(model.num_coordinates()), z = qz.tail(model.num_speeds());
             PyModel::Lease work(p);
             Data& data = work->data;
-            return py::make_tuple(to_numpy(linear_momentum(p.model(), state, data)),
-                                  to_numpy(angular_momentum(p.model(), state, data)));
+            return py::make_tuple(to_numpy(linear_momentum(model, q, z, data)),
+                                  to_numpy(angular_momentum(model, q, z, data)));
           },
-          py::arg("state") = py::none(),
+          py::arg("state") = py::none(), py::kw_only(), py::arg("q") = py::none(),
+          py::arg("z") = py::none(),
           "(linear momentum, angular momentum about the inertial origin), inertial components.")
       .def("__repr__", [](const PyModel& p) {
         return "<kanedyn.Model '" +

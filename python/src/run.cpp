@@ -21,6 +21,7 @@
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/trajectory.hpp"
 #include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
 
@@ -340,7 +341,7 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
 }  // namespace
 
 VectorX joint_arguments(const PyModel& m, py::object q_obj, py::object z_obj) {
-  const Model* tree = m.joints();
+  const Model* tree = &m.model();
   const int nq = tree->num_coordinates(), nz = tree->num_speeds();
   VectorX qz(nq + nz);
   qz << m.file().q, m.file().z;
@@ -364,6 +365,23 @@ VectorX joint_arguments(const PyModel& m, py::object q_obj, py::object z_obj) {
       throw py::value_error("q: body '" + m.model().body(k).name + "': " + problem);
     }
   }
+  return qz;
+}
+
+VectorX model_state_argument(const PyModel& m, py::object state_obj, py::object q_obj,
+                             py::object z_obj) {
+  if (state_obj.is_none()) return joint_arguments(m, q_obj, z_obj);
+  if (!q_obj.is_none() || !z_obj.is_none())
+    throw py::value_error("give the state or q and z, not both");
+  const State state = state_argument(m, state_obj);
+  VectorX q, z;
+  try {
+    joint_coordinates(m.model(), state, q, z);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(e.what());
+  }
+  VectorX qz(q.size() + z.size());
+  qz << q, z;
   return qz;
 }
 
@@ -504,25 +522,19 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
     for (const Vector3& p : data.kinematics.p_G)
       rows.p_G.insert(rows.p_G.end(), p.begin(), p.end());
   };
-  const Observer observer = [&](double t, const State& state, Data& data) {
-    if (!out.empty()) open_writer().write_row(t, state);
-    if (!store) return;
-    keep(t, state, data);
-    rows.energy.push_back(total_energy_of_kinematics(model, state, data));
-  };
-  const JointObserver joint_observer = [&](double t, const State& state, const VectorX& q,
-                                           const VectorX& z, Data& data) {
+  const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
+                                Data& data) {
     if (!out.empty()) open_writer().write_row(t, state, q, z);
     if (!store) return;
     keep(t, state, data);
-    rows.energy.push_back(total_energy_of_kinematics(model, state, data) +
-                          joint_potential_energy(*tree, q));
+    rows.energy.push_back(total_energy_of_kinematics(model, state, q, data));
+    if (!tree) return;  // an all-free model's rows are x and y
     rows.q.insert(rows.q.end(), q.begin(), q.end());
     rows.z.insert(rows.z.end(), z.begin(), z.end());
   };
   try {
     py::gil_scoped_release release;
-    stats = tree ? simulate(model, m.file().q, m.file().z, settings, joint_observer)
+    stats = tree ? simulate(model, m.file().q, m.file().z, settings, observer)
                  : simulate(model, initial, settings, observer);
     if (!hook.failed()) hook(stats.t_reached, true);  // the progress callback sees the end
   } catch (const std::exception& e) {

@@ -145,3 +145,52 @@ def test_free_tree_calls_refuse_a_jointed_model() -> None:
         q = h.initial_joint_coordinates.copy()
         q[h.joint_layout["head"][0]] = 0.5
         h.joint_derivatives(q)
+
+
+@pytest.mark.parametrize("name", JOINTED)
+def test_energy_is_the_csv_energy_column_with_the_joint_springs(name: str, tmp_path) -> None:
+    # Both models have joint springs (examples: cart_pendulum's on the cart, human_jointed's on
+    # the pelvis and a hip): their potentials are in the tool's energy column, and
+    # Model.energy at a row's (q, z) gives that column's number, bit for bit (the row's q and z
+    # read back to the same doubles, and the energy is the same function of them).
+    m = kanedyn.load(EXAMPLES / name)
+    done = run_tool(["simulate", EXAMPLES / name, "--t-end", "0.3", "--dt-out", "0.1", "-o", tmp_path / "run.csv"])
+    assert done.returncode == 0, done.stderr
+    back = kanedyn.read_csv(m, tmp_path / "run.csv")
+    springs = 0.0
+    for i in range(len(back.t)):
+        kinetic, potential, total = m.energy(q=back.q[i], z=back.z[i])
+        assert total == back.energy[i], i
+        assert total == kinetic + potential
+        springs = max(springs, abs(total))
+    assert springs > 0.0
+    # The notes' state alone does not give the joint coordinates: refused, naming the body.
+    with pytest.raises(ValueError, match="joint coordinates q"):
+        m.energy(m.initial_state())
+    with pytest.raises(ValueError, match="not both"):
+        m.energy(m.initial_state(), q=back.q[0])
+
+
+def test_energy_of_the_joint_springs_is_their_potential() -> None:
+    # cart_pendulum: joint_spring of stiffness 5 on the cart's prismatic coordinate (rest 0).
+    # Moving the cart by d changes only the spring's potential: 1/2 5 d^2 (the cart slides
+    # along its horizontal axis, so gravity's potential does not change).
+    m = kanedyn.load(EXAMPLES / "cart_pendulum.yaml")
+    q = m.initial_joint_coordinates.copy()
+    z = np.zeros_like(m.initial_joint_speeds)
+    q[0] = 0.0
+    _, v0, _ = m.energy(q=q, z=z)
+    q[0] = 0.3
+    _, v1, _ = m.energy(q=q, z=z)
+    assert v1 - v0 == pytest.approx(0.5 * 5.0 * 0.3**2, rel=1e-12)
+
+
+def test_energy_of_an_all_free_model_from_its_state_or_its_coordinates() -> None:
+    m = kanedyn.load(EXAMPLES / "eight_body.yaml")
+    s = m.initial_state()
+    q = np.concatenate([np.concatenate([s.x[4 * k:4 * k + 4], s.x[32 + 3 * k:32 + 3 * k + 3]]) for k in range(8)])
+    z = np.concatenate([np.concatenate([s.y[3 * k:3 * k + 3], s.y[24 + 3 * k:24 + 3 * k + 3]]) for k in range(8)])
+    assert m.energy(s) == m.energy(q=q, z=z) == m.energy()
+    p1, h1 = m.momentum(s)
+    p2, h2 = m.momentum(q=q, z=z)
+    assert same_bits(p1, p2) and same_bits(h1, h2)

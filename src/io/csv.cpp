@@ -309,13 +309,13 @@ struct BackgroundTrajectoryWriter::Impl {
         std::copy_n(p + 1, nx, state.x.data());
         std::copy_n(p + 1 + nx, ny, state.y.data());
         compute_kinematics(model, state, data);
-        const double energy = total_energy_of_kinematics(model, state, data);
-        if (const Model* joints = writer.joints()) {
+        if (writer.joints()) {
           std::copy_n(p + 1 + nx + ny, nq, q.data());
           std::copy_n(p + 1 + nx + ny + nq, nz, z.data());
-          writer.write_row(p[0], state, data, energy + joint_potential_energy(*joints, q), &q, &z);
+          writer.write_row(p[0], state, data, total_energy_of_kinematics(model, state, q, data), &q,
+                           &z);
         } else {
-          writer.write_row(p[0], state, data, energy);
+          writer.write_row(p[0], state, data, total_energy_of_kinematics(model, state, data));
         }
       }
       if (flush_now) writer.flush();
@@ -402,11 +402,16 @@ void BackgroundTrajectoryWriter::write_row(double t, const State& state) {
 
 void BackgroundTrajectoryWriter::write_row(double t, const State& state, const VectorX& jq,
                                            const VectorX& jz) {
-  if (!impl_->writer.joints() || static_cast<size_t>(jq.size()) != impl_->nq ||
-      static_cast<size_t>(jz.size()) != impl_->nz)
+  const Model& model = impl_->writer.model();
+  if (jq.size() != model.num_coordinates() || jz.size() != model.num_speeds())
     throw std::invalid_argument(
-        "BackgroundTrajectoryWriter: the joint coordinates are not the joint tree's size");
-  queue(t, state, jq, jz);
+        "BackgroundTrajectoryWriter: the joint coordinates are not the model's size");
+  // An all-free model's rows are its notes' state: (q, z) hold the same numbers.
+  static const VectorX none;
+  if (impl_->writer.joints())
+    queue(t, state, jq, jz);
+  else
+    queue(t, state, none, none);
 }
 
 void BackgroundTrajectoryWriter::queue(double t, const State& state, const VectorX& jq,

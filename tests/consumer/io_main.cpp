@@ -14,8 +14,9 @@ int main() {
   settings.t_end = 1.0;
   double z = 0.0;
   const auto stats = kanedyn::simulate(
-      file.model, file.initial, settings,
-      [&](double, const kanedyn::State& state, kanedyn::Data&) { z = state.translation(0).z(); });
+      file.model, file.q, file.z, settings,
+      [&](double, const kanedyn::State& state, const kanedyn::VectorX&, const kanedyn::VectorX&,
+          kanedyn::Data&) { z = state.translation(0).z(); });
   std::printf("consumer (io): z(1 s) = %.12f\n", z);
   return stats.ok() && std::abs(z + 0.5 * 9.81) < 1e-9 ? 0 : 1;
 }

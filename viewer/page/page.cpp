@@ -179,8 +179,7 @@ io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const Ve
     put(initial.angular_velocity(k));
     put(initial.translation_rate(k));
   }
-  out.values.push_back(total_energy_of_kinematics(model, initial, data) +
-                       joint_potential_energy(model, q));
+  out.values.push_back(total_energy_of_kinematics(model, initial, q, data));
   return out;
 }
 

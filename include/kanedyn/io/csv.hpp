@@ -104,7 +104,8 @@ class BackgroundTrajectoryWriter {
   /// Queues one row: t and a copy of the state (its Euler parameters as given). Throws
   /// std::invalid_argument for a state of another size than the model's.
   void write_row(double t, const State& state);
-  /// The same for a jointed model: q and z are queued too.
+  /// The same with the model's state (q, z) (any model; queued when some joint is not free,
+  /// whose rows have joint columns). Throws std::invalid_argument for q or z of the wrong size.
   void write_row(double t, const State& state, const VectorX& q, const VectorX& z);
   /// Asks the thread to write the queued rows to the file now (returns at once).
   void flush();
