@@ -16,7 +16,6 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -30,6 +29,7 @@ struct BenchResult {
   long reps = 0;           ///< evaluations timed
   long batch = 0;          ///< evaluations per batch
   int lanes = 0;           ///< bodies per SIMD pass of the recursive route's kernel
+  std::string kernel;      ///< what runs (Dynamics::kernel)
 };
 
 double elapsed_ns(Clock::time_point since) {
@@ -70,38 +70,24 @@ BenchResult time_calls(Route route, long reps, const Evaluate& evaluate) {
   return r;
 }
 
-/// Times the evaluation `simulate` integrates, at the model's initial state: for the free
-/// tree forward_dynamics(route) ({y dot}, {x dot}); for a jointed model the derivative of its
-/// joint coordinates and speeds (q dot, z dot) by JointDynamics, as simulate evaluates it.
+/// Times the evaluation `simulate` integrates, at the model's initial state: the derivative
+/// of Dynamics (the route dispatch simulate runs), and names its kernel.
 BenchResult time_route(const io::ModelFile& file, Route route, long reps, int max_lanes) {
-  const Model& model = file.model;
-  const auto not_finite = [] {
-    return std::runtime_error("the equations of motion are not finite at the initial state");
-  };
-  if (file.jointed()) {
-    JointDynamics dynamics(model);
-    VectorX qz(file.q.size() + file.z.size());
-    qz << file.q, file.z;
-    VectorX rates(qz.size());
-    dynamics.derivative(qz, route, rates);  // warm-up (the assembled route builds its blocks)
-    if (!rates.allFinite()) throw not_finite();
-    return time_calls(route, reps, [&] { dynamics.derivative(qz, route, rates); });
-  }
-  // Only what the route needs: the assembled route's block-sparse [A], no partials, no dense [A].
-  DataOptions options = DataOptions::recursive_only(max_lanes);
-  options.kane_terms = route == Route::assembled;  // the assembled route's scratch, no dense [A]
-  Data data(model, options);
-  forward_dynamics(model, file.initial, data, route);  // warm-up (first touch of the workspace)
-  if (!data.ydot.allFinite()) throw not_finite();
-  BenchResult r =
-      time_calls(route, reps, [&] { forward_dynamics(model, file.initial, data, route); });
-  r.lanes = data.single_pass() ? data.simd_lanes() : 0;
+  Dynamics dynamics(file.model, route, max_lanes);
+  VectorX v(dynamics.size()), rates(dynamics.size());
+  dynamics.pack(file.q, file.z, v);
+  dynamics.derivative(v, rates);  // warm-up (the assembled route builds its blocks)
+  if (!rates.allFinite())
+    throw std::runtime_error("the equations of motion are not finite at the initial state");
+  BenchResult r = time_calls(route, reps, [&] { dynamics.derivative(v, rates); });
+  r.lanes = dynamics.simd_lanes();
+  r.kernel = dynamics.kernel();
   return r;
 }
 
 /// What one evaluation computes, for the output.
-const char* evaluated(const io::ModelFile& file) {
-  return file.jointed() ? "zdot and qdot of the joint coordinates" : "ydot and xdot";
+std::string evaluated(const io::ModelFile& file) {
+  return "d/dt of " + Dynamics(file.model).layout();
 }
 
 void print_text(const io::ModelFile& file, const std::vector<BenchResult>& results) {
@@ -109,18 +95,19 @@ void print_text(const io::ModelFile& file, const std::vector<BenchResult>& resul
   std::printf("model: %s", file.path.c_str());
   if (!file.model.name().empty()) std::printf(" (%s)", file.model.name().c_str());
   std::printf(", N = %d\nforward dynamics (%s, as simulate evaluates it) at the initial state\n\n",
-              n, evaluated(file));
+              n, evaluated(file).c_str());
   std::printf("%-10s %11s %7s %15s %13s %15s %12s\n", "route", "evaluations", "batch",
               "median ns/eval", "min ns/eval", "median ns/body", "min ns/body");
   for (const BenchResult& r : results)
     std::printf("%-10s %11ld %7ld %15.1f %13.1f %15.2f %12.2f\n", to_string(r.route).c_str(),
                 r.reps, r.batch, r.median_ns, r.min_ns, r.median_ns / n, r.min_ns / n);
+  std::printf("\n");
   for (const BenchResult& r : results)
-    if (r.route == Route::recursive && r.lanes > 0)
-      std::printf("\nrecursive: %d bodies per SIMD pass (%s)\n", r.lanes,
-                  r.lanes == 8   ? "AVX-512F"
-                  : r.lanes == 4 ? "AVX"
-                                 : "SSE2 or generic");
+    std::printf("%s: %s%s\n", to_string(r.route).c_str(), r.kernel.c_str(),
+                r.lanes == 8   ? " (AVX-512F)"
+                : r.lanes == 4 ? " (AVX)"
+                : r.lanes > 0  ? " (SSE2 or generic)"
+                               : "");
 }
 
 void print_json(const io::ModelFile& file, const std::vector<BenchResult>& results) {
@@ -132,6 +119,7 @@ void print_json(const io::ModelFile& file, const std::vector<BenchResult>& resul
   out["results"] = Json::array();
   for (const BenchResult& r : results)
     out["results"].push_back({{"route", to_string(r.route)},
+                              {"kernel", r.kernel},
                               {"ns_per_eval_median", r.median_ns},
                               {"ns_per_eval_min", r.min_ns},
                               {"reps", r.reps}});

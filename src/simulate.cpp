@@ -12,7 +12,6 @@
 
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 
@@ -215,133 +214,6 @@ long rk4_substeps(double span, double step) {
 
 namespace {
 
-/// What a run integrates, chosen once per run by the model (integrand_for): the vector the
-/// integrator advances, its derivative and projection, and the model's state (q, z) and notes'
-/// state of it. The Run is the same for every model.
-class Integrand {
- public:
-  virtual ~Integrand() = default;
-  /// The vector the integrator advances, of size(), from the model's state.
-  virtual int size() const = 0;
-  virtual void pack(const VectorX& q, const VectorX& z, VectorX& v) const = 0;
-  virtual void derivative(const VectorX& v, VectorX& dv) = 0;
-  /// The largest | |e| - 1 | of v's Euler parameters; rescales them to unit norm when apply.
-  virtual double project(VectorX& v, bool apply) = 0;
-  /// The model's state of v: q, z and the notes' state, the Euler parameters normalized when
-  /// `normalize`.
-  virtual void unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state) = 0;
-  /// "body 'NAME' (COLUMN)" for a component of v.
-  virtual std::string describe(int component, int* body) const = 0;
-};
-
-/// The notes' free tree (every joint free): v = ({x}; {y}) in the layout of Eq. (1), the
-/// derivative by forward_dynamics on the route asked for. (q, z) hold the same numbers body by
-/// body.
-class NotesIntegrand final : public Integrand {
- public:
-  NotesIntegrand(const Model& model, Route route)
-      : model_(model),
-        route_(route),
-        n_(model.num_bodies()),
-        data_(model, route == Route::assembled
-                         ? DataOptions{.partials = false, .dense_mass_matrix = false}
-                         : DataOptions::recursive_only()),
-        work_(model) {}
-  int size() const override { return 13 * n_; }
-  void pack(const VectorX& q, const VectorX& z, VectorX& v) const override {
-    State s(model_);
-    joint_state(model_, q, z, s);
-    v << s.x, s.y;
-  }
-  /// The stages of a step lie slightly off |eps_K| = 1; the equations are evaluated at the
-  /// normalized eps_K, so [R_K] is always a rotation and both routes of forward_dynamics see
-  /// the same state. {eps dot} = 1/2 [Ebar'(eps/|eps|)]^T {w'} is orthogonal to eps, so this
-  /// field keeps |eps_K| constant just as Eq. (39) does, and equals it on the constraint.
-  /// This runs six times a step: the copies go through memcpy (glibc's, as wide as the CPU
-  /// allows), with Eigen's portable SSE2 loops they took as many instructions as the
-  /// normalization.
-  void derivative(const VectorX& v, VectorX& dv) override {
-    copy(v.data(), 7 * n_, work_.x.data());
-    copy(v.data() + 7 * n_, 6 * n_, work_.y.data());
-    for (int k = 0; k < n_; ++k) work_.euler_parameters(k).normalize();
-    forward_dynamics(model_, work_, data_, route_);
-    copy(data_.xdot.data(), 7 * n_, dv.data());
-    copy(data_.ydot.data(), 6 * n_, dv.data() + 7 * n_);
-  }
-  double project(VectorX& v, bool apply) override {
-    double drift = 0.0;
-    for (int k = 0; k < n_; ++k) {
-      auto e = v.segment<4>(4 * k);
-      const double norm = e.norm();
-      drift = std::max(drift, std::abs(norm - 1.0));
-      if (apply) e /= norm;
-    }
-    return drift;
-  }
-  void unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state) override {
-    state.x = v.head(7 * n_);
-    state.y = v.tail(6 * n_);
-    if (normalize) state.normalize_euler_parameters();
-    joint_coordinates(model_, state, q, z);
-  }
-  std::string describe(int component, int* body) const override {
-    return describe_state_component(model_, component, body);
-  }
-
- private:
-  static void copy(const double* from, int count, double* to) {
-    std::memcpy(to, from, sizeof(double) * static_cast<size_t>(count));
-  }
-  const Model& model_;
-  Route route_;
-  int n_;
-  Data data_;
-  State work_;
-};
-
-/// Any other model: v = (q; z), the derivative by JointDynamics on the route asked for.
-class JointIntegrand final : public Integrand {
- public:
-  JointIntegrand(const Model& model, Route route)
-      : model_(model),
-        route_(route),
-        nq_(model.num_coordinates()),
-        dynamics_(model),
-        drift_q_(VectorX::Zero(nq_)) {}
-  int size() const override { return nq_ + model_.num_speeds(); }
-  void pack(const VectorX& q, const VectorX& z, VectorX& v) const override { v << q, z; }
-  /// Spherical q and free eps_K normalized as the notes' route does (JointDynamics::derivative).
-  void derivative(const VectorX& v, VectorX& dv) override { dynamics_.derivative(v, route_, dv); }
-  double project(VectorX& v, bool apply) override {
-    auto q = v.head(nq_);
-    if (apply) return normalize_joint_coordinates(model_, q);
-    drift_q_ = q;  // the drift alone: normalize a copy (sized once, no allocation)
-    return normalize_joint_coordinates(model_, drift_q_);
-  }
-  void unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state) override {
-    q = v.head(nq_);
-    z = v.tail(v.size() - nq_);
-    if (normalize) normalize_joint_coordinates(model_, q);
-    joint_state(model_, q, z, state);
-  }
-  std::string describe(int component, int* body) const override {
-    return describe_joint_state_component(model_, component, body);
-  }
-
- private:
-  const Model& model_;
-  Route route_;
-  int nq_;
-  JointDynamics dynamics_;
-  VectorX drift_q_;
-};
-
-/// The route dispatch of a run: the notes' layout for the notes' free tree, (q; z) otherwise.
-std::unique_ptr<Integrand> integrand_for(const Model& model, Route route) {
-  if (model.all_free()) return std::make_unique<NotesIntegrand>(model, route);
-  return std::make_unique<JointIntegrand>(model, route);
-}
-
 /// Everything one run needs, allocated once.
 class Run {
  public:
@@ -350,8 +222,8 @@ class Run {
       : model_(model),
         s_(settings),
         observer_(observer),
-        integrand_(integrand_for(model, settings.route)),
-        size_(integrand_->size()),
+        dynamics_(model, settings.route),
+        size_(dynamics_.size()),
         q_(q0),
         z_state_(z0),
         data_(model, DataOptions::recursive_only()),
@@ -363,7 +235,7 @@ class Run {
     stats_.t_reached = settings.t_start;
     normalize_joint_coordinates(model, q_);
     const bool finite = q_.allFinite() && z0.allFinite();
-    integrand_->pack(q_, z0, z_);
+    dynamics_.pack(q_, z0, z_);
     if (finite) joint_state(model, q_, z_state_, work_);
     stats_.energy_initial =
         finite ? energy_of(work_, q_) : std::numeric_limits<double>::quiet_NaN();
@@ -397,10 +269,10 @@ class Run {
   }
 
   OdeFunction ode() {
-    return [this](double, const VectorX& v, VectorX& dv) { integrand_->derivative(v, dv); };
+    return [this](double, const VectorX& v, VectorX& dv) { dynamics_.derivative(v, dv); };
   }
 
-  double project(VectorX& v) { return integrand_->project(v, s_.project_euler_parameters); }
+  double project(VectorX& v) { return dynamics_.project(v, s_.project_euler_parameters); }
   /// Output time i: t_start + i dt_out, snapped to t_end at the end.
   double output_time(long i) const {
     const double t = s_.t_start + static_cast<double>(i) * s_.dt_out;
@@ -410,7 +282,7 @@ class Run {
 
   void emit(double t, const VectorX& z) {
     if (observer_) {
-      integrand_->unpack(z, s_.project_euler_parameters, q_, z_state_, out_state_);
+      dynamics_.unpack(z, s_.project_euler_parameters, q_, z_state_, out_state_);
       if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
       observer_(t, out_state_, q_, z_state_, data_);
     }
@@ -464,7 +336,7 @@ class Run {
   void fail(SimulationStatus status, int component, const std::string& before,
             const std::string& after) {
     stats_.status = status;
-    const std::string who = integrand_->describe(component, &stats_.failed_body);
+    const std::string who = dynamics_.describe(component, &stats_.failed_body);
     stats_.message = before + (component >= 0 ? ": " + who + after : "");
   }
 
@@ -568,14 +440,14 @@ class Run {
     const bool finite = z_.allFinite();
     // At the normalized state: with projection on, z_ is so already (every accepted step and
     // the start), and normalizing again could change its last bits.
-    if (finite) integrand_->unpack(z_, !s_.project_euler_parameters, q_, z_state_, work_);
+    if (finite) dynamics_.unpack(z_, !s_.project_euler_parameters, q_, z_state_, work_);
     stats_.energy_final = finite ? energy_of(work_, q_) : std::numeric_limits<double>::quiet_NaN();
   }
 
   const Model& model_;
   const SimulationSettings& s_;
   const Observer& observer_;
-  std::unique_ptr<Integrand> integrand_;
+  Dynamics dynamics_;  ///< what is integrated, and its derivative (the route dispatch)
   int size_;
   VectorX q_, z_state_;  ///< the model's state at an output (and at the start and the end)
   Data data_;

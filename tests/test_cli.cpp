@@ -120,7 +120,7 @@ TEST(Cli, BenchJsonIsTheSpecifiedObject) {
   for (const auto& [key, value] : j.items()) keys.push_back(key);
   EXPECT_EQ(keys, (std::vector<std::string>{"model", "N", "evaluates", "results"}));
   EXPECT_EQ(j["model"], kEight);
-  EXPECT_EQ(j["evaluates"], "ydot and xdot");
+  EXPECT_EQ(j["evaluates"], "d/dt of ({x}; {y}) of Eq. (1)");
   EXPECT_EQ(j["N"], 8);
   ASSERT_EQ(j["results"].size(), 2u);  // default: both routes
   EXPECT_EQ(j["results"][0]["route"], "recursive");
@@ -129,8 +129,16 @@ TEST(Cli, BenchJsonIsTheSpecifiedObject) {
     std::vector<std::string> fields;
     for (const auto& [key, value] : result.items()) fields.push_back(key);
     EXPECT_EQ(fields,
-              (std::vector<std::string>{"route", "ns_per_eval_median", "ns_per_eval_min", "reps"}));
+              (std::vector<std::string>{"route", "kernel", "ns_per_eval_median", "ns_per_eval_min",
+                                        "reps"}));
     EXPECT_EQ(result["reps"], 50);
+    // simulate's kernel of the route: the fused pass (every element of eight_body.yaml is
+    // built in) or the assembled [A].
+    EXPECT_EQ(result["kernel"].get<std::string>().find(result["route"] == "recursive"
+                                                           ? "fused O(N) pass"
+                                                           : "assembled [A] (Eqs. 37-38)"),
+              0u)
+        << result["kernel"];
     EXPECT_GT(result["ns_per_eval_min"].get<double>(), 0.0);
     EXPECT_GE(result["ns_per_eval_median"].get<double>(), result["ns_per_eval_min"].get<double>());
   }
@@ -142,15 +150,18 @@ TEST(Cli, BenchOfAJointedModelTimesItsJointedRoutes) {
   ToolRun r = run_tool("bench --json --reps 20 " + arm);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::ordered_json::parse(r.out);
-  EXPECT_EQ(j["evaluates"], "zdot and qdot of the joint coordinates");
+  EXPECT_EQ(j["evaluates"], "d/dt of (q; z)");
   ASSERT_EQ(j["results"].size(), 2u);
   EXPECT_EQ(j["results"][0]["route"], "recursive");
+  EXPECT_EQ(j["results"][0]["kernel"], "articulated-body recursion over the joints");
   EXPECT_EQ(j["results"][1]["route"], "assembled");
+  EXPECT_EQ(j["results"][1]["kernel"], "projected Kane equations, tree LDL^T");
   r = run_tool("bench --route recursive --reps 20 " + arm);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("forward dynamics (zdot and qdot of the joint coordinates, as simulate "
-                       "evaluates it)"),
+  EXPECT_NE(r.out.find("forward dynamics (d/dt of (q; z), as simulate evaluates it)"),
             std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("recursive: articulated-body recursion over the joints"), std::string::npos)
       << r.out;
   // The free tree's SIMD kernel is not what runs here, so no width is named.
   EXPECT_EQ(r.out.find("SIMD pass"), std::string::npos) << r.out;
@@ -159,7 +170,8 @@ TEST(Cli, BenchOfAJointedModelTimesItsJointedRoutes) {
 TEST(Cli, BenchTextNamesTheSimdWidthAndTakesACap) {
   const ToolRun r = run_tool("bench --method recursive --reps 20 --simd-lanes 2 " + kEight);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("recursive: 2 bodies per SIMD pass"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("recursive: fused O(N) pass, 2 bodies per SIMD pass"), std::string::npos)
+      << r.out;
   EXPECT_EQ(r.out.find("kane"), std::string::npos) << r.out;
   const ToolRun bad = run_tool("bench --simd-lanes 3 " + kEight);
   EXPECT_NE(bad.exit_code, 0);

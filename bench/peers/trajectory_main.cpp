@@ -216,7 +216,9 @@ Trajectory run_kanedyn(const Case& c, double t_end, double dt_out, double rtol) 
   const int n = c.model.num_bodies();
   const auto t0 = Clock::now();
   const kanedyn::SimulationStats stats = kanedyn::simulate(
-      c.model, c.state, s, [&](double t, const kanedyn::State& state, kanedyn::Data& data) {
+      c.model, c.state, s,
+      [&](double t, const kanedyn::State& state, const kanedyn::VectorX&, const kanedyn::VectorX&,
+          kanedyn::Data& data) {
         std::vector<peers::BodyPose> poses(static_cast<size_t>(n));
         for (int k = 0; k < n; ++k) {
           peers::BodyPose& p = poses[static_cast<size_t>(k)];

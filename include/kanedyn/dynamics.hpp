@@ -2,6 +2,7 @@
 // routes solve Kane's equations (Eq. 36) for the same unconstrained tree.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "kanedyn/data.hpp"
@@ -32,5 +33,61 @@ Route parse_route(const std::string& text);
 /// parameters; they agree to round-off there.
 void forward_dynamics(const Model& model, const State& state, Data& data,
                       Route route = Route::recursive);
+
+/// Forward dynamics of any model at its state (q, z), and the derivative a simulation
+/// integrates: the one entry point, with the route dispatch of the library (docs/theory.md,
+/// "One model, one state"). For an all-free model the route's kernel is forward_dynamics()
+/// above (the fused SIMD pass when every force element is built in, else the staged O(N)
+/// route; or the assembled Eqs. 37-38); for any other model JointDynamics (the
+/// articulated-body recursion; or the projected Kane equations, factored in tree order).
+/// The model must outlive it; not for concurrent calls on one object.
+class Dynamics {
+ public:
+  /// max_simd_lanes caps the fused pass's width (DataOptions::max_simd_lanes).
+  explicit Dynamics(const Model& model, Route route = Route::recursive, int max_simd_lanes = 8);
+  Dynamics(const Dynamics&) = delete;
+  Dynamics& operator=(const Dynamics&) = delete;
+  ~Dynamics();
+
+  const Model& model() const;
+  Route route() const;
+  /// What evaluate() and derivative() run, for output: "fused O(N) pass, 8 bodies per SIMD
+  /// pass", "staged O(N) route", "assembled [A] (Eqs. 37-38), tree LDL^T",
+  /// "articulated-body recursion over the joints", "projected Kane equations, tree LDL^T".
+  std::string kernel() const;
+  /// What size() holds, for output: "({x}; {y}) of Eq. (1)" or "(q; z)".
+  std::string layout() const;
+  /// The fused pass's bodies per SIMD pass (2, 4 or 8), or 0 when another kernel runs.
+  int simd_lanes() const;
+
+  /// z dot and q dot at the model's state (q, z) (sizes num_speeds() and num_coordinates();
+  /// Euler parameters in q as given, unit norm assumed). No heap allocation after the first
+  /// call.
+  void evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot,
+                Eigen::Ref<VectorX> qdot);
+  /// The notes' state (x, y) of the last evaluation's (q, z), and its kinematics and loads
+  /// (computed on request where the kernel did not need them).
+  const State& state();
+  Data& data();
+
+  /// What an integrator advances, of size(): for an all-free model ({x}; {y}) in the layout
+  /// of Eq. (1), for any other model (q; z). pack() and unpack() convert; unpack() also gives
+  /// the notes' state, with the Euler parameters normalized when `normalize`.
+  int size() const;
+  void pack(const VectorX& q, const VectorX& z, VectorX& v) const;
+  void unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state);
+  /// dv/dt at v, with v's Euler parameters normalized first (the field keeps their norm, and
+  /// equals the equations of motion on |e| = 1): what simulate() integrates.
+  void derivative(const VectorX& v, VectorX& dv);
+  /// The largest | |e| - 1 | of v's Euler parameters; rescales them to unit norm when apply.
+  double project(VectorX& v, bool apply);
+  /// "body 'NAME' (COLUMN)" for a component of v, COLUMN as the trajectory CSV names it;
+  /// body (if not null) gets its index, -1 outside v.
+  std::string describe(int component, int* body = nullptr) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace kanedyn

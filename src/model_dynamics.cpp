@@ -1,0 +1,209 @@
+// Dynamics: forward dynamics of any model at its state (q, z), and the derivative simulate()
+// integrates. The route dispatch of the library is here and only here: the notes' kernels
+// (forward_dynamics) for an all-free model, JointDynamics for any other.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <optional>
+#include <string>
+
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/forces.hpp"
+#include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "kanedyn/simulate.hpp"
+
+namespace kanedyn {
+
+namespace {
+
+void copy(const double* from, int count, double* to) {
+  std::memcpy(to, from, sizeof(double) * static_cast<size_t>(count));
+}
+
+DataOptions notes_options(Route route, int max_simd_lanes) {
+  DataOptions o = DataOptions::recursive_only(max_simd_lanes);
+  o.kane_terms = route == Route::assembled;  // the assembled route's scratch, no dense [A]
+  return o;
+}
+
+}  // namespace
+
+struct Dynamics::Impl {
+  Impl(const Model& m, Route r, int lanes)
+      : model(m),
+        route(r),
+        notes(m.all_free()),
+        n(m.num_bodies()),
+        data(m, notes ? notes_options(r, lanes) : DataOptions::recursive_only(lanes)),
+        work(m) {
+    if (!notes) joint.emplace(m);
+    if (!notes) drift_q = VectorX::Zero(m.num_coordinates());
+  }
+
+  const Model& model;
+  Route route;
+  bool notes;  ///< the notes' free tree: every joint free
+  int n;
+  // The notes' kernels: their workspace and the state they run at; whether data holds that
+  // state's kinematics and loads (forward_dynamics leaves them in its private scratch).
+  Data data;
+  State work;
+  bool loads_current = false;
+  // Any other model.
+  std::optional<JointDynamics> joint;
+  VectorX drift_q;  // project()'s copy of q when the Euler parameters are not projected
+
+  // The notes' state from q, z (an all-free model's slices are x, y body by body).
+  void notes_state(const VectorX& q, const VectorX& z) {
+    for (int k = 0; k < n; ++k) {
+      work.euler_parameters(k) = q.segment<4>(7 * k);
+      work.translation(k) = q.segment<3>(7 * k + 4);
+      work.angular_velocity(k) = z.segment<3>(6 * k);
+      work.translation_rate(k) = z.segment<3>(6 * k + 3);
+    }
+  }
+};
+
+Dynamics::Dynamics(const Model& model, Route route, int max_simd_lanes)
+    : impl_(std::make_unique<Impl>(model, route, max_simd_lanes)) {}
+Dynamics::~Dynamics() = default;
+
+const Model& Dynamics::model() const { return impl_->model; }
+Route Dynamics::route() const { return impl_->route; }
+
+int Dynamics::simd_lanes() const {
+  const Impl& s = *impl_;
+  return s.notes && s.route == Route::recursive && s.data.single_pass() ? s.data.simd_lanes() : 0;
+}
+
+std::string Dynamics::kernel() const {
+  const Impl& s = *impl_;
+  if (s.notes) {
+    if (s.route == Route::assembled) return "assembled [A] (Eqs. 37-38), tree LDL^T";
+    if (const int lanes = simd_lanes(); lanes > 0)
+      return "fused O(N) pass, " + std::to_string(lanes) + " bodies per SIMD pass";
+    return "staged O(N) route";
+  }
+  return s.route == Route::assembled ? "projected Kane equations, tree LDL^T"
+                                     : "articulated-body recursion over the joints";
+}
+
+void Dynamics::evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot,
+                        Eigen::Ref<VectorX> qdot) {
+  Impl& s = *impl_;
+  if (!s.notes) {
+    s.joint->evaluate(q, z, s.route, zdot);
+    joint_coordinate_rates(s.model, q, z, qdot);
+    return;
+  }
+  s.notes_state(q, z);
+  forward_dynamics(s.model, s.work, s.data, s.route);
+  s.loads_current = false;
+  const int n = s.n;
+  for (int k = 0; k < n; ++k) {  // Eq. (1)'s layout to (q, z)'s, body by body
+    zdot.segment<3>(6 * k) = s.data.ydot.segment<3>(3 * k);
+    zdot.segment<3>(6 * k + 3) = s.data.ydot.segment<3>(3 * n + 3 * k);
+    qdot.segment<4>(7 * k) = s.data.xdot.segment<4>(4 * k);
+    qdot.segment<3>(7 * k + 4) = s.data.xdot.segment<3>(4 * n + 3 * k);
+  }
+}
+
+const State& Dynamics::state() {
+  Impl& s = *impl_;
+  return s.notes ? s.work : s.joint->state();
+}
+
+Data& Dynamics::data() {
+  Impl& s = *impl_;
+  if (!s.notes) return s.joint->data();
+  if (!s.loads_current) {
+    compute_kinematics(s.model, s.work, s.data);
+    compute_resultants(s.model, s.work, s.data);
+    s.loads_current = true;
+  }
+  return s.data;
+}
+
+std::string Dynamics::layout() const { return impl_->notes ? "({x}; {y}) of Eq. (1)" : "(q; z)"; }
+
+int Dynamics::size() const {
+  const Impl& s = *impl_;
+  return s.notes ? 13 * s.n : s.model.num_coordinates() + s.model.num_speeds();
+}
+
+void Dynamics::pack(const VectorX& q, const VectorX& z, VectorX& v) const {
+  const Impl& s = *impl_;
+  if (!s.notes) {
+    v << q, z;
+    return;
+  }
+  State x(s.model);
+  joint_state(s.model, q, z, x);
+  v << x.x, x.y;
+}
+
+void Dynamics::unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, State& state) {
+  const Impl& s = *impl_;
+  if (s.notes) {
+    state.x = v.head(7 * s.n);
+    state.y = v.tail(6 * s.n);
+    if (normalize) state.normalize_euler_parameters();
+    joint_coordinates(s.model, state, q, z);
+    return;
+  }
+  const int nq = s.model.num_coordinates();
+  q = v.head(nq);
+  z = v.tail(v.size() - nq);
+  if (normalize) normalize_joint_coordinates(s.model, q);
+  joint_state(s.model, q, z, state);
+}
+
+// The stages of a step lie slightly off |e| = 1; the equations are evaluated at the normalized
+// Euler parameters, so every [R_K] is a rotation and both routes see the same state.
+// {eps dot} = 1/2 [Ebar'(eps/|eps|)]^T {w'} is orthogonal to eps, so this field keeps |eps_K|
+// constant just as Eq. (39) does, and equals it on the constraint. For the notes' kernels this
+// runs six times a step: the copies go through memcpy (glibc's, as wide as the CPU allows);
+// with Eigen's portable SSE2 loops they took as many instructions as the normalization.
+void Dynamics::derivative(const VectorX& v, VectorX& dv) {
+  Impl& s = *impl_;
+  if (!s.notes) {
+    s.joint->derivative(v, s.route, dv);
+    return;
+  }
+  const int n = s.n;
+  copy(v.data(), 7 * n, s.work.x.data());
+  copy(v.data() + 7 * n, 6 * n, s.work.y.data());
+  for (int k = 0; k < n; ++k) s.work.euler_parameters(k).normalize();
+  forward_dynamics(s.model, s.work, s.data, s.route);
+  s.loads_current = false;
+  copy(s.data.xdot.data(), 7 * n, dv.data());
+  copy(s.data.ydot.data(), 6 * n, dv.data() + 7 * n);
+}
+
+double Dynamics::project(VectorX& v, bool apply) {
+  Impl& s = *impl_;
+  if (!s.notes) {
+    auto q = v.head(s.model.num_coordinates());
+    if (apply) return normalize_joint_coordinates(s.model, q);
+    s.drift_q = q;  // the drift alone: normalize a copy (sized once, no allocation)
+    return normalize_joint_coordinates(s.model, s.drift_q);
+  }
+  double drift = 0.0;
+  for (int k = 0; k < s.n; ++k) {
+    auto e = v.segment<4>(4 * k);
+    const double norm = e.norm();
+    drift = std::max(drift, std::abs(norm - 1.0));
+    if (apply) e /= norm;
+  }
+  return drift;
+}
+
+std::string Dynamics::describe(int component, int* body) const {
+  const Impl& s = *impl_;
+  return s.notes ? describe_state_component(s.model, component, body)
+                 : describe_joint_state_component(s.model, component, body);
+}
+
+}  // namespace kanedyn
