@@ -128,9 +128,8 @@ TEST(Cli, BenchJsonIsTheSpecifiedObject) {
   for (const auto& result : j["results"]) {
     std::vector<std::string> fields;
     for (const auto& [key, value] : result.items()) fields.push_back(key);
-    EXPECT_EQ(fields,
-              (std::vector<std::string>{"route", "kernel", "ns_per_eval_median", "ns_per_eval_min",
-                                        "reps"}));
+    EXPECT_EQ(fields, (std::vector<std::string>{"route", "kernel", "ns_per_eval_median",
+                                                "ns_per_eval_min", "reps"}));
     EXPECT_EQ(result["reps"], 50);
     // simulate's kernel of the route: the fused pass (every element of eight_body.yaml is
     // built in) or the assembled [A].
