@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "alloc_counter.hpp"
+#include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/integrate.hpp"
@@ -588,6 +589,68 @@ TEST(JointDynamics, LongChainsRunOnlyTheRecursiveRoute) {
   const double h = 1e-5;
   const double rate = (energy(x + h * dx) - energy(x - h * dx)) / (2 * h);
   EXPECT_LT(std::abs(rate), 1e-6 * power_scale) << "scale " << power_scale;
+}
+
+}  // namespace
+}  // namespace kanedyn
+
+namespace kanedyn {
+namespace {
+
+// Dynamics, the one entry point: for an all-free model its z dot and q dot are forward_dynamics'
+// {y dot} and {x dot} body by body (the same kernel: the same bits); for any other model they
+// are JointDynamics' z dot and the joint coordinate rates; derivative() is what simulate
+// integrates in the layout size() names.
+TEST(Dynamics, IsTheNotesKernelForAnAllFreeModelAndJointDynamicsOtherwise) {
+  std::mt19937 rng(71);
+  for (const Route route : {Route::recursive, Route::assembled}) {
+    const Model model = test::eight_body_model();
+    const State s = test::random_state(model, rng);
+    VectorX q, z;
+    joint_coordinates(model, s, q, z);
+    Dynamics dyn(model, route);
+    EXPECT_EQ(dyn.size(), 13 * model.num_bodies());
+    VectorX zdot(model.num_speeds()), qdot(model.num_coordinates());
+    dyn.evaluate(q, z, zdot, qdot);
+    Data data(model);
+    forward_dynamics(model, s, data, route);
+    State rates(model);
+    rates.x = data.xdot;
+    rates.y = data.ydot;
+    VectorX eq, ez;
+    joint_coordinates(model, rates, eq, ez);  // the same permutation as (q, z) of (x, y)
+    EXPECT_EQ(zdot, ez);
+    EXPECT_EQ(qdot, eq);
+    EXPECT_EQ(dyn.state().x, s.x);
+    EXPECT_EQ(dyn.data().kinematics.R.size(), 8u);
+    EXPECT_EQ(dyn.kernel(),
+              route == Route::recursive
+                  ? "fused O(N) pass, " + std::to_string(dyn.simd_lanes()) + " bodies per SIMD pass"
+                  : "assembled [A] (Eqs. 37-38), tree LDL^T");
+  }
+  for (const Case& c : comparison_cases(72)) {
+    if (c.model.all_free()) continue;
+    for (const Route route : {Route::recursive, Route::assembled}) {
+      Dynamics dyn(c.model, route);
+      EXPECT_EQ(dyn.size(), c.model.num_coordinates() + c.model.num_speeds());
+      VectorX zdot(c.model.num_speeds()), qdot(c.model.num_coordinates());
+      dyn.evaluate(c.q, c.z, zdot, qdot);
+      JointDynamics reference(c.model);
+      VectorX expected(c.model.num_speeds()), expected_q(c.model.num_coordinates());
+      reference.evaluate(c.q, c.z, route, expected);
+      joint_coordinate_rates(c.model, c.q, c.z, expected_q);
+      EXPECT_EQ(zdot, expected) << c.name;
+      EXPECT_EQ(qdot, expected_q) << c.name;
+      VectorX v(dyn.size()), dv(dyn.size()), dqz(dyn.size());
+      dyn.pack(c.q, c.z, v);
+      dyn.derivative(v, dv);
+      reference.derivative(v, route, dqz);
+      EXPECT_EQ(dv, dqz) << c.name;
+      EXPECT_EQ(dyn.kernel(), route == Route::recursive
+                                  ? "articulated-body recursion over the joints"
+                                  : "projected Kane equations, tree LDL^T");
+    }
+  }
 }
 
 }  // namespace
