@@ -75,24 +75,24 @@ double JointLoad::joint_damping_power(const Model& model, const VectorX& z) cons
 
 void add_joint_forces(const Model& model, const VectorX& q, const VectorX& z,
                       Eigen::Ref<VectorX> Q) {
-  if (!model.has_joint_force_elements()) return;
-  for (const auto& f : model.forces())
-    if (f->acts_on_joints()) f->apply_joint(model, q, z, Q);
+  // JointLoad is final: through its own pointer the call is direct, and inlined here.
+  if (model.joint_loads().size() == model.joint_force_elements().size()) {
+    for (const JointLoad* l : model.joint_loads()) l->apply_joint(model, q, z, Q);
+    return;
+  }
+  for (const ForceElement* f : model.joint_force_elements()) f->apply_joint(model, q, z, Q);
 }
 
 double joint_potential_energy(const Model& model, const VectorX& q) {
   double e = 0.0;
-  if (!model.has_joint_force_elements()) return e;
-  for (const auto& f : model.forces())
-    if (f->acts_on_joints()) e += f->joint_potential_energy(model, q);
+  for (const ForceElement* f : model.joint_force_elements())
+    e += f->joint_potential_energy(model, q);
   return e;
 }
 
 double joint_damping_power(const Model& model, const VectorX& z) {
   double p = 0.0;
-  if (!model.has_joint_force_elements()) return p;
-  for (const auto& f : model.forces())
-    if (f->acts_on_joints()) p += f->joint_damping_power(model, z);
+  for (const ForceElement* f : model.joint_force_elements()) p += f->joint_damping_power(model, z);
   return p;
 }
 

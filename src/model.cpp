@@ -118,8 +118,14 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
     if (f->body() < 0 || f->body() >= n)
       fail(where, "body index " + std::to_string(f->body()) + " out of range");
     if (const std::string e = f->validate(*this); !e.empty()) fail(where, e);
-    (f->acts_on_joints() ? joint_forces_ : body_forces_) = true;
+    if (f->acts_on_joints())
+      joint_elements_.push_back(f.get());
+    else
+      body_forces_ = true;
   }
+  for (const ForceElement* f : joint_elements_)
+    if (const auto* load = dynamic_cast<const JointLoad*>(f)) joint_loads_.push_back(load);
+  if (joint_loads_.size() != joint_elements_.size()) joint_loads_.clear();
 }
 
 void Model::set_up_joints() {

@@ -14,6 +14,7 @@
 namespace kanedyn {
 
 class ForceElement;
+class JointLoad;
 
 /// Thrown when a model is invalid; the message says which body or element and why.
 class ModelError : public std::runtime_error {
@@ -151,7 +152,12 @@ class Model {
   /// coordinates (ForceElement::acts_on_joints).
   bool has_body_force_elements() const { return body_forces_; }
   /// True when some force element acts on joint coordinates.
-  bool has_joint_force_elements() const { return joint_forces_; }
+  bool has_joint_force_elements() const { return !joint_elements_.empty(); }
+  /// The force elements that act on joint coordinates, in the order of forces().
+  const std::vector<const ForceElement*>& joint_force_elements() const { return joint_elements_; }
+  /// The same when every one of them is a JointLoad (the built-in joint springs and forces),
+  /// else empty: their generalized forces are then added without a virtual call per element.
+  const std::vector<const JointLoad*>& joint_loads() const { return joint_loads_; }
   double total_mass() const { return total_mass_; }
   /// Inverse of [I'_GK], precomputed.
   const Matrix3& inverse_inertia(int k) const { return inverse_inertia_[static_cast<size_t>(k)]; }
@@ -164,7 +170,9 @@ class Model {
   std::vector<std::shared_ptr<const ForceElement>> forces_;
   std::string name_;
   std::vector<Joint> joints_;
-  bool all_free_ = true, body_forces_ = false, joint_forces_ = false;
+  bool all_free_ = true, body_forces_ = false;
+  std::vector<const ForceElement*> joint_elements_;
+  std::vector<const JointLoad*> joint_loads_;
   std::vector<int> q_offset_, z_offset_;
   std::vector<Vector3> axis_j_;
   std::vector<std::vector<int>> w_chain_;
