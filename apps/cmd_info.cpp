@@ -60,7 +60,9 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
                            : jt.type == JointType::prismatic   ? "distance along the axis"
                            : jt.type == JointType::cylindrical ? "angle, distance"
                            : jt.type == JointType::universal   ? "angles about a1, a2"
-                                                               : "angle about the axis";
+                           : jt.type == JointType::planar
+                               ? "x, y in F's x-y plane, angle about F's z"
+                               : "angle about the axis";
         out << "[";
         for (int i = 0; i < nq; ++i)
           out << (i ? ", " : "") << file.q[model.coordinate_offset(k) + i];
