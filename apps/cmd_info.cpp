@@ -14,6 +14,30 @@
 namespace kanedyn::cli {
 namespace {
 
+// What a joint's q holds, for the table of joints (a switch: a new joint type is a
+// compile-time reminder here).
+const char* coordinates_meaning(JointType type) {
+  switch (type) {
+    case JointType::free:
+      return "the notes' own: eps_K, s'_K";
+    case JointType::weld:
+      return "none";
+    case JointType::revolute:
+      return "angle about the axis";
+    case JointType::prismatic:
+      return "distance along the axis";
+    case JointType::cylindrical:
+      return "angle, distance";
+    case JointType::universal:
+      return "angles about a1, a2";
+    case JointType::spherical:
+      return "Euler parameters of K rel. F";
+    case JointType::planar:
+      return "x, y in F's x-y plane, angle about F's z";
+  }
+  return "?";
+}
+
 std::string frame_label(const Model& model, int k) {
   if (k == kGround) return "0 (inertial frame R)";
   return std::to_string(k + 1) + " " + model.body(k).name;
@@ -56,11 +80,7 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
       } else if (nq == 0) {
         out << "none";
       } else {
-        const char* what = jt.type == JointType::spherical     ? "Euler parameters of K rel. F"
-                           : jt.type == JointType::prismatic   ? "distance along the axis"
-                           : jt.type == JointType::cylindrical ? "angle, distance"
-                           : jt.type == JointType::universal   ? "angles about a1, a2"
-                                                               : "angle about the axis";
+        const char* what = coordinates_meaning(jt.type);
         out << "[";
         for (int i = 0; i < nq; ++i)
           out << (i ? ", " : "") << file.q[model.coordinate_offset(k) + i];

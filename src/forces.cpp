@@ -33,10 +33,18 @@ JointLoad::JointLoad(int body, VectorX k, VectorX c, VectorX r, VectorX v, std::
 std::string JointLoad::validate(const Model& model) const {
   const JointType t = model.joint(body_).type;
   const std::string who = "body " + model.body(body_).name + ": ";
-  if (t == JointType::free || t == JointType::weld || t == JointType::spherical)
-    return who + kind_ +
-           " acts on revolute, prismatic, cylindrical and universal joints, not on a " +
-           to_string(t) + " joint";
+  if (!speeds_are_coordinate_rates(t)) {
+    // The types whose z_K = dq_K/dt (the rates apply_joint reads): "revolute, ... and planar".
+    std::string names;
+    int left = 0;
+    for (const JointType type : kJointTypes) left += speeds_are_coordinate_rates(type) ? 1 : 0;
+    for (const JointType type : kJointTypes) {
+      if (!speeds_are_coordinate_rates(type)) continue;
+      --left;
+      names += std::string(names.empty() ? "" : left == 0 ? " and " : ", ") + to_string(type);
+    }
+    return who + kind_ + " acts on " + names + " joints, not on a " + to_string(t) + " joint";
+  }
   const int m = coordinate_count(t);
   for (const VectorX* v : {&stiffness, &damping, &rest, &value})
     if (v->size() != m)

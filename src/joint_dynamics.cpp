@@ -221,11 +221,19 @@ struct JointDynamics::Impl {
     if (m.has_body_force_elements()) motions.resize(at(n));
     for (const auto& element : m.forces())
       loads_read_positions = loads_read_positions || element->reads_positions();
+    translation.assign(at(n), Matrix36::Zero());
+    translation_columns.assign(at(n), 0u);
     for (int k = 0; k < n; ++k) {
       const auto i = at(k);
       speeds[i] = speed_count(t.joint(k).type);
       offset[i] = t.speed_offset(k);
       joint_type[i] = t.joint(k).type;
+      // A free body's [T_K] = [0 I] is applied as [R_J]^T (prepare), the others' nonzero
+      // columns one by one.
+      if (joint_type[i] == JointType::free) continue;
+      translation[i] = joint_translation_block(t, k);
+      for (int col = 0; col < speeds[i]; ++col)
+        if (!translation[i].col(col).isZero(0.0)) translation_columns[i] |= 1u << col;
     }
     S.assign(6 * at(t.num_speeds()), 0.0);
     U = S;
@@ -257,6 +265,10 @@ struct JointDynamics::Impl {
   // Per body: the joint's speed count, speed offset and type (constant).
   std::vector<int> speeds, offset;
   std::vector<JointType> joint_type;
+  // Per body: [T_K] (joint_translation_block, constant, J components) and the mask of its
+  // nonzero columns (none for a free body, handled apart).
+  std::vector<Matrix36> translation;
+  std::vector<unsigned> translation_columns;
   std::vector<Link> links;
   // The joint tables at (q, z): of all bodies when the state is computed with them (force
   // elements), else one body's at a time.
@@ -369,13 +381,15 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
         for (int col = 0; col < w_count; ++col)
           s.col(col).head<3>().noalias() = rk.transpose() * jm.G.col(col);
       }
-      // [T_K] (joint_translation_block): the slide axis in J components for the prismatic
-      // speed and the cylindrical one's second, [0 I] for a free body; zero otherwise.
+      // [R_J]^T [T_K]: its nonzero columns (the slide axis of a prismatic joint, the second
+      // column of a cylindrical one, F's x and y axes for a planar one), [0 I] for a free body.
       s.bottomRows<3>().setZero();
       if (is_free)
         s.bottomRightCorner<3, 3>() = rj.transpose();
-      else if (type == JointType::prismatic || type == JointType::cylindrical)
-        s.col(w_count - 1).tail<3>().noalias() = rj.transpose() * model.axis_in_j(k);
+      else
+        for (int col = 0; col < w_count; ++col)
+          if (translation_columns[i] & (1u << col))
+            s.col(col).tail<3>().noalias() = rj.transpose() * translation[i].col(col);
     }
     // c_K = d/dt V_K at z dot = 0 with J's acceleration zero. With d/dt ([R]^T u) = w x [R]^T u
     // + [R]^T du/dt, w_rel = w_K - a w_J and the slide rate sd = [R_J]^T [T_K] z_K
@@ -539,6 +553,9 @@ void dispatch_joint_type(JointType type, Step&& step) {
       break;
     case JointType::spherical:
       step.template operator()<3, Subspace::ball>();
+      break;
+    case JointType::planar:  // [S] = ([0 0 R_K^T e_z]; [R_J^T x_F, R_J^T y_F, 0])
+      step.template operator()<3, Subspace::general>();
       break;
   }
 }

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 #include <utility>
 
@@ -41,36 +42,34 @@ bool is_identity(const Vector4& eps) {
   return eps[0] == 0.0 && eps[1] == 0.0 && eps[2] == 0.0 && eps[3] == 1.0;
 }
 
+// F's x and y axes in J components, the columns of a planar joint's [T_K]: the first two
+// columns of [R(frame)]^T, [R(frame)] mapping J components to F components.
+Eigen::Matrix<double, 3, 2> plane_axes_in_j(const Vector4& frame) {
+  return rotation_matrix(frame).topRows<2>().transpose();
+}
+
+// Each type's name and counts, in the order of the enum (the table of joint.hpp).
+struct TypeRow {
+  const char* name;
+  int coordinates, speeds;
+};
+constexpr TypeRow kTypeRows[] = {{"free", 7, 6},      {"weld", 0, 0},        {"revolute", 1, 1},
+                                 {"prismatic", 1, 1}, {"cylindrical", 2, 2}, {"universal", 2, 2},
+                                 {"spherical", 4, 3}, {"planar", 3, 3}};
+static_assert(std::size(kTypeRows) == std::size(kJointTypes), "a row for every joint type");
+
+const TypeRow& row(JointType type) { return kTypeRows[static_cast<int>(type)]; }
+
 }  // namespace
 
-const char* to_string(JointType type) {
-  switch (type) {
-    case JointType::free:
-      return "free";
-    case JointType::weld:
-      return "weld";
-    case JointType::revolute:
-      return "revolute";
-    case JointType::prismatic:
-      return "prismatic";
-    case JointType::cylindrical:
-      return "cylindrical";
-    case JointType::universal:
-      return "universal";
-    case JointType::spherical:
-      return "spherical";
-  }
-  return "?";
-}
+const char* to_string(JointType type) { return row(type).name; }
 
-int coordinate_count(JointType type) {
-  constexpr int counts[] = {7, 0, 1, 1, 2, 2, 4};
-  return counts[static_cast<int>(type)];
-}
+int coordinate_count(JointType type) { return row(type).coordinates; }
 
-int speed_count(JointType type) {
-  constexpr int counts[] = {6, 0, 1, 1, 2, 2, 3};
-  return counts[static_cast<int>(type)];
+int speed_count(JointType type) { return row(type).speeds; }
+
+bool speeds_are_coordinate_rates(JointType type) {
+  return row(type).speeds > 0 && row(type).coordinates == row(type).speeds;
 }
 
 std::string check_joint(const Joint& joint) {
@@ -186,6 +185,17 @@ void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k
       m.G.leftCols<3>().setIdentity();
       m.w_rel = Vector3(rate(0), rate(1), rate(2));
       break;
+    case JointType::planar: {
+      // q = (x, y, angle): K is F turned by angle about F's z, which is also K's z; the slide
+      // x, y along F's x and y axes, constant in J, so [T_K] = [x_F y_F 0] (J components).
+      joint_rel = turn_about_unit_axis(Vector3::UnitZ(), q[o + 2]);
+      m.G.col(2) = Vector3::UnitZ();
+      m.w_rel = Vector3(0.0, 0.0, rate(2));
+      const Eigen::Matrix<double, 3, 2> t = plane_axes_in_j(jt.frame);
+      m.slide = q[o] * t.col(0) + q[o + 1] * t.col(1);
+      m.slide_rate = rate(0) * t.col(0) + rate(1) * t.col(1);
+      break;
+    }
   }
   // A product with the identity is exact: skipping it keeps the bits.
   m.rel = is_identity(jt.frame) ? joint_rel : compose(jt.frame, joint_rel);
@@ -246,6 +256,9 @@ Matrix36 joint_translation_block(const Model& model, int k) {
       break;
     case JointType::cylindrical:
       t.col(1) = model.axis_in_j(k);
+      break;
+    case JointType::planar:
+      t.leftCols<2>() = plane_axes_in_j(model.joint(k).frame);
       break;
     default:
       break;

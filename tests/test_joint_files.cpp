@@ -313,7 +313,8 @@ std::vector<BadCase> joint_bad_cases() {
        edit(b, "    body: hinge\n    stiffness: 3", "    body: base\n    stiffness: 3"),
        "body: ^base",
        "forces[0].body",
-       {"joint_spring acts on joint coordinates", "free joint"}},
+       {"joint_spring acts on joint coordinates", "free joint",
+        "revolute, prismatic, cylindrical, universal and planar joints"}},
       {"joint force on a spherical joint",
        edit(b, "    body: cyl\n", "    body: ball\n"),
        "body: ^ball\n    value",
@@ -407,11 +408,145 @@ double joint_violation(const Model& model, const State& s) {
         note(sp.norm());
         note(sd.norm());
         break;
+      case JointType::planar: {
+        // K turns about F's z only, and s', s' dot stay in F's x-y plane.
+        const Vector3 normal_j = rotation_matrix(jt.frame).transpose() * Vector3::UnitZ();
+        note((m * Vector3::UnitZ() - Vector3::UnitZ()).norm());
+        note(w_rel.cross(Vector3::UnitZ()).norm());
+        note(sp.dot(normal_j));
+        note(sd.dot(normal_j));
+        break;
+      }
       case JointType::free:
         break;
     }
   }
   return worst;
+}
+
+// A puck on a planar joint whose plane is turned 90 degrees about J's x axis (F's z = -J's y,
+// F's x = J's x, F's y = J's z: the vertical x-z plane of J), with a spring on its
+// coordinates.
+const std::string kPlanar = R"(format: kanedyn-model/1
+name: planar puck
+gravity: [0, 0, -9.81]
+bodies:
+  - name: puck
+    parent: ground
+    mass: 2.0
+    inertia: [0.02, 0.03, 0.04]
+    com: [0.1, 0, 0]
+    joint:
+      at: [0, 0, 1]
+      type: planar
+      frame: {axis: [1, 0, 0], angle_deg: 90}
+    initial:
+      joint: [0.3, -0.2, 0.5]
+      joint_rate: [1.0, 2.0, -0.5]
+forces:
+  - type: joint_spring
+    body: puck
+    stiffness: [10, 20, 0.5]
+    rest: [0, 0.1, 0]
+)";
+
+TEST(JointFiles, APlanarJointReadsXYAngleInItsFramesPlane) {
+  const io::ModelFile f = io::parse_model_file(kPlanar, "planar.yaml");
+  ASSERT_TRUE(f.jointed());
+  const Model& m = f.model;
+  EXPECT_EQ(m.joint(0).type, JointType::planar);
+  EXPECT_EQ(m.num_coordinates(), 3);
+  EXPECT_EQ(m.num_speeds(), 3);
+  EXPECT_EQ(f.q, Vector3(0.3, -0.2, 0.5));  // (x, y, angle) in the file's order
+  EXPECT_EQ(f.z, Vector3(1.0, 2.0, -0.5));
+  // s'_K = x F's x + y F's y in J (here inertial) components: F's x = (1, 0, 0), F's y =
+  // (0, 0, 1); one turn of Euler parameters (round-off 1e-16).
+  EXPECT_LT((f.initial.translation(0) - Vector3(0.3, 0, -0.2)).norm(), 1e-15);
+  EXPECT_LT((f.initial.translation_rate(0) - Vector3(1.0, 0, 2.0)).norm(), 1e-15);
+  // K is F turned 0.5 about F's z: w'_K = -0.5 e_z (K components).
+  EXPECT_LT((f.initial.angular_velocity(0) - Vector3(0, 0, -0.5)).norm(), 1e-15);
+  const Matrix3 expected =
+      rotation_matrix(euler_parameters_from_axis_angle(Vector3::UnitZ(), 0.5)) *
+      rotation_matrix(euler_parameters_from_axis_angle(Vector3::UnitX(), M_PI / 2));
+  EXPECT_LT((rotation_matrix(f.initial.euler_parameters(0)) - expected).cwiseAbs().maxCoeff(),
+            1e-15);
+  // The spring: one entry per coordinate.
+  ASSERT_EQ(m.forces().size(), 1u);
+  const auto* spring = dynamic_cast<const JointLoad*>(m.forces()[0].get());
+  ASSERT_NE(spring, nullptr);
+  EXPECT_EQ(spring->stiffness, Vector3(10, 20, 0.5));
+  EXPECT_EQ(spring->rest, Vector3(0, 0.1, 0));
+  // Q = -k (q - rest) - c z on the joint's speeds (no damping given).
+  VectorX Q = VectorX::Zero(3);
+  add_joint_forces(m, f.q, f.z, Q);
+  EXPECT_LT((Q - Vector3(-3.0, 6.0, -0.25)).norm(), 1e-15);
+}
+
+TEST(JointFiles, APlanarRunStaysInItsPlane) {
+  const fs::path dir = test::temp_dir("joint_planar_run");
+  std::ofstream(dir / "planar.yaml") << kPlanar;
+  const test::ToolRun run = test::run_in(dir, "simulate planar.yaml -o run.csv --t-end 2");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const io::ModelFile f = io::parse_model_file(kPlanar, "planar.yaml");
+  const io::Trajectory traj = io::read_trajectory(f.model, (dir / "run.csv").string());
+  ASSERT_GT(traj.rows(), 10u);
+  // time, 16 columns of the notes' state, j1..j3, jd1..jd3, and one more (as in the long run).
+  ASSERT_EQ(traj.columns.size(), 2u + 16u + 6u);
+  EXPECT_EQ(traj.columns[17], "puck.j1");
+  EXPECT_EQ(traj.columns[19], "puck.j3");
+  EXPECT_EQ(traj.columns[20], "puck.jd1");
+  EXPECT_EQ(traj.columns[22], "puck.jd3");
+  State s(f.model);
+  double worst = 0.0;
+  for (std::size_t r = 0; r < traj.rows(); ++r) {
+    for (int i = 0; i < 4; ++i) s.euler_parameters(0)[i] = traj.at(r, 4 + i);
+    for (int i = 0; i < 3; ++i) {
+      s.translation(0)[i] = traj.at(r, 8 + i);
+      s.angular_velocity(0)[i] = traj.at(r, 11 + i);
+      s.translation_rate(0)[i] = traj.at(r, 14 + i);
+    }
+    worst = std::max(worst, joint_violation(f.model, s));
+  }
+  // Round-off of one composed rotation per row (the CSV's decimals round-trip): 1e-13.
+  EXPECT_LT(worst, 1e-13);
+}
+
+TEST(JointFiles, PlanarRefusalsNameTheKey) {
+  const std::string& b = kPlanar;
+  const std::vector<BadCase> cases = {
+      {"axis on a planar joint",
+       edit(b, "      type: planar\n", "      type: planar\n      axis: [0, 0, 1]\n"),
+       "^axis: [0, 0, 1]",
+       "bodies[0].joint.axis",
+       {"'axis' is refused on a planar joint", "'frame'"}},
+      {"axes on a planar joint",
+       edit(b, "      type: planar\n", "      type: planar\n      axes: [[1, 0, 0], [0, 1, 0]]\n"),
+       "^axes: [[1, 0, 0], [0, 1, 0]]",
+       "bodies[0].joint.axes",
+       {"'axes' is refused on a planar joint", "'frame'"}},
+      {"two planar coordinates",
+       edit(b, "joint: [0.3, -0.2, 0.5]", "joint: [0.3, -0.2]"),
+       "joint: ^[0.3, -0.2]",
+       "bodies[0].initial.joint",
+       {"a planar joint has 3 coordinates, got 2 numbers"}},
+      {"four planar rates",
+       edit(b, "joint_rate: [1.0, 2.0, -0.5]", "joint_rate: [1.0, 2.0, -0.5, 0]"),
+       "joint_rate: ^[1.0, 2.0, -0.5, 0]",
+       "bodies[0].initial.joint_rate",
+       {"a planar joint has 3 rates, got 4 numbers"}},
+      {"a planar spring with two stiffnesses",
+       edit(b, "stiffness: [10, 20, 0.5]", "stiffness: [10, 20]"),
+       "stiffness: ^[10, 20]",
+       "forces[0].stiffness",
+       {"a list of 3 numbers", "planar"}},
+      {"v1 key on a planar body",
+       edit(b, "joint_rate: [1.0, 2.0, -0.5]",
+            "joint_rate: [1.0, 2.0, -0.5]\n      translation: [0, 0, 1]"),
+       "^translation: [0, 0, 1]",
+       "bodies[0].initial.translation",
+       {"refused on a body with a planar joint"}},
+  };
+  for (const BadCase& c : cases) test::expect_refused(c);
 }
 
 TEST(JointFiles, EveryRowOfALongRunHoldsEveryJoint) {

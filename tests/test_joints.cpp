@@ -60,7 +60,7 @@ std::vector<Jointed> test_trees(unsigned seed) {
   std::mt19937 rng(seed);
   std::vector<Jointed> out;
   out.push_back(eight_body_jointed(rng));
-  for (JointType type : test::kAllJointTypes) {
+  for (JointType type : kJointTypes) {
     test::RandomTreeOptions opt;
     opt.min_bodies = opt.max_bodies = 3;
     opt.chain = true;
@@ -71,8 +71,7 @@ std::vector<Jointed> test_trees(unsigned seed) {
     opt.max_bodies = 12;
     Model model = test::random_tree(rng, opt);
     std::vector<JointType> types;
-    for (int k = 0; k < model.num_bodies(); ++k)
-      types.push_back(test::kAllJointTypes[test::uniform_int(rng, 0, 6)]);
+    for (int k = 0; k < model.num_bodies(); ++k) types.push_back(test::random_joint_type(rng));
     out.push_back(make_jointed(std::move(model), types, rng));
   }
   return out;
@@ -150,6 +149,21 @@ void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
       r_expected = reference_rotation(q.segment<4>(o));
       w_expected = z.segment<3>(p);
       break;
+    case JointType::planar: {
+      // x, y along F's x and y axes (J components), the turn about F's z axis.
+      const Vector3 x_j = r_f.transpose() * Vector3::UnitX(),
+                    y_j = r_f.transpose() * Vector3::UnitY();
+      const Vector3 z_j = r_f.transpose() * Vector3::UnitZ();
+      r_expected = turn(Vector3::UnitZ(), q[o + 2]);
+      w_expected = z[p + 2] * Vector3::UnitZ();
+      s_expected = q[o] * x_j + q[o + 1] * y_j;
+      sd_expected = z[p] * x_j + z[p + 1] * y_j;
+      EXPECT_LT(std::abs(s_k.dot(z_j)), kRoundOff) << "planar: s' in the plane";
+      EXPECT_LT(std::abs(sd_k.dot(z_j)), kRoundOff) << "planar: s' dot in the plane";
+      EXPECT_LT((r_fk * Vector3::UnitZ() - Vector3::UnitZ()).norm(), kRoundOff)
+          << "planar: the normal is fixed in F and K";
+      break;
+    }
     case JointType::free:
       break;
   }
@@ -160,11 +174,11 @@ void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
 }
 
 TEST(Joints, CountsOfTheSpecTable) {
-  const int q[] = {7, 0, 1, 1, 2, 2, 4}, z[] = {6, 0, 1, 1, 2, 2, 3};
-  for (int i = 0; i < 7; ++i) {
-    EXPECT_EQ(coordinate_count(test::kAllJointTypes[i]), q[i])
-        << to_string(test::kAllJointTypes[i]);
-    EXPECT_EQ(speed_count(test::kAllJointTypes[i]), z[i]) << to_string(test::kAllJointTypes[i]);
+  const int q[] = {7, 0, 1, 1, 2, 2, 4, 3}, z[] = {6, 0, 1, 1, 2, 2, 3, 3};
+  ASSERT_EQ(std::size(kJointTypes), std::size(q));
+  for (size_t i = 0; i < std::size(q); ++i) {
+    EXPECT_EQ(coordinate_count(kJointTypes[i]), q[i]) << to_string(kJointTypes[i]);
+    EXPECT_EQ(speed_count(kJointTypes[i]), z[i]) << to_string(kJointTypes[i]);
   }
 }
 
@@ -377,6 +391,28 @@ TEST(Joints, ValidationNamesEachProblem) {
   EXPECT_EQ(check_joint_rates(JointType::spherical, VectorX::Zero(4)),
             "a spherical joint has 3 rates, not 4");
   EXPECT_EQ(check_joint_rates(JointType::prismatic, VectorX::Zero(1)), "");
+  EXPECT_EQ(check_joint_coordinates(JointType::planar, VectorX::Zero(2)),
+            "a planar joint has 3 coordinates, not 2");
+  EXPECT_EQ(check_joint_rates(JointType::planar, VectorX::Zero(1)),
+            "a planar joint has 3 rates, not 1");
+
+  Joint p;  // a planar joint has no axis: a zero one is no problem
+  p.type = JointType::planar;
+  p.axis = Vector3::Zero();
+  EXPECT_EQ(check_joint(p), "");
+}
+
+// The names are the model format's, and the joints that take joint_spring and joint_force are
+// those whose speeds are the coordinates' rates.
+TEST(Joints, NamesAndLoadableTypesOfTheSpecTable) {
+  const char* names[] = {"free",        "weld",      "revolute",  "prismatic",
+                         "cylindrical", "universal", "spherical", "planar"};
+  const bool loadable[] = {false, false, true, true, true, true, false, true};
+  ASSERT_EQ(std::size(kJointTypes), std::size(names));
+  for (size_t i = 0; i < std::size(names); ++i) {
+    EXPECT_EQ(std::string(to_string(kJointTypes[i])), names[i]);
+    EXPECT_EQ(speeds_are_coordinate_rates(kJointTypes[i]), loadable[i]) << names[i];
+  }
 }
 
 TEST(Joints, TreeRefusesBadJointsNamingTheBody) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <memory>
 #include <random>
 #include <string>
@@ -294,9 +295,12 @@ inline MatrixX angular_velocity_selection(int num_bodies, int k) {
 
 // ---- Jointed trees (joints.hpp) ----
 
-inline constexpr JointType kAllJointTypes[] = {
-    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
-    JointType::cylindrical, JointType::universal, JointType::spherical};
+// A joint type drawn uniformly from kJointTypes (joint.hpp), so that a new type enters every
+// random test.
+inline JointType random_joint_type(std::mt19937& rng) {
+  constexpr int n = static_cast<int>(std::size(kJointTypes));
+  return kJointTypes[uniform_int(rng, 0, n - 1)];
+}
 
 inline Vector3 random_unit(std::mt19937& rng) { return random_vector(rng, -1, 1).normalized(); }
 
@@ -312,8 +316,8 @@ inline Joint random_joint(std::mt19937& rng, JointType type) {
   return j;
 }
 
-// Random joint coordinates and speeds: angles in [-3, 3], slides in [-0.5, 0.5], Euler
-// parameters uniform (free bodies' s'_K in [-0.3, 0.3]); speeds in [-1, 1].
+// Random joint coordinates and speeds: angles in [-3, 3], slides (and planar x, y) in [-0.5, 0.5],
+// Euler parameters uniform (free bodies' s'_K in [-0.3, 0.3]); speeds in [-1, 1].
 inline void random_joint_state(const Model& tree, std::mt19937& rng, VectorX& q, VectorX& z) {
   q = VectorX::Zero(tree.num_coordinates());
   z = VectorX::Zero(tree.num_speeds());
@@ -340,6 +344,11 @@ inline void random_joint_state(const Model& tree, std::mt19937& rng, VectorX& q,
       case JointType::universal:
         q[o] = uniform(rng, -3, 3);
         q[o + 1] = uniform(rng, -3, 3);
+        break;
+      case JointType::planar:
+        q[o] = uniform(rng, -0.5, 0.5);
+        q[o + 1] = uniform(rng, -0.5, 0.5);
+        q[o + 2] = uniform(rng, -3, 3);
         break;
       case JointType::weld:
         break;

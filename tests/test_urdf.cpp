@@ -12,6 +12,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -20,9 +21,11 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/urdf.hpp"
+#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/rotation.hpp"
+#include "test_support.hpp"
 
 namespace kanedyn::io {
 namespace {
@@ -254,6 +257,106 @@ TEST(Urdf, EveryJointKindMapsToItsJoint) {
                        "joint 'elbow': friction is ignored"}));
 }
 
+// A link on a URDF planar joint (motion in the plane normal to <axis>, turning about it).
+std::string planar_robot(const std::string& origin, const std::string& axis) {
+  const std::string puck = R"(<link name="puck"><inertial><origin xyz="0.1 0.2 0.3"/>
+    <mass value="2"/><inertia ixx="0.1" iyy="0.2" izz="0.3" ixy="0" ixz="0" iyz="0"/>
+    </inertial></link>
+)";
+  return robot("<link name=\"world\"/>" + puck +
+               joint("slide", "planar", "world", "puck", origin + "<axis xyz=\"" + axis + "\"/>"));
+}
+
+/// The puck's joint accelerations by both routes at (q, z).
+VectorX planar_zdot(const Model& model, const VectorX& q, const VectorX& z) {
+  JointDynamics dyn(model);
+  VectorX recursive(3), assembled(3);
+  dyn.evaluate(q, z, Route::recursive, recursive);
+  dyn.evaluate(q, z, Route::assembled, assembled);
+  EXPECT_LT((recursive - assembled).norm(), 1e-12);
+  return recursive;
+}
+
+// URDF planar -> kanedyn planar with a frame whose z is the URDF axis. Its link moves in the
+// plane through the joint origin normal to the axis, and turns about the axis only: at random
+// states, O_K - origin and its velocity are normal to the axis, and the body's z is the axis
+// (inertial components). Forward dynamics agrees with hand-built model files of the same
+// joint: axis z (F is the origin's frame, the mass properties as in the URDF), and axis x
+// (F turned 90 degrees about y, the importer's smallest turn taking z to x: the mass
+// properties in F components written here by hand). Round-off of one 3x3 solve and a few
+// rotations: 1e-12.
+TEST(Urdf, PlanarJointMovesInThePlaneNormalToItsAxis) {
+  REQUIRE_URDF();
+  std::mt19937 rng(5);
+  {
+    std::vector<std::string> notes;
+    const std::string yaml = urdf_to_model_yaml(
+        planar_robot("<origin xyz=\"0.5 -0.2 1\" rpy=\"0.3 -0.2 0.5\"/>", "0 1 1"), "p.urdf", {},
+        &notes);
+    const ModelFile f = parse_model_file(yaml, "p.yaml");
+    const Model& m = f.model;
+    ASSERT_EQ(m.joint(0).type, JointType::planar);
+    EXPECT_NE(yaml.find("body frame: the link frame turned"), std::string::npos) << yaml;
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_NE(notes[0].find("joint 'slide': is planar about an axis other than its z"),
+              std::string::npos)
+        << notes[0];
+    const Vec origin(0.5, -0.2, 1);
+    const Vec axis = rpy(0.3, -0.2, 0.5) * Vec(0, 1, 1).normalized();
+    for (int i = 0; i < 10; ++i) {
+      VectorX q(3), z(3);
+      for (int c = 0; c < 3; ++c) {
+        q[c] = kanedyn::test::uniform(rng, -2, 2);
+        z[c] = kanedyn::test::uniform(rng, -2, 2);
+      }
+      State s(m);
+      joint_state(m, q, z, s);
+      const Vec p_o = m.body(0).joint + Vec(s.translation(0));
+      EXPECT_NEAR(m.body(0).joint.dot(axis), origin.dot(axis), 1e-15);
+      EXPECT_LT(std::abs((p_o - origin).dot(axis)), 1e-14);
+      EXPECT_LT(std::abs(Vec(s.translation_rate(0)).dot(axis)), 1e-14);
+      const Mat r_k = rotation_matrix(s.euler_parameters(0));  // inertial to K components
+      EXPECT_LT((r_k.transpose() * Vec::UnitZ() - axis).norm(), 1e-14);
+      EXPECT_LT(std::abs(q.head<2>().norm() - (p_o - origin).norm()), 1e-14);
+    }
+  }
+  const auto hand_built = [](const std::string& joint_and_mass) {
+    return parse_model_file(
+        "format: kanedyn-model/1\ngravity: [0, 0, -9.81]\nbodies:\n"
+        "  - name: puck\n    parent: ground\n" +
+            joint_and_mass,
+        "hand.yaml");
+  };
+  struct Case {
+    std::string origin, axis, yaml;
+  };
+  const std::vector<Case> cases = {
+      {"<origin xyz=\"0.5 -0.2 1\" rpy=\"0.4 0 0\"/>", "0 0 1",
+       "    mass: 2\n    inertia: [0.1, 0.2, 0.3]\n    com: [0.1, 0.2, 0.3]\n"
+       "    joint: {type: planar, at: [0.5, -0.2, 1], frame: {axis: [1, 0, 0], angle: 0.4}}\n"},
+      // F's z = the link's x: a link vector v has F components (-v_z, v_y, v_x).
+      {"<origin xyz=\"0 0 0\"/>", "1 0 0",
+       "    mass: 2\n    inertia: [0.3, 0.2, 0.1]\n    com: [-0.3, 0.2, 0.1]\n"
+       "    joint: {type: planar, frame: {axis: [0, 1, 0], angle_deg: 90}}\n"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.axis);
+    const ModelFile imported = parse_model_file(
+        urdf_to_model_yaml(planar_robot(c.origin, c.axis), "p.urdf", {}, nullptr), "p.yaml");
+    const ModelFile hand = hand_built(c.yaml);
+    for (int i = 0; i < 5; ++i) {
+      VectorX q(3), z(3);
+      for (int k = 0; k < 3; ++k) {
+        q[k] = kanedyn::test::uniform(rng, -2, 2);
+        z[k] = kanedyn::test::uniform(rng, -2, 2);
+      }
+      const VectorX a = planar_zdot(imported.model, q, z), b = planar_zdot(hand.model, q, z);
+      EXPECT_LT((a - b).norm(), 1e-12 * (1.0 + b.norm()))
+          << a.transpose() << " / " << b.transpose();
+    }
+  }
+}
+
 TEST(Urdf, TurnedInertialOriginTurnsTheInertiaIntoLinkAxes) {
   REQUIRE_URDF();
   const Json m = yaml_json(convert("rotated_inertial.urdf"));
@@ -429,8 +532,9 @@ TEST(Urdf, RefusalsNameTheFileAndTheElement) {
   };
   const std::string base = "<link name=\"world\"/>";
   const std::vector<Case> cases = {
-      {robot(base + massive("a") + joint("slider", "planar", "world", "a")), "joint 'slider'",
-       "is planar"},
+      {robot(base + massive("a") +
+             joint("slider", "planar", "world", "a", "<axis xyz=\"0 0 0\"/>")),
+       "joint 'slider'", "axis must be a nonzero finite vector"},
       {robot(base + massive("a") + massive("b") + joint("j1", "revolute", "world", "a") +
              joint("j2", "revolute", "a", "b", "<mimic joint=\"j1\"/>")),
        "joint 'j2'", "mimics joint 'j1'"},

@@ -18,6 +18,7 @@
 #include <dart/dynamics/BallJoint.hpp>
 #include <dart/dynamics/BodyNode.hpp>
 #include <dart/dynamics/FreeJoint.hpp>
+#include <dart/dynamics/PlanarJoint.hpp>
 #include <dart/dynamics/PrismaticJoint.hpp>
 #include <dart/dynamics/RevoluteJoint.hpp>
 #include <dart/dynamics/Skeleton.hpp>
@@ -409,6 +410,20 @@ JointedSkeleton build_skeleton(const JointedSystem& system) {
         node = c.second;
         break;
       }
+      case JointKind::planar: {
+        // DART's positions are (x, y along the plane's axes, angle about its normal), kanedyn's
+        // order; the x-y plane of the joint frame F.
+        // Named coordinates: DART would otherwise name all three "default" and say so.
+        dart::dynamics::PlanarJoint::Properties props;
+        props.mName = b.name + "_joint";
+        props.mDofNames = {b.name + "_x", b.name + "_y", b.name + "_angle"};
+        auto c = out.skeleton->createJointAndBodyNodePair<dart::dynamics::PlanarJoint>(parent,
+                                                                                       props, body);
+        c.first->setXYPlane(false);
+        joint = c.first;
+        node = c.second;
+        break;
+      }
       case JointKind::cylindrical: {
         // DART warns (on std::cerr) that a zero mass and inertia may be invalid; the
         // articulated-body recursion only inverts the inertia seen through each joint, which
@@ -582,6 +597,7 @@ class DartJointedEngine final : public JointedEngine {
         case JointKind::revolute:
         case JointKind::prismatic:
         case JointKind::universal:
+        case JointKind::planar:
           for (size_t i = 0; i < joint->getNumDofs(); ++i) joint->setForce(i, load(j, i, joint, i));
           break;
         case JointKind::cylindrical:

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 
 #include "kanedyn/forces.hpp"
@@ -21,6 +22,11 @@ using kanedyn::Vector4;
 using kanedyn::VectorX;
 
 size_t at(int i) { return static_cast<size_t>(i); }
+
+// describe_jointed casts JointType to JointKind: the same enumerators in the same order.
+static_assert(std::size(kanedyn::kJointTypes) == static_cast<size_t>(JointKind::planar) + 1 &&
+                  static_cast<int>(JointType::planar) == static_cast<int>(JointKind::planar),
+              "peer.hpp's JointKind must list kanedyn's joint types");
 
 // Uniform in [lo, hi] from the raw 32-bit output (std::uniform_real_distribution's results
 // differ between standard libraries).
@@ -144,6 +150,26 @@ std::unique_ptr<JointedCase> every_joint_type(unsigned seed) {
   return c;
 }
 
+std::unique_ptr<JointedCase> planar_joints(unsigned seed) {
+  const kanedyn::GeneratedSystem g = kanedyn::random_tree_model(5, seed);
+  std::mt19937 rng(seed + 23);
+  const JointType types[5] = {JointType::planar, JointType::revolute, JointType::planar,
+                              JointType::planar, JointType::prismatic};
+  std::vector<Joint> joints;
+  std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads;
+  for (int k = 0; k < 5; ++k) {
+    Joint j = joint(types[k], random_unit(rng));
+    j.frame = random_turn(rng, M_PI);
+    loads.push_back(load(k, kanedyn::coordinate_count(types[k]), uniform(rng, 5, 50),
+                         uniform(rng, 0.1, 1), uniform(rng, -0.3, 0.3), uniform(rng, -2, 2)));
+    joints.push_back(j);
+  }
+  auto c = std::make_unique<JointedCase>(
+      "planar-joints", with_bushings_on(g.model, {}, "planar-joints"), joints, loads);
+  size_state(*c);
+  return c;
+}
+
 void random_joint_state(JointedCase& c, std::mt19937& rng) {
   size_state(c);
   for (int k = 0; k < c.model.num_bodies(); ++k) {
@@ -167,6 +193,11 @@ void random_joint_state(JointedCase& c, std::mt19937& rng) {
       case JointType::cylindrical:
         c.q[o] = uniform(rng, -1.2, 1.2);
         c.q[o + 1] = uniform(rng, -0.1, 0.1);
+        break;
+      case JointType::planar:
+        c.q[o] = uniform(rng, -0.1, 0.1);
+        c.q[o + 1] = uniform(rng, -0.1, 0.1);
+        c.q[o + 2] = uniform(rng, -1.2, 1.2);
         break;
       case JointType::weld:
         break;

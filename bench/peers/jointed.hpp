@@ -46,8 +46,14 @@ std::unique_ptr<JointedCase> revolute_chain(int n, unsigned seed);
 /// on the revolute, prismatic, cylindrical and universal joints.
 std::unique_ptr<JointedCase> every_joint_type(unsigned seed);
 
-/// A random state: angles in [-1.2, 1.2] rad, slides in [-0.1, 0.1] m, spherical joints and the
-/// free root turned by up to 1.2 rad about a random axis, the root's s' up to 2 cm; speeds in
+/// Planar joints on the bodies of kanedyn::random_tree_model(5, seed): planar (the root),
+/// revolute, planar, planar, prismatic, with random joint frames (the planes) and axes, and joint
+/// springs, dampers and constant forces on every joint; no bushing.
+std::unique_ptr<JointedCase> planar_joints(unsigned seed);
+
+/// A random state: angles in [-1.2, 1.2] rad, slides (and planar x, y) in [-0.1, 0.1] m, spherical
+/// joints and the free root turned by up to 1.2 rad about a random axis, the root's s' up to 2 cm;
+/// speeds in
 /// [-1, 1] (rad/s, m/s). Portable draws from the engine's raw 32-bit output.
 void random_joint_state(JointedCase& c, std::mt19937& rng);
 

@@ -564,6 +564,14 @@ class MujocoJointedEngine final : public JointedEngine {
         case JointKind::spherical:
           x += "<joint name=\"" + id + "_j0\" type=\"ball\"/>\n";
           break;
+        case JointKind::planar:
+          // MuJoCo has no planar joint type; two slides along the body frame's (F's) x and y,
+          // then a hinge about its z through the moved origin, are one: each joint of a body
+          // moves the frame the ones before it left.
+          x += joint_element(id, 0, "slide", {1, 0, 0}, j, 0) +
+               joint_element(id, 1, "slide", {0, 1, 0}, j, 1) +
+               joint_element(id, 2, "hinge", {0, 0, 1}, j, 2);
+          break;
       }
       return x;
     });

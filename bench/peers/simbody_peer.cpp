@@ -239,7 +239,15 @@ class SimbodyEngine final : public Engine {
 // R_FK = S R_FsM S^T: the turn by q about n (or a1 then a2), with Simbody's q equal to
 // kanedyn's. Ball: F_s = F, M = the body frame, q = the quaternion of K relative to F, u = the
 // angular velocity of K relative to J in F components (kanedyn's z in K components turned by
-// R_FK). Free (roots only): as SimbodyEngine's, u = (w_K, v) in ground components.
+// R_FK). Planar: F_s = F, M = the body frame; Simbody's q = (angle about z, x, y along F's x
+// and y) (MobilizedBody_Planar.h) is kanedyn's (x, y, angle) rotated by one place, u = q dot
+// likewise (planar_index). Free (roots only): as SimbodyEngine's, u = (w_K, v) in ground
+// components.
+
+// Simbody's index of kanedyn's coordinate i of a joint: the same, except for a planar joint,
+// whose angle comes first in Simbody's q.
+int simbody_index(JointKind type, int i) { return type == JointKind::planar ? (i + 1) % 3 : i; }
+
 class JointLoads : public SimTK::Force::Custom::Implementation {
  public:
   JointLoads(const JointedSystem& system, const std::vector<SimTK::MobilizedBody>& bodies)
@@ -265,10 +273,11 @@ class JointLoads : public SimTK::Force::Custom::Implementation {
       }
       if (j.type == JointKind::weld || j.type == JointKind::spherical) continue;
       const int n = mb.getNumU(state);
-      for (int i = 0; i < n; ++i) {
+      for (int i = 0; i < n; ++i) {  // i: kanedyn's coordinate, s: Simbody's
         const auto c = static_cast<size_t>(i);
-        mobility_forces[iu + i] +=
-            j.value[c] - j.stiffness[c] * (q[iq + i] - j.rest[c]) - j.damping[c] * u[iu + i];
+        const int s = simbody_index(j.type, i);
+        mobility_forces[iu + s] +=
+            j.value[c] - j.stiffness[c] * (q[iq + s] - j.rest[c]) - j.damping[c] * u[iu + s];
       }
     }
   }
@@ -344,6 +353,9 @@ class SimbodyJointedEngine final : public JointedEngine {
         case JointKind::spherical:
           bodies_.push_back(SimTK::MobilizedBody::Ball(parent, X_PF, body, X_BM));
           break;
+        case JointKind::planar:  // S is the identity: Simbody's plane is F's x-y plane
+          bodies_.push_back(SimTK::MobilizedBody::Planar(parent, X_PF, body, X_BM));
+          break;
       }
     }
     SimTK::Force::Custom(forces_, new JointLoads(system_, bodies_));
@@ -373,8 +385,8 @@ class SimbodyJointedEngine final : public JointedEngine {
           break;
         default:
           for (int i = 0; i < mb.getNumQ(state_); ++i) {
-            mb.setOneQ(state_, i, q[i]);
-            mb.setOneU(state_, i, z[i]);
+            mb.setOneQ(state_, simbody_index(j.type, i), q[i]);
+            mb.setOneU(state_, simbody_index(j.type, i), z[i]);
           }
       }
     }
@@ -416,7 +428,8 @@ class SimbodyJointedEngine final : public JointedEngine {
         case JointKind::weld:
           break;
         default:
-          for (int i = 0; i < mb.getNumU(state_); ++i) z[i] = udot[iu + i];
+          for (int i = 0; i < mb.getNumU(state_); ++i)
+            z[i] = udot[iu + simbody_index(system_.joints[k].type, i)];
       }
     }
     return out;

@@ -11,6 +11,8 @@
 //   universal:   q = (a1, a2),               z = (da1/dt, da2/dt)
 //   spherical:   q = (e1, e2, e3, e4) of K relative to F, z = angular velocity of K relative
 //                to J, body-K components (the spec's `joint_rate`)
+//   planar:      q = (x, y, angle),          z = (dx/dt, dy/dt, d angle/dt): x, y along F's x
+//                and y axes, the turn about F's z axis
 // Angles in radians, lengths in model units, rates per second.
 #pragma once
 
@@ -21,12 +23,13 @@
 
 namespace kanedyn {
 
-enum class JointType { free, weld, revolute, prismatic, cylindrical, universal, spherical };
+enum class JointType { free, weld, revolute, prismatic, cylindrical, universal, spherical, planar };
 
-/// Every joint type, in the order of the enum.
+/// Every joint type, in the order of the enum: the one list that readers, messages and tests
+/// iterate over.
 inline constexpr JointType kJointTypes[] = {
-    JointType::free,        JointType::weld,      JointType::revolute, JointType::prismatic,
-    JointType::cylindrical, JointType::universal, JointType::spherical};
+    JointType::free,        JointType::weld,      JointType::revolute,  JointType::prismatic,
+    JointType::cylindrical, JointType::universal, JointType::spherical, JointType::planar};
 
 /// "free", "weld", "revolute", ... as the model format spells them.
 const char* to_string(JointType type);
@@ -35,7 +38,8 @@ const char* to_string(JointType type);
 struct Joint {
   JointType type = JointType::free;
   /// The joint frame F as Euler parameters of F relative to J (e4 scalar, unit): J's axes turned
-  /// into F's, so [R(frame)] maps body-J components to F components. Unused by free joints.
+  /// into F's, so [R(frame)] maps body-J components to F components. Unused by free joints; a
+  /// planar joint's plane is F's x-y plane.
   Vector4 frame{0.0, 0.0, 0.0, 1.0};
   /// Revolute, prismatic, cylindrical: the axis in F components (normalized by the Model).
   Vector3 axis = Vector3::UnitX();
@@ -46,11 +50,15 @@ struct Joint {
 };
 
 /// Entries of a body's slice of q: 7 for free (eps_K, s'_K), 0 weld, 1 revolute and
-/// prismatic, 2 cylindrical and universal, 4 spherical.
+/// prismatic, 2 cylindrical and universal, 4 spherical, 3 planar.
 int coordinate_count(JointType type);
 /// Entries of a body's slice of z: 6 free, 0 weld, 1 revolute and prismatic, 2 cylindrical
-/// and universal, 3 spherical.
+/// and universal, 3 spherical and planar.
 int speed_count(JointType type);
+/// Whether z_K = dq_K/dt entry by entry (a joint with coordinates, as many as speeds: revolute,
+/// prismatic, cylindrical, universal, planar): the joints that joint_spring and joint_force
+/// act on.
+bool speeds_are_coordinate_rates(JointType type);
 
 /// The problem with a joint description, or "" when it is usable: a zero axis, universal axes
 /// zero or not perpendicular (|a1 . a2| > 1e-9 after normalizing), frame Euler parameters off

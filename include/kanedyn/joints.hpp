@@ -67,8 +67,9 @@ void joint_coordinate_rates(const Model& model, const VectorX& q, const VectorX&
 /// y = [C] z, block-sparse. w'_K = sum over c in angular_chain(K) of w_block * z_c, with
 /// w_block = [R_K][R_c]^T [G_c] (3 x speed_count(c), the first columns of a 3x6); s'_K dot =
 /// s_block[K] z_K. [G_c]: free [I 0]; revolute n; cylindrical [n 0]; universal
-/// [R(a2, q2) a1, a2]; spherical [I]; prismatic 0. s_block: free [0 I]; prismatic n_J;
-/// cylindrical [0 n_J]; else 0.
+/// [R(a2, q2) a1, a2]; spherical [I]; planar [0 0 e_z]; prismatic 0. s_block: free [0 I];
+/// prismatic n_J; cylindrical [0 n_J]; planar [x_F y_F 0] (F's x and y axes in J components);
+/// else 0.
 struct ConstraintMatrix {
   explicit ConstraintMatrix(const Model& model);
   std::vector<int> w_begin;       ///< N + 1: body k's blocks are w_begin[k] .. w_begin[k+1]-1

@@ -524,6 +524,10 @@ class Reader {
   /// A text value that must be one of `choices`.
   std::string choice(const Field& f, std::initializer_list<std::string_view> choices,
                      const std::string& what) const {
+    return choice(f, std::vector<std::string_view>(choices), what);
+  }
+  std::string choice(const Field& f, const std::vector<std::string_view>& choices,
+                     const std::string& what) const {
     const std::string_view s = text_view(f);
     if (std::none_of(choices.begin(), choices.end(),
                      [&](std::string_view c) { return same(c, s); }))
@@ -872,6 +876,16 @@ Vector4 read_euler_parameters(const Reader& r, const Field& f) {
   return eps / norm;
 }
 
+/// Every joint type's name (kJointTypes), in the order of the enum.
+const std::vector<std::string_view>& joint_type_names() {
+  static const std::vector<std::string_view> names = [] {
+    std::vector<std::string_view> v;
+    for (const JointType type : kJointTypes) v.emplace_back(to_string(type));
+    return v;
+  }();
+  return names;
+}
+
 JointType joint_type_of(std::string_view name) {
   JointType t = JointType::free;
   for (const JointType type : kJointTypes)
@@ -892,10 +906,7 @@ Joint read_joint(const Reader& r, const Field& f, Vector3& at) {
   const Mapping m = r.mapping(f);
   m.allow({"at", "type", "frame", "axis", "axes"});
   Joint joint;
-  const std::string type =
-      r.choice(m.require("type"),
-               {"free", "weld", "revolute", "prismatic", "cylindrical", "universal", "spherical"},
-               "joint type");
+  const std::string type = r.choice(m.require("type"), joint_type_names(), "joint type");
   joint.type = joint_type_of(type);
   if (auto v = m.get("at")) at = r.vector3(*v);
   const auto refuse = [&](const std::optional<Field>& v, const std::string& why) {
@@ -909,13 +920,19 @@ Joint read_joint(const Reader& r, const Field& f, Vector3& at) {
                      joint.type == JointType::cylindrical;
   const auto axis = m.get("axis");
   if (!axial)
-    refuse(axis,
-           "'axis' is refused on a " + type +
-               " joint; it is for revolute, prismatic and cylindrical joints" +
-               (joint.type == JointType::universal ? " (a universal joint takes 'axes')" : ""));
+    refuse(axis, "'axis' is refused on a " + type +
+                     " joint; it is for revolute, prismatic and cylindrical joints" +
+                     (joint.type == JointType::universal ? " (a universal joint takes 'axes')"
+                      : joint.type == JointType::planar  ? " (orient a planar joint's plane with "
+                                                           "'frame': the plane is F's x-y plane)"
+                                                         : ""));
   const auto axes = m.get("axes");
   if (joint.type != JointType::universal)
-    refuse(axes, "'axes' is refused on a " + type + " joint; it is for universal joints");
+    refuse(axes, "'axes' is refused on a " + type + " joint; it is for universal joints" +
+                     (joint.type == JointType::planar
+                          ? " (orient a planar joint's plane with 'frame': the plane is F's x-y "
+                            "plane)"
+                          : ""));
   if (axial) {
     if (!axis)
       r.fail(f.mark, child_path(f.path.str(), "axis"),
@@ -1165,11 +1182,20 @@ std::shared_ptr<const JointLoad> read_joint_load(const Reader& r, const Mapping&
                                                  const std::string& type, const Field& body_field,
                                                  int body, const std::vector<Joint>& joints) {
   const JointType jt = joints[static_cast<size_t>(body)].type;
-  if (jt == JointType::free || jt == JointType::weld || jt == JointType::spherical)
+  if (!speeds_are_coordinate_rates(jt)) {
+    // "revolute, prismatic, ... and planar": the types whose rates are the coordinates'.
+    std::vector<std::string> loadable;
+    for (const JointType t : kJointTypes)
+      if (speeds_are_coordinate_rates(t)) loadable.emplace_back(to_string(t));
+    std::string names = loadable.back();
+    if (loadable.size() > 1) {
+      loadable.pop_back();
+      names = join(loadable) + " and " + names;
+    }
     r.fail(body_field, type + " acts on joint coordinates, and body '" +
                            std::string(r.text_view(body_field)) + "' has a " + to_string(jt) +
-                           " joint; " + type +
-                           " is for revolute, prismatic, cylindrical and universal joints");
+                           " joint; " + type + " is for " + names + " joints");
+  }
   const int n = coordinate_count(jt);
   const auto read = [&](const char* key, bool non_negative) -> VectorX {
     const auto v = m.get(key);

@@ -67,7 +67,7 @@ struct Body {
   double mass = 0.0;
   Eigen::Matrix3d inertia;
   Vec com;
-  std::string joint_type;  ///< "free", "weld", "revolute", "prismatic"
+  std::string joint_type;  ///< "free", "weld", "revolute", "prismatic", "planar"
   Vec at = Vec::Zero();
   Quat frame = Quat::Identity();
   Vec axis = Vec::UnitX();
@@ -378,9 +378,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
           type = "free";
           break;
         case urdf::Joint::PLANAR:
-          fail(jname,
-               "is planar: kanedyn has no planar joint (free, weld, revolute, prismatic, "
-               "cylindrical, universal, spherical)");
+          type = "planar";
           break;
         default:
           fail(jname, "has an unknown type");
@@ -411,6 +409,31 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
             fail(jname, "axis must be a nonzero finite vector, got " + vec(bodies[k].axis));
         }
         to = Place{k, Vec::Zero(), Quat::Identity(), to.absolute};
+        if (type == "planar") {
+          // URDF's planar joint moves in the plane normal to its axis (joint frame components);
+          // kanedyn's moves in F's x-y plane, turns about F's z, and K is F at zero. So F, and
+          // with it the body frame, is the link frame turned by a, which takes z onto the
+          // axis: the mass properties are rewritten in F, and the link hangs in the body
+          // turned back by a^-1.
+          const Vec axis = vec3(joint.axis);
+          const std::optional<Vec> n = detail::scaled_direction(axis);
+          if (!n) fail(jname, "axis must be a nonzero finite vector, got " + vec(axis));
+          const Quat a = Quat::FromTwoVectors(Vec::UnitZ(), n->normalized());
+          if (!is_identity(a)) {
+            Body& b = bodies[static_cast<std::size_t>(k)];
+            const Eigen::Matrix3d r = a.toRotationMatrix();  // F components to link components
+            b.frame = (b.frame * a).normalized();
+            b.com = r.transpose() * b.com;
+            b.inertia = r.transpose() * b.inertia * r;
+            b.inertia = (0.5 * (b.inertia + b.inertia.transpose())).eval();
+            b.comment = "body frame: the link frame turned so that its z is the planar axis";
+            notes.add("joint",
+                      "is planar about an axis other than its z: its link's body frame is the "
+                      "link frame turned to put z on the axis (kanedyn's plane is F's x-y plane)",
+                      joint.name);
+            to.q = a.conjugate();
+          }
+        }
       } else if (type != "weld") {
         fail(quoted_name("link", child->name),
              "has no mass, but " + jname + " (" +
@@ -420,7 +443,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
       }
       // What the mapping leaves out, said once per kind.
       const bool moving = type == "revolute" || type == "prismatic";
-      if (joint.limits && moving)
+      if (joint.limits && (moving || type == "planar"))
         notes.add("joint",
                   joint.type == urdf::Joint::CONTINUOUS
                       ? "velocity and effort limits are ignored"
@@ -436,7 +459,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
         if (d > 0.0) {
           if (moving && mass > 0.0)
             bodies.back().damping = d;
-          else
+          else  // a planar joint's one damping would mix N s/m and N m s/rad
             notes.add("joint",
                       "damping is ignored (kanedyn damps revolute and prismatic joints only)",
                       joint.name);
@@ -461,14 +484,17 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
 
   std::string y;
   y += "# Converted from " + printable(source_name) + " by kanedyn's URDF import (docs/urdf.md).\n";
-  y += "# Each body is the link of its name, with the link frame as the body frame.\n";
+  y += "# Each body is the link of its name, with the link frame as the body frame (a planar\n";
+  y += "# joint's body says so where its frame is turned).\n";
   y += "format: kanedyn-model/1\n";
   if (!model->getName().empty()) y += "name: " + yaml_string(model->getName()) + "\n";
   y += "gravity: " + vec(Vec(options.gravity[0], options.gravity[1], options.gravity[2])) + "\n";
   y += "bodies:\n";
   for (const Body& b : bodies) {
     y += "  - name: \"" + b.name + "\"";
-    y += b.joint.empty() ? "  # root link\n" : "  # joint " + printable(b.joint) + "\n";
+    y += b.joint.empty() ? "  # root link\n"
+                         : "  # joint " + printable(b.joint) +
+                               (b.comment.empty() ? std::string() : "; " + b.comment) + "\n";
     y += "    parent: " +
          (b.parent < 0 ? std::string("ground") : "\"" + bodies[b.parent].name + "\"") + "\n";
     y += "    mass: " + num(b.mass) + "\n";

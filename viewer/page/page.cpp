@@ -134,7 +134,8 @@ Json body_json(const Model& model, int k) {
 /// the body it is fixed in, "parent" (J, or the inertial frame for a root) or "body" (K). A
 /// revolute, prismatic or cylindrical axis is fixed in both and given in J, where Q_K is too;
 /// a universal joint's a1 is fixed in J and its a2, about which K turns last, in K (at zero
-/// angles K's axes are F's, so a2's K components are its F components).
+/// angles K's axes are F's, so a2's K components are its F components). A planar joint's
+/// plane normal, F's z axis, is fixed in both and given in J.
 void add_joint_json(const Model& model, int k, Json& o) {
   const Joint& jt = model.joint(k);
   o["joint_type"] = to_string(jt.type);
@@ -152,6 +153,9 @@ void add_joint_json(const Model& model, int k, Json& o) {
       // [R(frame)] maps J components to F components.
       axis(rotation_matrix(jt.frame).transpose() * jt.axes[0], "parent");
       axis(jt.axes[1], "body");
+      break;
+    case JointType::planar:
+      axis(rotation_matrix(jt.frame).transpose() * Vector3::UnitZ(), "parent");
       break;
     default:
       break;
