@@ -1,15 +1,18 @@
 """kanedyn: dynamics of multibody systems by Kane's equations.
 
-The notes' unconstrained tree of N rigid bodies, from a model file::
+A tree of N rigid bodies, each with a joint (free: the notes' body), from a model file::
 
     import kanedyn
     m = kanedyn.load("examples/eight_body.yaml")
     e = m.eom()                      # [A], {f}, {y dot}, {x dot} at the initial state
     r = m.simulate(t_end=10)         # r.t, r.x, r.y, r.energy, r["torso.w2"]
+    arm = kanedyn.load("examples/urdf/arm.urdf")
+    s = arm.state(q=[0.3, -0.7, 1.1, 0.4, -0.2, 0.9])   # a state from joint coordinates
+    qdot, zdot = arm.derivatives(s)
 
 Arrays are float64 numpy arrays in the notes' order: x = (eps_1..eps_N, s'_1..s'_N), 7N, and
-y = (w'_1..w'_N, s'_1 dot..s'_N dot), 6N (Eq. 1); e4 is the scalar part of eps_K. See
-docs/python.md.
+y = (w'_1..w'_N, s'_1 dot..s'_N dot), 6N (Eq. 1); e4 is the scalar part of eps_K. The state of
+a model with joints is its joint coordinates q and speeds z. See docs/python.md.
 """
 
 from __future__ import annotations
@@ -109,9 +112,9 @@ def _simulate(
     store: bool = True,
     progress: Union[bool, Callable[[float, float], Any], None] = None,
 ) -> Result:
-    """Integrates the model from its initial state (or `initial`) to t_end, with output rows
-    every dt_out, and returns a Result: r.t (T,), r.x (T, 7N), r.y (T, 6N), r.p_G (T, N, 3),
-    r.energy (T,), r.stats.
+    """Integrates the model from its initial state (or `initial`, a State of this model) to
+    t_end, with output rows every dt_out, and returns a Result: r.t (T,), r.x (T, 7N), r.y
+    (T, 6N), r.p_G (T, N, 3), r.energy (T,), r.stats; for a model with joints also r.q and r.z.
 
     Settings left None come from the model file's simulation: section, else the defaults of
     `kanedyn simulate` (t_end 10, dt_out 0.01, dopri5 with rtol 1e-8 and atol 1e-10, rk4 step

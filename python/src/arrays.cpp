@@ -7,6 +7,7 @@
 #include <string>
 
 #include "bindings.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/simulate.hpp"
 
 namespace kanedyn::python {
@@ -187,12 +188,11 @@ long long integer_argument(py::handle obj, const std::string& name, long long lo
                         std::to_string(hi));
 }
 
-State state_argument(const PyModel& m, py::handle obj) {
-  if (obj.is_none()) return m.file().initial;
-  if (!py::isinstance<State>(obj))
-    throw py::type_error("state must be a kanedyn.State (e.g. model.initial_state()), got " +
-                         std::string(py::str(obj.get_type().attr("__name__"))));
-  const State& given = obj.cast<const State&>();
+namespace {
+
+/// The notes' x, y of a Python State of the notes, checked for this model: N, finite, unit
+/// Euler parameters.
+State checked_notes(const PyModel& m, const State& given) {
   if (given.num_bodies() != m.N() || given.x.size() != 7 * m.N())
     throw py::value_error("state is of " + std::to_string(given.num_bodies()) +
                           " bodies; the model has N = " + std::to_string(m.N()));
@@ -201,6 +201,113 @@ State state_argument(const PyModel& m, py::handle obj) {
   if (problem.empty()) problem = copy_speeds(m.model(), given.y.data(), 1, state.y, "state.y");
   if (!problem.empty()) throw py::value_error(problem);
   return state;
+}
+
+}  // namespace
+
+std::string model_state_problem(const PyModel& m, const VectorX& q, const VectorX& z,
+                                const std::string& qname, const std::string& zname) {
+  const Model& model = m.model();
+  for (Eigen::Index i = 0; i < q.size(); ++i)
+    if (!std::isfinite(q[i])) return qname + "[" + std::to_string(i) + "] is " + number(q[i]);
+  for (Eigen::Index i = 0; i < z.size(); ++i)
+    if (!std::isfinite(z[i])) return zname + "[" + std::to_string(i) + "] is " + number(z[i]);
+  for (int k = 0; k < m.N(); ++k) {
+    const JointType type = model.joint(k).type;
+    const VectorX slice = q.segment(model.coordinate_offset(k), coordinate_count(type));
+    if (const std::string problem = check_joint_coordinates(type, slice); !problem.empty())
+      return qname + ": body '" + model.body(k).name + "': " + problem;
+  }
+  return "";
+}
+
+namespace {
+
+void check_model_state(const PyModel& m, const VectorX& q, const VectorX& z, const char* qname,
+                       const char* zname) {
+  if (const std::string problem = model_state_problem(m, q, z, qname, zname); !problem.empty())
+    throw py::value_error(problem);
+}
+
+/// obj as a vector of n doubles into v.
+void read_vector(py::handle obj, const char* name, int n, VectorX& v) {
+  const auto a = float64_array(obj, name, {n}, "(" + std::to_string(n) + ",)");
+  v.resize(n);
+  copy_vector(a, v);
+}
+
+}  // namespace
+
+void model_state(const PyModel& m, py::handle obj, VectorX& q, VectorX& z) {
+  const Model& model = m.model();
+  if (obj.is_none()) {
+    q = m.file().q;
+    z = m.file().z;
+    return;
+  }
+  if (!py::isinstance<PyState>(obj))
+    throw py::type_error("state must be a kanedyn.State (e.g. model.initial_state()), got " +
+                         std::string(py::str(obj.get_type().attr("__name__"))));
+  const PyState& given = obj.cast<const PyState&>();
+  if (!given.jointed()) {
+    const State notes = checked_notes(m, given.notes);
+    try {
+      joint_coordinates(model, notes, q, z);
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(e.what());
+    }
+    return;
+  }
+  const Model& other = given.model->model();
+  bool same = other.num_bodies() == model.num_bodies();
+  for (int k = 0; same && k < model.num_bodies(); ++k)
+    same = other.joint(k).type == model.joint(k).type;
+  if (!same)
+    throw py::value_error(
+        "state holds the joint coordinates of another model (its joints differ from this "
+        "model's)");
+  q = given.q;
+  z = given.z;
+  check_model_state(m, q, z, "state.q", "state.z");
+}
+
+void model_state(const PyModel& m, py::handle state, py::handle q_obj, py::handle z_obj, VectorX& q,
+                 VectorX& z) {
+  if (!state.is_none() && (!q_obj.is_none() || !z_obj.is_none()))
+    throw py::value_error("give the state or q and z, not both");
+  model_state(m, state, q, z);
+  if (!q_obj.is_none()) read_vector(q_obj, "q", m.model().num_coordinates(), q);
+  if (!z_obj.is_none()) read_vector(z_obj, "z", m.model().num_speeds(), z);
+  if (!q_obj.is_none() || !z_obj.is_none()) check_model_state(m, q, z, "q", "z");
+}
+
+State notes_state(const PyModel& m, py::handle obj) {
+  if (!m.notes_layout())
+    throw py::value_error(
+        "this model has joints: its state is the joint coordinates q and "
+        "speeds z, not the notes' x and y");
+  if (obj.is_none()) return m.file().initial;
+  if (!py::isinstance<PyState>(obj))
+    throw py::type_error("state must be a kanedyn.State (e.g. model.initial_state()), got " +
+                         std::string(py::str(obj.get_type().attr("__name__"))));
+  const PyState& given = obj.cast<const PyState&>();
+  if (given.jointed())
+    throw py::value_error(
+        "state holds the joint coordinates of another model (this one's joints are all free)");
+  return checked_notes(m, given.notes);
+}
+
+PyState make_state(const std::shared_ptr<const PyModel>& m, const VectorX& q, const VectorX& z) {
+  PyState s;
+  if (m->notes_layout()) {
+    s.notes = State(m->model());
+    joint_state(m->model(), q, z, s.notes);
+  } else {
+    s.q = q;
+    s.z = z;
+    s.model = m;
+  }
+  return s;
 }
 
 py::array_t<double> to_numpy(const VectorX& v) {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
@@ -28,14 +29,18 @@ class PyModel {
   const io::ModelFile& file() const { return file_; }
   const Model& model() const { return file_.model; }
   int N() const { return file_.model.num_bodies(); }
-  /// The model when some joint is not free, else nullptr (the notes' free tree).
-  const Model* joints() const { return file_.jointed() ? &file_.model : nullptr; }
+  /// Whether the model integrates its state in the notes' layout ({x}; {y}) (every joint
+  /// free) or as (q; z): what derivatives() and derivatives_batch() take and give.
+  bool notes_layout() const { return file_.model.all_free(); }
 
+  /// What one call works in: the notes' state and its Data for the free tree's kernel, and
+  /// for any other model a Dynamics with its (q, z) and their rates.
   struct Workspace {
-    explicit Workspace(const Model& model)
-        : data(model, DataOptions::recursive_only()), state(model) {}
+    explicit Workspace(const Model& model);
     Data data;
     State state;
+    std::unique_ptr<Dynamics> dynamics;  // models with joints
+    VectorX v, dv;                       // the packed (q; z) and its rate
   };
   /// A workspace for the lifetime of the lease, returned to the pool after; safe without the
   /// GIL.
@@ -57,6 +62,18 @@ class PyModel {
   io::ModelFile file_;
   mutable std::mutex pool_mutex_;
   mutable std::vector<std::unique_ptr<Workspace>> pool_;
+};
+
+/// Python's kanedyn.State. A state of the notes (State(x, y), and every state of an all-free
+/// model) stores x and y; its q and z are computed from them (body by body: q_K = (eps_K,
+/// s'_K), z_K = (w'_K, s'_K dot)). A state of a model with joints stores its joint
+/// coordinates q and speeds z, and that model; its x and y are computed from them
+/// (joint_state). The stored arrays are the writable ones.
+struct PyState {
+  State notes;
+  VectorX q, z;
+  std::shared_ptr<const PyModel> model;  // set for a state of joint coordinates
+  bool jointed() const { return model != nullptr; }
 };
 
 // --- arrays.cpp: arguments in, numpy arrays out -------------------------------------------
@@ -94,16 +111,26 @@ std::string copy_speeds(const Model& model, const double* values, py::ssize_t st
                         const char* name, py::ssize_t row = -1);
 constexpr double kUnitTolerance = 1e-6;
 
-/// A State from a Python State, or the model's initial state when obj is None; ValueError
-/// for a state of another model size or with a problem of copy_coordinates/copy_speeds.
-State state_argument(const PyModel& m, py::handle obj);
-/// (q; z) of any model from the arguments q and z (None: the initial ones), checked:
-/// shapes, finite, unit Euler parameters (ValueError naming the body).
-VectorX joint_arguments(const PyModel& m, py::object q, py::object z);
-/// The model's state (q; z) from either a State (the notes' x, y, where the joints allow it:
-/// joint_coordinates, ValueError naming the body otherwise) or the arguments q and z; all
-/// None gives the initial state. ValueError when both a state and q or z are given.
-VectorX model_state_argument(const PyModel& m, py::object state, py::object q, py::object z);
+/// The model's state (q, z) of a Python argument, checked (shapes, finite, unit Euler
+/// parameters: ValueError naming the body): None gives the initial state; a State of joint
+/// coordinates is taken as it is when its model has the same joints; a State of the notes'
+/// x, y goes through joint_coordinates (ValueError naming the body where the joints do not
+/// allow it). TypeError for anything else.
+void model_state(const PyModel& m, py::handle obj, VectorX& q, VectorX& z);
+/// The same from either a State or the arguments q and z (None: the initial ones; an array
+/// of the model's q or z); ValueError when both a state and q or z are given.
+void model_state(const PyModel& m, py::handle state, py::handle q_obj, py::handle z_obj, VectorX& q,
+                 VectorX& z);
+/// The problem with (q, z) of the model, or "": a non-finite entry, a body's slice of q not
+/// usable (Euler parameters off unit norm by more than 1e-6), naming the arrays and the body.
+std::string model_state_problem(const PyModel& m, const VectorX& q, const VectorX& z,
+                                const std::string& qname, const std::string& zname);
+/// The notes' state of a Python argument for an all-free model (ValueError otherwise): None
+/// gives the initial state; checked as copy_coordinates and copy_speeds check.
+State notes_state(const PyModel& m, py::handle obj);
+/// A Python State of the model at (q, z), already checked: the notes' x, y for an all-free
+/// model, else the joint coordinates with the model.
+PyState make_state(const std::shared_ptr<const PyModel>& m, const VectorX& q, const VectorX& z);
 
 /// A path argument as open() takes one: str, bytes or os.PathLike (by os.fspath), encoded as
 /// os.fsencode does (so that a name os.listdir gave back round-trips). A NUL byte raises

@@ -10,9 +10,18 @@
 #include "kanedyn/inspect.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"
 
 namespace kanedyn::python {
+
+PyModel::Workspace::Workspace(const Model& model)
+    : data(model, DataOptions::recursive_only()), state(model) {
+  if (model.all_free()) return;
+  dynamics = std::make_unique<Dynamics>(model, Route::recursive);
+  v.resize(dynamics->size());
+  dv.resize(dynamics->size());
+}
 
 PyModel::Lease::Lease(const PyModel& owner) : owner_(owner) {
   {
@@ -41,11 +50,8 @@ struct Equations {
 };
 
 Equations equations_of_motion(const PyModel& m, py::object state_obj) {
-  if (m.joints() && !state_obj.is_none())
-    throw py::value_error(
-        "eom(state) of a jointed model: its state is the joint coordinates; eom() evaluates at "
-        "the initial ones (joint_derivatives(q, z) at others)");
-  const State state = state_argument(m, state_obj);
+  VectorX q, z;
+  model_state(m, state_obj, q, z);
   if (m.N() > kMaxEomBodies)
     throw py::value_error("eom() forms the dense 6N x 6N [A], and N = " + std::to_string(m.N()) +
                           " is more than " + std::to_string(kMaxEomBodies) +
@@ -53,6 +59,8 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
   Equations e;
   {
     py::gil_scoped_release release;
+    State state(m.model());
+    joint_state(m.model(), q, z, state);
     Data data(m.model(), DataOptions{.partials = false});  // [A] dense, as eom --json prints it
     kane_equations(m.model(), state, data);
     py::gil_scoped_acquire acquire;
@@ -62,9 +70,10 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
     e.ydot = to_numpy(data.ydot);
     e.xdot = to_numpy(data.xdot);
     e.F_y = to_numpy(data.kane.F_y);
-    if (m.joints()) {
+    // The projected equations are printed for models with joints (docs/model-format.md).
+    if (!m.notes_layout()) {
       py::gil_scoped_release again;
-      const ProjectedEquations p = projected_equations(m.model(), m.file().q, m.file().z, data);
+      const ProjectedEquations p = projected_equations(m.model(), q, z, data);
       py::gil_scoped_acquire with;
       e.n = py::int_(p.zdot.size());
       e.C = to_numpy(p.C);
@@ -74,6 +83,44 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
     }
   }
   return e;
+}
+
+/// The joint coordinates of the zero pose: identity rotations (e4 = 1 in a free body's eps_K
+/// and a spherical joint's q), every other coordinate 0.
+VectorX zero_coordinates(const Model& model) {
+  VectorX q = VectorX::Zero(model.num_coordinates());
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    if (type == JointType::free || type == JointType::spherical)
+      q[model.coordinate_offset(k) + 3] = 1.0;
+  }
+  return q;
+}
+
+/// Model.state(q=, z=, x=, y=): see its docstring.
+PyState make_model_state(const std::shared_ptr<PyModel>& p, py::object q_obj, py::object z_obj,
+                         py::object x_obj, py::object y_obj) {
+  const Model& model = p->model();
+  const int n = p->N();
+  if ((!x_obj.is_none() || !y_obj.is_none()) && (!q_obj.is_none() || !z_obj.is_none()))
+    throw py::value_error("give q and z or x and y, not both");
+  if (!x_obj.is_none() || !y_obj.is_none()) {
+    PyState notes;
+    notes.notes = State(model);
+    if (!x_obj.is_none())
+      copy_vector(float64_array(x_obj, "x", {7 * n}, "(7N,) = (" + std::to_string(7 * n) + ",)"),
+                  notes.notes.x);
+    if (!y_obj.is_none())
+      copy_vector(float64_array(y_obj, "y", {6 * n}, "(6N,) = (" + std::to_string(6 * n) + ",)"),
+                  notes.notes.y);
+    VectorX q, z;
+    model_state(*p, py::cast(notes), q, z);  // checked, and through the joints
+    return make_state(p, q, z);
+  }
+  VectorX q = zero_coordinates(model), z = VectorX::Zero(model.num_speeds());
+  model_state(*p, py::none(), q_obj.is_none() ? py::object(to_numpy(q)) : q_obj,
+              z_obj.is_none() ? py::object(to_numpy(z)) : z_obj, q, z);
+  return make_state(p, q, z);
 }
 
 /// True for an integer of another type than int (numpy.int64, ...): what has __index__ and
@@ -382,14 +429,13 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "the trajectory CSV's columns: t, NAME.x .. NAME.sd3 per body (and NAME.j*, "
           "NAME.jd* of a jointed body), energy")
       .def_property_readonly(
-          "jointed", [](const PyModel& p) { return p.joints() != nullptr; },
+          "jointed", [](const PyModel& p) { return !p.notes_layout(); },
           "True when some body's joint is not free (docs/model-format.md, Joints)")
       .def_property_readonly(
           "joint_types",
           [](const PyModel& p) {
             std::vector<std::string> out;
-            for (int k = 0; k < p.N(); ++k)
-              out.emplace_back(p.joints() ? to_string(p.joints()->joint(k).type) : "free");
+            for (int k = 0; k < p.N(); ++k) out.emplace_back(to_string(p.model().joint(k).type));
             return out;
           },
           "each body's joint type, in numbering order ('free' for every body of a free tree)")
@@ -397,22 +443,20 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "joint_layout",
           [](const PyModel& p) {
             py::dict d;
-            if (const Model* t = p.joints())
-              for (int k = 0; k < p.N(); ++k)
-                d[py::str(p.model().body(k).name)] =
-                    py::make_tuple(t->coordinate_offset(k), coordinate_count(t->joint(k).type),
-                                   t->speed_offset(k), speed_count(t->joint(k).type));
+            const Model& t = p.model();
+            for (int k = 0; k < p.N(); ++k)
+              d[py::str(t.body(k).name)] =
+                  py::make_tuple(t.coordinate_offset(k), coordinate_count(t.joint(k).type),
+                                 t.speed_offset(k), speed_count(t.joint(k).type));
             return d;
           },
-          "jointed models: name -> (offset in q, count, offset in z, count); empty otherwise")
+          "each body's slices of the state: name -> (offset in q, count, offset in z, count)")
       .def_property_readonly(
-          "initial_joint_coordinates",
-          [](const PyModel& p) { return p.joints() ? to_numpy(p.file().q) : to_numpy(VectorX()); },
-          "jointed models: the initial q (a free body's slice is eps_K, s'_K); empty otherwise")
+          "initial_joint_coordinates", [](const PyModel& p) { return to_numpy(p.file().q); },
+          "the initial joint coordinates q (a free body's slice is eps_K, s'_K)")
       .def_property_readonly(
-          "initial_joint_speeds",
-          [](const PyModel& p) { return p.joints() ? to_numpy(p.file().z) : to_numpy(VectorX()); },
-          "jointed models: the initial z (a free body's slice is w'_K, s'_K dot); empty otherwise")
+          "initial_joint_speeds", [](const PyModel& p) { return to_numpy(p.file().z); },
+          "the initial independent speeds z (a free body's slice is w'_K, s'_K dot)")
       .def_property_readonly(
           "simulation", [](const PyModel& p) { return simulation_section(p.file().simulation); },
           "the file's simulation: section (only the keys it sets)")
@@ -425,34 +469,36 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           },
           py::arg("name"), "K (1-based) of the body with this name")
       .def(
-          "initial_state", [](const PyModel& p) { return p.file().initial; },
-          "The model file's initial state (Euler parameters normalized), a new kanedyn.State.")
-      .def(
-          "state", [](const PyModel& p) { return State(p.model()); },
-          "The zero state: identity orientations, zero translations and speeds.")
+          "initial_state",
+          [](const std::shared_ptr<PyModel>& p) {
+            if (!p->notes_layout()) return make_state(p, p->file().q, p->file().z);
+            PyState s;
+            s.notes = p->file().initial;
+            return s;
+          },
+          "The model file's initial state (Euler parameters normalized), a new kanedyn.State: "
+          "the notes' x, y of an all-free model, the joint coordinates q, z of a model with "
+          "joints.")
+      .def("state", &make_model_state, py::kw_only(), py::arg("q") = py::none(),
+           py::arg("z") = py::none(), py::arg("x") = py::none(), py::arg("y") = py::none(),
+           "A state of this model: from its joint coordinates q and speeds z (Model.joint_layout "
+           "gives each body's slices; None: the zero pose, identity rotations, or zero speeds), "
+           "or from the notes' x and y (None: identity rotations and zero translations, or zero "
+           "speeds) where the joints allow it (every body free, or welded; ValueError naming "
+           "the body otherwise: an angle is not read back from x, where it loses its turns). "
+           "Checked: finite, unit Euler parameters. With no argument, the zero state.")
       .def("eom", &equations_of_motion, py::arg("state") = py::none(),
            "Kane's equations at a state (default: the initial state): [A] (Eq. 37), {f} (Eq. "
-           "38), {y dot} (Eq. 36), {x dot} (Eqs. 39-40) and {F_y} (Eq. 31), the same numbers as "
-           "`kanedyn eom --json`. At most 300 bodies (the dense [A]).")
+           "38), {y dot} (Eq. 36), {x dot} (Eqs. 39-40) and {F_y} (Eq. 31), and for a model "
+           "with joints the projected equations; the same numbers as `kanedyn eom --json`. At "
+           "most 300 bodies (the dense [A]).")
       .def(
           "inspect",
           [](const PyModel& p, py::object state_obj, double t, py::object bodies, py::object q_obj,
              py::object z_obj) {
             const std::vector<int> selected = body_indices(p.model(), bodies);
-            const Model* tree = p.joints();
-            if (!tree) {
-              if (!q_obj.is_none() || !z_obj.is_none())
-                throw py::value_error("inspect(q=..., z=...): this model has no joints");
-              const State state = state_argument(p, state_obj);
-              py::gil_scoped_release release;
-              return inspect(p.model(), state, t, selected);
-            }
-            if (!state_obj.is_none())
-              throw py::value_error(
-                  "inspect(state) of a jointed model: its state is the joint coordinates; give "
-                  "q= and z= (default: the initial ones)");
-            const VectorX qz = joint_arguments(p, q_obj, z_obj);
-            const VectorX q = qz.head(tree->num_coordinates()), z = qz.tail(tree->num_speeds());
+            VectorX q, z;
+            model_state(p, state_obj, q_obj, z_obj, q, z);
             try {
               py::gil_scoped_release release;
               return inspect(p.model(), q, z, t, selected);
@@ -462,11 +508,10 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           },
           py::arg("state") = py::none(), py::arg("t") = 0.0, py::arg("bodies") = py::none(),
           py::kw_only(), py::arg("q") = py::none(), py::arg("z") = py::none(),
-          "Every quantity of the notes at a state (default: the initial state), as `kanedyn "
-          "inspect --json` gives them: bodies is None (all), a body number K, a name, or a list "
-          "of them; t is only reported. A jointed model is inspected at joint coordinates q and "
-          "speeds z (default: the initial ones; state is refused) and the result's joints holds "
-          "[C] and the projected equations.")
+          "Every quantity of the notes at a state (default: the initial state; or q= and z=), "
+          "as `kanedyn inspect --json` gives them: bodies is None (all), a body number K, a "
+          "name, or a list of them; t is only reported. For a model with joints the result's "
+          "joints holds [C] and the projected equations.")
       .def(
           "symbolic_partial",
           [](const PyModel& p, py::object body, const std::string& point, bool rate) {
@@ -482,9 +527,9 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def(
           "energy",
           [](const PyModel& p, py::object state_obj, py::object q_obj, py::object z_obj) {
-            const VectorX qz = model_state_argument(p, state_obj, q_obj, z_obj);
+            VectorX q, z;
+            model_state(p, state_obj, q_obj, z_obj, q, z);
             const Model& model = p.model();
-            const VectorX q = qz.head(model.num_coordinates()), z = qz.tail(model.num_speeds());
             PyModel::Lease work(p);  // a pooled Data: no workspace built per call
             Data& data = work->data;
             return py::make_tuple(kinetic_energy(model, q, z, data),
@@ -494,15 +539,15 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           py::arg("state") = py::none(), py::kw_only(), py::arg("q") = py::none(),
           py::arg("z") = py::none(),
           "(kinetic, potential, total) energy at a state (default: the initial state), given as "
-          "a State (the notes' x, y: every body free, or the joints allow it) or as the joint "
-          "coordinates q= and speeds z=. The potential includes the joint springs'; total is "
+          "a State or as the joint coordinates q= and speeds z=. The potential includes the joint "
+          "springs'; total is "
           "the CSV's energy column.")
       .def(
           "momentum",
           [](const PyModel& p, py::object state_obj, py::object q_obj, py::object z_obj) {
-            const VectorX qz = model_state_argument(p, state_obj, q_obj, z_obj);
+            VectorX q, z;
+            model_state(p, state_obj, q_obj, z_obj, q, z);
             const Model& model = p.model();
-            const VectorX q = qz.head(model.num_coordinates()), z = qz.tail(model.num_speeds());
             PyModel::Lease work(p);
             Data& data = work->data;
             return py::make_tuple(to_numpy(linear_momentum(model, q, z, data)),

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "bindings.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/version.hpp"
 
 namespace kanedyn::python {
@@ -61,18 +62,66 @@ void register_errors(py::module_& m) {
 
 namespace {
 
-/// The getter of State.x or State.y: a numpy view of the vector, keeping the State alive.
-auto view(VectorX State::*field) {
-  return [field](py::object self) {
-    VectorX& v = self.cast<State&>().*field;
-    return py::array_t<double>({v.size()}, {sizeof(double)}, v.data(), self);
+/// A numpy view of v, keeping `owner` (the Python State) alive.
+py::array_t<double> view_of(VectorX& v, py::handle owner) {
+  return py::array_t<double>({v.size()}, {sizeof(double)}, v.data(), owner);
+}
+
+/// A read-only copy of v: a computed array, whose change would change nothing.
+py::array_t<double> computed(const VectorX& v) {
+  py::array_t<double> out = to_numpy(v);
+  py::detail::array_proxy(out.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return out;
+}
+
+/// The notes' state of a state of joint coordinates.
+State notes_of(const PyState& s) {
+  State notes(s.model->model());
+  joint_state(s.model->model(), s.q, s.z, notes);
+  return notes;
+}
+
+/// q and z of a notes' state, body by body: q_K = (eps_K, s'_K), z_K = (w'_K, s'_K dot).
+void body_by_body(const State& s, VectorX& q, VectorX& z) {
+  const int n = s.num_bodies();
+  q.resize(7 * n);
+  z.resize(6 * n);
+  for (int k = 0; k < n; ++k) {
+    q.segment<4>(7 * k) = s.x.segment<4>(4 * k);
+    q.segment<3>(7 * k + 4) = s.x.segment<3>(4 * n + 3 * k);
+    z.segment<3>(6 * k) = s.y.segment<3>(3 * k);
+    z.segment<3>(6 * k + 3) = s.y.segment<3>(3 * n + 3 * k);
+  }
+}
+
+/// The getter of State.x / .y (notes = true) or .q / .z: the stored vector as a view, or a
+/// read-only copy of the computed one.
+auto getter(bool notes, bool first) {
+  return [notes, first](py::object self) -> py::array_t<double> {
+    PyState& s = self.cast<PyState&>();
+    if (notes != s.jointed()) {
+      VectorX& stored = notes ? (first ? s.notes.x : s.notes.y) : (first ? s.q : s.z);
+      return view_of(stored, self);
+    }
+    if (notes) {
+      const State computed_notes = notes_of(s);
+      return computed(first ? computed_notes.x : computed_notes.y);
+    }
+    VectorX q, z;
+    body_by_body(s.notes, q, z);
+    return computed(first ? q : z);
   };
 }
 
-/// The setter: copies a float64 array of the vector's length in.
-auto assign(VectorX State::*field, const char* name) {
-  return [field, name](State& s, py::object value) {
-    VectorX& v = s.*field;
+/// The setter: copies a float64 array of the vector's length into the stored vector; the
+/// computed ones are refused.
+auto setter(bool notes, bool first, const char* name) {
+  return [notes, first, name](PyState& s, py::object value) {
+    if (notes == s.jointed())
+      throw py::attribute_error(
+          std::string(name) + " of this state is computed from " +
+          (s.jointed() ? "its joint coordinates: set q and z" : "x and y: set x and y"));
+    VectorX& v = notes ? (first ? s.notes.x : s.notes.y) : (first ? s.q : s.z);
     copy_vector(float64_array(value, name, {v.size()}, "(" + std::to_string(v.size()) + ",)"), v);
   };
 }
@@ -99,11 +148,15 @@ void refuse_unscalable(const State& s) {
 }  // namespace
 
 void register_state(py::module_& m) {
-  py::class_<State>(m, "State",
-                    "The state of Eq. (1): x = (eps_1..eps_N, s'_1..s'_N), 7N, and y = "
-                    "(w'_1..w'_N, s'_1 dot..s'_N dot), 6N. eps_K = (e1, e2, e3, e4) with e4 the "
-                    "scalar part; w'_K in body-K components; s'_K and its rate in body-L(K) "
-                    "components. x and y are numpy views: s.x[3] = 1.0 changes the state.")
+  py::class_<PyState>(
+      m, "State",
+      "The state of a model. Of an all-free model (and State(x, y)): the notes' x = "
+      "(eps_1..eps_N, s'_1..s'_N), 7N, and y = (w'_1..w'_N, s'_1 dot..s'_N dot), 6N (Eq. 1), "
+      "eps_K = (e1, e2, e3, e4) with e4 the scalar part; w'_K in body-K components; s'_K and "
+      "its rate in body-L(K) components. Of a model with joints (Model.state(q=, z=), "
+      "Model.initial_state()): its joint coordinates q and speeds z. The stored arrays (x and y, "
+      "or q and z) are numpy views: s.x[3] = 1.0 changes the state; the other two are computed "
+      "from them, read-only.")
       .def(py::init([](py::object x, py::object y) {
              const auto xa = float64_array(x, "x", {-1}, "(7N,)");
              const py::ssize_t n = xa.shape(0) / 7;
@@ -118,32 +171,67 @@ void register_state(py::module_& m) {
              const auto ya = float64_array(y, "y", {6 * n},
                                            "(6N,) = (" + std::to_string(6 * n) +
                                                ",) for N = " + std::to_string(n) + " (from x)");
-             State s(static_cast<int>(n));
-             copy_vector(xa, s.x);
-             copy_vector(ya, s.y);
+             PyState s;
+             s.notes = State(static_cast<int>(n));
+             copy_vector(xa, s.notes.x);
+             copy_vector(ya, s.notes.y);
              return s;
            }),
-           py::arg("x"), py::arg("y"), "A state from copies of x (7N,) and y (6N,).")
-      .def_property("x", view(&State::x), assign(&State::x, "x"),
-                    "{x}, 7N: Euler parameters eps_K then translations s'_K (a view)")
-      .def_property("y", view(&State::y), assign(&State::y, "y"),
-                    "{y}, 6N: angular velocities w'_K then translation rates s'_K dot (a view)")
-      .def_property_readonly("N", &State::num_bodies, "the number of bodies")
+           py::arg("x"), py::arg("y"),
+           "A state of the notes from copies of x (7N,) and y (6N,). A model with joints takes "
+           "it where its joints allow (Model.state(x=, y=)).")
+      .def_property("x", getter(true, true), setter(true, true, "x"),
+                    "{x}, 7N: Euler parameters eps_K then translations s'_K")
+      .def_property("y", getter(true, false), setter(true, false, "y"),
+                    "{y}, 6N: angular velocities w'_K then translation rates s'_K dot")
+      .def_property("q", getter(false, true), setter(false, true, "q"),
+                    "the joint coordinates, body by body (Model.joint_layout); of an all-free "
+                    "model q_K = (eps_K, s'_K)")
+      .def_property("z", getter(false, false), setter(false, false, "z"),
+                    "the independent speeds, body by body; of an all-free model z_K = (w'_K, "
+                    "s'_K dot)")
+      .def_property_readonly(
+          "jointed", [](const PyState& s) { return s.jointed(); },
+          "True when the state stores joint coordinates q, z (a model with joints), False when "
+          "it stores the notes' x, y")
+      .def_property_readonly(
+          "N",
+          [](const PyState& s) {
+            return s.jointed() ? s.model->model().num_bodies() : s.notes.num_bodies();
+          },
+          "the number of bodies")
       .def(
           "normalize",
-          [](State& s) {
-            refuse_unscalable(s);
-            return s.normalize_euler_parameters();
+          [](PyState& s) {
+            if (!s.jointed()) {
+              refuse_unscalable(s.notes);
+              return s.notes.normalize_euler_parameters();
+            }
+            const Model& model = s.model->model();
+            for (int k = 0; k < model.num_bodies(); ++k) {
+              const JointType type = model.joint(k).type;
+              if (type != JointType::free && type != JointType::spherical) continue;
+              const double norm = s.q.segment<4>(model.coordinate_offset(k)).norm();
+              if (std::isfinite(norm) && norm > 0.0) continue;
+              throw py::value_error("normalize(): the Euler parameters of body '" +
+                                    model.body(k).name +
+                                    "' have a norm of 0 or not finite; they cannot be scaled "
+                                    "to a unit quaternion");
+            }
+            return normalize_joint_coordinates(model, s.q);
           },
-          "Rescales every eps_K to unit norm; returns the largest | |eps_K| - 1 | found. "
-          "ValueError (and the state unchanged) when some eps_K has norm 0 or a non-finite "
-          "one: no rotation is near it.")
+          "Rescales every set of Euler parameters (eps_K, or a spherical joint's) to unit norm; "
+          "returns the largest | |e| - 1 | found. ValueError (and the state unchanged) when some "
+          "has norm 0 or a non-finite one: no rotation is near it.")
       .def(
-          "copy", [](const State& s) { return State(s); }, "An independent copy.")
-      .def("__copy__", [](const State& s) { return State(s); })
-      .def("__deepcopy__", [](const State& s, py::handle) { return State(s); })
-      .def("__repr__", [](const State& s) {
-        return "<kanedyn.State N=" + std::to_string(s.num_bodies()) + ">";
+          "copy", [](const PyState& s) { return PyState(s); }, "An independent copy.")
+      .def("__copy__", [](const PyState& s) { return PyState(s); })
+      .def("__deepcopy__", [](const PyState& s, py::handle) { return PyState(s); })
+      .def("__repr__", [](const PyState& s) {
+        if (!s.jointed()) return "<kanedyn.State N=" + std::to_string(s.notes.num_bodies()) + ">";
+        return "<kanedyn.State N=" + std::to_string(s.model->model().num_bodies()) +
+               ", joint coordinates q (" + std::to_string(s.q.size()) + ",), z (" +
+               std::to_string(s.z.size()) + ",)>";
       });
 }
 

@@ -20,7 +20,6 @@
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/trajectory.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
@@ -38,20 +37,41 @@ std::string sizes(const char* what, int n, int per_body) {
 /// (it costs about 0.1 us).
 constexpr int kReleaseGilBodies = 32;
 
-/// derivatives() evaluates the notes' free tree: for a jointed model that would ignore its
-/// joints, so it is refused with the call that applies.
-void refuse_jointed(const PyModel& m, const char* what) {
-  if (m.joints())
-    throw py::value_error(std::string(what) +
-                          " evaluates the notes' free tree, and this model has joints: use "
-                          "joint_derivatives(q, z) (its state is the joint coordinates q and "
-                          "speeds z)");
+/// The rates of a model with joints at (q, z) given as two arrays: what simulate()
+/// integrates (Dynamics::derivative), by the recursive route.
+py::tuple joint_rates(const PyModel& m, py::handle q_obj, py::handle z_obj) {
+  VectorX q, z;
+  model_state(m, py::none(), q_obj, z_obj, q, z);
+  PyModel::Lease work(m);
+  Dynamics& dynamics = *work->dynamics;
+  dynamics.pack(q, z, work->v);
+  if (m.N() >= kReleaseGilBodies) {
+    py::gil_scoped_release release;
+    dynamics.derivative(work->v, work->dv);
+  } else {
+    dynamics.derivative(work->v, work->dv);
+  }
+  const int nq = m.model().num_coordinates();
+  return py::make_tuple(to_numpy(VectorX(work->dv.head(nq))),
+                        to_numpy(VectorX(work->dv.tail(m.model().num_speeds()))));
 }
 
 py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
-  refuse_jointed(m, "derivatives()");
-  const int n = m.N();
   if (!std::isfinite(t)) throw py::value_error("t must be finite");
+  if (y.ptr() == nullptr) {  // derivatives(state)
+    if (m.notes_layout()) {
+      const State state = notes_state(m, x);
+      PyModel::Lease work(m);
+      work->state = state;
+      forward_dynamics(m.model(), work->state, work->data, Route::recursive);
+      return py::make_tuple(to_numpy(work->data.xdot), to_numpy(work->data.ydot));
+    }
+    VectorX q, z;
+    model_state(m, x, q, z);
+    return joint_rates(m, to_numpy(q), to_numpy(z));
+  }
+  if (!m.notes_layout()) return joint_rates(m, x, y);
+  const int n = m.N();
   const double *x_data = nullptr, *y_data = nullptr;
   py::ssize_t x_stride = 1, y_stride = 1;
   py::array xa, ya;  // converted copies, when the arguments are not plain float64 vectors
@@ -103,7 +123,10 @@ PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t
                              "'");
       given[slot] = args[nargs + i];
     }
-    if (!given[0] || !given[1]) throw py::type_error("derivatives() needs x and y");
+    if (!given[0]) throw py::type_error("derivatives() needs a state, or x and y (q and z)");
+    if (!given[1] && !PyObject_TypeCheck(
+                         given[0], reinterpret_cast<PyTypeObject*>(py::type::of<PyState>().ptr())))
+      throw py::type_error("derivatives() needs x and y (q and z), or a kanedyn.State");
     double t = 0.0;
     if (given[2]) {
       t = PyFloat_AsDouble(given[2]);
@@ -133,11 +156,13 @@ PyMethodDef derivatives_method = {
     "derivatives",
     reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(derivatives_fastcall)),
     METH_FASTCALL | METH_KEYWORDS,
-    "derivatives($self, x, y, t=0.0)\n--\n\n"
-    "(xdot, ydot) at the state (x, y): {x dot} (Eqs. 39-40, 7N) and {y dot} (Eq. 36, 6N) by the "
-    "O(N) recursive route. x (7N,) and y (6N,) are float64 arrays (or sequences of numbers), "
-    "finite, with unit Euler parameters. t is the time, for the signature f(t, x, y) of ODE "
-    "solvers: the model's force laws do not depend on it."};
+    "derivatives($self, x, y=None, t=0.0)\n--\n\n"
+    "The rates of the state the model integrates, by the O(N) recursive route. An all-free "
+    "model: (xdot, ydot) at (x, y), {x dot} (Eqs. 39-40, 7N) and {y dot} (Eq. 36, 6N). A model "
+    "with joints: (qdot, zdot) at its joint coordinates q and speeds z (Model.joint_layout), "
+    "the derivative simulate() integrates. Either as two float64 arrays (or sequences of "
+    "numbers), finite, with unit Euler parameters, or as one kanedyn.State. t is the time, for "
+    "the signature f(t, x, y) of ODE solvers: the model's force laws do not depend on it."};
 
 /// An output array of derivatives_batch(out=...): float64, C-contiguous, writeable, of the
 /// shape given, sharing no memory with the inputs.
@@ -181,28 +206,33 @@ py::ssize_t thread_count(py::handle obj, unsigned cores) {
 
 py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::object threads_obj,
                             py::object out) {
-  refuse_jointed(m, "derivatives_batch()");
   const int n = m.N();
+  const bool notes = m.notes_layout();
+  // The widths of the two arrays: 7N and 6N of the notes' layout, or the model's q and z.
+  const int nx = notes ? 7 * n : m.model().num_coordinates();
+  const int ny = notes ? 6 * n : m.model().num_speeds();
   const auto xa =
-      float64_array(X, "X", {-1, 7 * n},
-                    "(M, 7N) = (M, " + std::to_string(7 * n) + ") for N = " + std::to_string(n));
+      float64_array(X, "X", {-1, nx},
+                    notes ? "(M, 7N) = (M, " + std::to_string(nx) + ") for N = " + std::to_string(n)
+                          : "(M, " + std::to_string(nx) + "), the joint coordinates q of M states");
   const py::ssize_t rows = xa.shape(0);
-  const auto ya = float64_array(
-      Y, "Y", {rows, 6 * n},
-      "(M, 6N) = (" + std::to_string(rows) + ", " + std::to_string(6 * n) + ") (M from X)");
+  const auto ya =
+      float64_array(Y, "Y", {rows, ny},
+                    "(M, " + std::string(notes ? "6N" : "n") + ") = (" + std::to_string(rows) +
+                        ", " + std::to_string(ny) + ") (M from X)");
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const py::ssize_t threads = thread_count(threads_obj, cores);
   py::array xd, yd;
   if (out.is_none()) {
-    xd = py::array_t<double>({rows, static_cast<py::ssize_t>(7 * n)});
-    yd = py::array_t<double>({rows, static_cast<py::ssize_t>(6 * n)});
+    xd = py::array_t<double>({rows, static_cast<py::ssize_t>(nx)});
+    yd = py::array_t<double>({rows, static_cast<py::ssize_t>(ny)});
   } else {
     if (!py::isinstance<py::tuple>(out) && !py::isinstance<py::list>(out))
       throw py::type_error("out must be a pair (Xd, Yd) of arrays");
     const auto pair = py::reinterpret_borrow<py::sequence>(out);
     if (pair.size() != 2) throw py::type_error("out must be a pair (Xd, Yd) of arrays");
-    xd = output_array(pair[0], "Xd", rows, 7 * n, xa, ya);
-    yd = output_array(pair[1], "Yd", rows, 6 * n, xa, ya);
+    xd = output_array(pair[0], "Xd", rows, nx, xa, ya);
+    yd = output_array(pair[1], "Yd", rows, ny, xa, ya);
     if (py::module_::import("numpy").attr("may_share_memory")(xd, yd).cast<bool>())
       throw py::value_error("out: Xd and Yd must not share memory");
   }
@@ -221,20 +251,35 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::ob
   const auto work = [&](py::ssize_t w) {
     PyModel::Lease lease(m);
     const py::ssize_t first = rows * w / workers, last = rows * (w + 1) / workers;
+    VectorX q(notes ? 0 : nx), z(notes ? 0 : ny);
     for (py::ssize_t r = first; r < last; ++r) {
       if (abandoned.load(std::memory_order_relaxed)) return;
-      std::string problem =
-          copy_coordinates(m.model(), x_in + r * xs0, xs1, lease->state.x, "X", r);
-      if (problem.empty())
-        problem = copy_speeds(m.model(), y_in + r * ys0, ys1, lease->state.y, "Y", r);
+      std::string problem;
+      if (notes) {
+        problem = copy_coordinates(m.model(), x_in + r * xs0, xs1, lease->state.x, "X", r);
+        if (problem.empty())
+          problem = copy_speeds(m.model(), y_in + r * ys0, ys1, lease->state.y, "Y", r);
+      } else {
+        for (int i = 0; i < nx; ++i) q[i] = x_in[r * xs0 + i * xs1];
+        for (int i = 0; i < ny; ++i) z[i] = y_in[r * ys0 + i * ys1];
+        const std::string row = "[" + std::to_string(r) + "]";
+        problem = model_state_problem(m, q, z, "X" + row, "Y" + row);
+      }
       if (!problem.empty()) {
         bad_row[static_cast<size_t>(w)] = r;
         bad[static_cast<size_t>(w)] = problem;
         return;
       }
-      forward_dynamics(m.model(), lease->state, lease->data, Route::recursive);
-      std::copy_n(lease->data.xdot.data(), 7 * n, x_out + r * 7 * n);
-      std::copy_n(lease->data.ydot.data(), 6 * n, y_out + r * 6 * n);
+      if (notes) {
+        forward_dynamics(m.model(), lease->state, lease->data, Route::recursive);
+        std::copy_n(lease->data.xdot.data(), nx, x_out + r * nx);
+        std::copy_n(lease->data.ydot.data(), ny, y_out + r * ny);
+      } else {
+        lease->dynamics->pack(q, z, lease->v);
+        lease->dynamics->derivative(lease->v, lease->dv);
+        std::copy_n(lease->dv.data(), nx, x_out + r * nx);
+        std::copy_n(lease->dv.data() + nx, ny, y_out + r * ny);
+      }
     }
   };
   std::string start_failure;
@@ -340,76 +385,31 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
 
 }  // namespace
 
-VectorX joint_arguments(const PyModel& m, py::object q_obj, py::object z_obj) {
-  const Model* tree = &m.model();
-  const int nq = tree->num_coordinates(), nz = tree->num_speeds();
-  VectorX qz(nq + nz);
-  qz << m.file().q, m.file().z;
-  if (!q_obj.is_none()) {
-    const auto q = float64_array(q_obj, "q", {nq}, "(" + std::to_string(nq) + ",)");
-    for (int i = 0; i < nq; ++i) qz[i] = doubles(q)[i * stride(q, 0)];
-  }
-  if (!z_obj.is_none()) {
-    const auto z = float64_array(z_obj, "z", {nz}, "(" + std::to_string(nz) + ",)");
-    for (int i = 0; i < nz; ++i) qz[nq + i] = doubles(z)[i * stride(z, 0)];
-  }
-  if (!qz.allFinite()) throw py::value_error("q and z must be finite");
-  for (int k = 0; k < m.N(); ++k) {
-    const JointType type = tree->joint(k).type;
-    const VectorX slice = qz.segment(tree->coordinate_offset(k), coordinate_count(type));
-    if (type == JointType::free) {
-      if (std::abs(slice.head<4>().norm() - 1.0) > 1e-6)
-        throw py::value_error("q: the Euler parameters of body '" + m.model().body(k).name +
-                              "' must have unit norm (within 1e-6)");
-    } else if (const std::string problem = check_joint_coordinates(type, slice); !problem.empty()) {
-      throw py::value_error("q: body '" + m.model().body(k).name + "': " + problem);
-    }
-  }
-  return qz;
-}
-
-VectorX model_state_argument(const PyModel& m, py::object state_obj, py::object q_obj,
-                             py::object z_obj) {
-  if (state_obj.is_none()) return joint_arguments(m, q_obj, z_obj);
-  if (!q_obj.is_none() || !z_obj.is_none())
-    throw py::value_error("give the state or q and z, not both");
-  const State state = state_argument(m, state_obj);
-  VectorX q, z;
-  try {
-    joint_coordinates(m.model(), state, q, z);
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
-  VectorX qz(q.size() + z.size());
-  qz << q, z;
-  return qz;
-}
-
 namespace {
 
-/// (q dot, z dot) of a jointed model at (q, z) (default: the initial ones), by the route.
+/// (q dot, z dot) of any model at (q, z) (or a State; default: the initial state), by the
+/// route.
 py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
                             const std::string& route_name) {
-  const Model* tree = m.joints();
-  if (!tree)
-    throw py::value_error(
-        "joint_derivatives(): this model has no joints (every body is free); use "
-        "derivatives(x, y)");
-  const int nq = tree->num_coordinates(), nz = tree->num_speeds();
   Route route = Route::recursive;
   try {
     route = parse_route(route_name);
   } catch (const std::invalid_argument& e) {
     throw py::value_error(e.what());
   }
-  const VectorX qz = joint_arguments(m, q_obj, z_obj);
-  VectorX d(nq + nz);
+  VectorX q, z;
+  if (py::isinstance<PyState>(q_obj))
+    model_state(m, q_obj, z_obj, py::none(), q, z);
+  else
+    model_state(m, py::none(), q_obj, z_obj, q, z);
+  const Model& model = m.model();
+  VectorX qdot(model.num_coordinates()), zdot(model.num_speeds());
   {
     py::gil_scoped_release release;
-    JointDynamics dynamics(m.model());
-    dynamics.derivative(qz, route, d);
+    Dynamics dynamics(model, route);
+    dynamics.evaluate(q, z, zdot, qdot);
   }
-  return py::make_tuple(to_numpy(VectorX(d.head(nq))), to_numpy(VectorX(d.tail(nz))));
+  return py::make_tuple(to_numpy(qdot), to_numpy(zdot));
 }
 
 /// The rows simulate() keeps: t, x, y, the mass centres and the energy of each output state
@@ -483,7 +483,8 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   const PyModel& m = *self;
   const Model& model = m.model();
   const SimulationSettings base = settings_from(m, given);
-  const State initial = state_argument(m, initial_obj);
+  VectorX q0, z0;
+  model_state(m, initial_obj, q0, z0);
   std::unique_ptr<io::BackgroundTrajectoryWriter> writer;
   std::string out;
   if (!output.is_none()) {
@@ -504,11 +505,8 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   settings.observer_kinematics = store;
   settings.on_step = [&hook](double t) { return hook(t); };
   SimulationStats stats;
-  const Model* tree = m.joints();
-  if (tree && !initial_obj.is_none())
-    throw py::value_error(
-        "simulate(initial=...) of a jointed model: it starts from the file's joint coordinates "
-        "(initial.joint, initial.joint_rate)");
+  // The rows of a model with joints also keep q and z (the CSV's joint columns).
+  const bool keep_joints = !m.notes_layout();
   // The file is created with the first row, once the initial state has passed simulate()'s
   // checks: a run refused at its start leaves no file.
   const auto open_writer = [&]() -> io::BackgroundTrajectoryWriter& {
@@ -528,14 +526,13 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
     if (!store) return;
     keep(t, state, data);
     rows.energy.push_back(total_energy_of_kinematics(model, state, q, data));
-    if (!tree) return;  // an all-free model's rows are x and y
+    if (!keep_joints) return;
     rows.q.insert(rows.q.end(), q.begin(), q.end());
     rows.z.insert(rows.z.end(), z.begin(), z.end());
   };
   try {
     py::gil_scoped_release release;
-    stats = tree ? simulate(model, m.file().q, m.file().z, settings, observer)
-                 : simulate(model, initial, settings, observer);
+    stats = simulate(model, q0, z0, settings, observer);
     if (!hook.failed()) hook(stats.t_reached, true);  // the progress callback sees the end
   } catch (const std::exception& e) {
     const std::string kept = writer ? "; " + kept_note(*writer) : "";
@@ -566,9 +563,9 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   py::object result = py::none();
   if (store) {
     py::object q = py::none(), z = py::none();
-    if (tree) {
-      q = adopt(std::move(rows.q), {T, tree->num_coordinates()});
-      z = adopt(std::move(rows.z), {T, tree->num_speeds()});
+    if (keep_joints) {
+      q = adopt(std::move(rows.q), {T, model.num_coordinates()});
+      z = adopt(std::move(rows.z), {T, model.num_speeds()});
     }
     result = py::module_::import("kanedyn._result")
                  .attr("Result")(
@@ -629,7 +626,8 @@ void check_rows(const PyModel& m, const py::array& t, const py::array& x, const 
                 const py::array& energy, const py::array& qa, const py::array& za) {
   const Model& model = m.model();
   const int n = m.N();
-  const Model* tree = m.joints();
+  // A model with joints has joint columns (docs/model-format.md, "Trajectory CSV").
+  const Model* tree = m.notes_layout() ? nullptr : &m.model();
   const py::ssize_t rows = t.shape(0);
   const auto fail = [](const std::string& problem) {
     throw py::value_error("to_csv: " + problem + "; nothing was written");
@@ -704,7 +702,8 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
   const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
   const auto y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
   const auto energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
-  const Model* tree = m.joints();
+  // A model with joints has joint columns (docs/model-format.md, "Trajectory CSV").
+  const Model* tree = m.notes_layout() ? nullptr : &m.model();
   const int nq = tree ? tree->num_coordinates() : 0, nz = tree ? tree->num_speeds() : 0;
   py::array qa, za;
   if (tree) {
@@ -751,7 +750,7 @@ py::array_t<double> read_csv(const PyModel& m, py::handle path_obj) {
 double time_derivatives(const PyModel& m, py::object state_obj, py::handle calls_obj) {
   const long calls =
       static_cast<long>(integer_argument(calls_obj, "calls", 1, std::numeric_limits<long>::max()));
-  const State state = state_argument(m, state_obj);
+  const State state = notes_state(m, state_obj);
   PyModel::Lease work(m);
   work->state = state;
   py::gil_scoped_release release;

@@ -1,6 +1,7 @@
 """Jointed models from Python: the joint coordinates as columns (r["pendulum.j1"]), the CSV bit
 for bit as the tool writes it and read back, eom's projected equations as the tool prints them,
-joint_derivatives against finite differences of a run, and the refusals of the free-tree calls."""
+joint_derivatives against finite differences of a run, and the refusal of a notes' state where
+the joints have coordinates of their own."""
 
 from __future__ import annotations
 
@@ -32,7 +33,9 @@ def test_the_model_describes_its_joints() -> None:
     assert m.initial_joint_coordinates[layout["pelvis"][0]] == -0.087
     assert "pelvis.j1" in m.columns and "head.jd3" in m.columns and "torso.j1" not in m.columns
     free = kanedyn.load(EXAMPLES / "eight_body.yaml")
-    assert not free.jointed and free.joint_layout == {} and free.joint_types == ["free"] * 8
+    assert not free.jointed and free.joint_types == ["free"] * 8
+    assert list(free.joint_layout.values()) == [(7 * k, 7, 6 * k, 6) for k in range(8)]
+    assert len(free.initial_joint_coordinates) == 56 and len(free.initial_joint_speeds) == 48
 
 
 @pytest.mark.parametrize("name", JOINTED)
@@ -108,9 +111,11 @@ def test_inspect_at_a_runs_joint_state_gives_its_rates() -> None:
     # The jointed y dot against central differences of the run's y (truncation ~h^2/6 times the
     # third derivative, O(100) here: 2e-7).
     assert np.allclose((r.y[2] - r.y[0]) / (2 * h), j.ydot, atol=1e-6)
+    s = m.initial_state()
+    assert same_bits(m.inspect(s).joints.zdot, m.inspect().joints.zdot)
     with pytest.raises(ValueError, match="joint coordinates"):
-        m.inspect(m.initial_state())
-    with pytest.raises(ValueError, match="has no joints"):
+        m.inspect(kanedyn.State(s.x, s.y))
+    with pytest.raises(ValueError, match=r"\(56,\)"):
         kanedyn.load(EXAMPLES / "eight_body.yaml").inspect(q=[1.0])
     with pytest.raises(ValueError):
         m.inspect(q=[0.0])
@@ -129,17 +134,17 @@ def test_joint_derivatives_match_finite_differences_of_a_run() -> None:
     assert np.allclose(assembled, zdot, rtol=1e-10, atol=1e-12)
 
 
-def test_free_tree_calls_refuse_a_jointed_model() -> None:
+def test_a_notes_state_is_refused_where_the_joints_have_coordinates() -> None:
+    # x and y give no angle of the pendulum's revolute joint: every call refuses them, naming
+    # the body; the model's own State (its joint coordinates) is taken.
     m = kanedyn.load(EXAMPLES / "cart_pendulum.yaml")
     s = m.initial_state()
-    with pytest.raises(ValueError, match="joint_derivatives"):
-        m.derivatives(s.x, s.y)
-    with pytest.raises(ValueError, match="joint_derivatives"):
-        m.derivatives_batch(s.x[None, :], s.y[None, :])
-    with pytest.raises(ValueError, match="joint coordinates"):
-        m.simulate(initial=s, t_end=0.1)
-    with pytest.raises(ValueError, match="has no joints"):
-        kanedyn.load(EXAMPLES / "eight_body.yaml").joint_derivatives()
+    notes = kanedyn.State(s.x, s.y)
+    for call in (m.derivatives, m.eom, m.inspect, m.energy, m.momentum, m.joint_derivatives,
+                 lambda state: m.simulate(initial=state, t_end=0.1)):
+        with pytest.raises(ValueError, match="body 'cart' has a prismatic joint"):
+            call(notes)
+    assert same_bits(m.derivatives(s)[1], m.derivatives(s.q, s.z)[1])
     with pytest.raises(ValueError, match="unit norm"):
         h = kanedyn.load(EXAMPLES / "human_jointed.yaml")
         q = h.initial_joint_coordinates.copy()
@@ -165,10 +170,12 @@ def test_energy_is_the_csv_energy_column_with_the_joint_springs(name: str, tmp_p
         springs = max(springs, abs(total))
     assert springs > 0.0
     # The notes' state alone does not give the joint coordinates: refused, naming the body.
+    s = m.initial_state()
     with pytest.raises(ValueError, match="joint coordinates q"):
-        m.energy(m.initial_state())
+        m.energy(kanedyn.State(s.x, s.y))
     with pytest.raises(ValueError, match="not both"):
-        m.energy(m.initial_state(), q=back.q[0])
+        m.energy(s, q=back.q[0])
+    assert m.energy(m.state(q=back.q[1], z=back.z[1]))[2] == back.energy[1]
 
 
 def test_energy_of_the_joint_springs_is_their_potential() -> None:
