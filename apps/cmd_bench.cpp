@@ -30,6 +30,7 @@ struct BenchResult {
   long batch = 0;          ///< evaluations per batch
   int lanes = 0;           ///< bodies per SIMD pass of the recursive route's kernel
   std::string kernel;      ///< what runs (Dynamics::kernel)
+  std::string evaluates;   ///< what one evaluation computes: "d/dt of " Dynamics::layout
 };
 
 double elapsed_ns(Clock::time_point since) {
@@ -82,12 +83,8 @@ BenchResult time_route(const io::ModelFile& file, Route route, long reps, int ma
   BenchResult r = time_calls(route, reps, [&] { dynamics.derivative(v, rates); });
   r.lanes = dynamics.simd_lanes();
   r.kernel = dynamics.kernel();
+  r.evaluates = "d/dt of " + dynamics.layout();
   return r;
-}
-
-/// What one evaluation computes, for the output.
-std::string evaluated(const io::ModelFile& file) {
-  return "d/dt of " + Dynamics(file.model).layout();
 }
 
 void print_text(const io::ModelFile& file, const std::vector<BenchResult>& results) {
@@ -95,7 +92,7 @@ void print_text(const io::ModelFile& file, const std::vector<BenchResult>& resul
   std::printf("model: %s", file.path.c_str());
   if (!file.model.name().empty()) std::printf(" (%s)", file.model.name().c_str());
   std::printf(", N = %d\nforward dynamics (%s, as simulate evaluates it) at the initial state\n\n",
-              n, evaluated(file).c_str());
+              n, results.front().evaluates.c_str());
   std::printf("%-10s %11s %7s %15s %13s %15s %12s\n", "route", "evaluations", "batch",
               "median ns/eval", "min ns/eval", "median ns/body", "min ns/body");
   for (const BenchResult& r : results)
@@ -115,7 +112,7 @@ void print_json(const io::ModelFile& file, const std::vector<BenchResult>& resul
   Json out;
   out["model"] = file.path;
   out["N"] = file.model.num_bodies();
-  out["evaluates"] = evaluated(file);
+  out["evaluates"] = results.front().evaluates;
   out["results"] = Json::array();
   for (const BenchResult& r : results)
     out["results"].push_back({{"route", to_string(r.route)},
