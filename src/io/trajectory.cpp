@@ -85,9 +85,8 @@ bool next_line(LineReader& in, const std::vector<std::string>& columns, std::str
 /// A row is a state: every body's Euler parameters (e1..e4) and every spherical joint's q
 /// (j1..j4) have norm 1 within the model file's tolerance, 1e-6 (docs/model-format.md).
 template <typename Fail>
-void check_row_state(const Model& model, const Model* joints,
-                     const std::vector<std::string>& columns, const std::vector<double>& row,
-                     int line_no, const Fail& fail) {
+void check_row_state(const Model& model, const std::vector<std::string>& columns,
+                     const std::vector<double>& row, int line_no, const Fail& fail) {
   constexpr double kTolerance = 1e-6;
   const auto check = [&](size_t first, const char* what) {
     double sum = 0.0;
@@ -102,8 +101,7 @@ void check_row_state(const Model& model, const Model* joints,
   for (int k = 0; k < model.num_bodies(); ++k) {
     check(b + 3, "Euler parameters");
     b += 16;
-    if (!joints) continue;
-    const JointType type = joints->joint(k).type;
+    const JointType type = model.joint(k).type;
     if (type == JointType::free || type == JointType::weld) continue;
     if (type == JointType::spherical) check(b, "a spherical joint's Euler parameters");
     b += static_cast<size_t>(coordinate_count(type) + speed_count(type));
@@ -131,7 +129,6 @@ void parse_row(std::string_view line, int line_no, const std::vector<std::string
 }  // namespace
 
 TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, double t) {
-  const Model* joints = model.all_free() ? nullptr : &model;
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
@@ -148,7 +145,7 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
     ++line_no;
     if (line.empty()) continue;
     parse_row(line, line_no, columns, row, fail);
-    check_row_state(model, joints, columns, row, line_no, fail);
+    check_row_state(model, columns, row, line_no, fail);
     const double tr = row[0];
     if (take_next) {
       after_best = tr;
@@ -212,7 +209,6 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
 }
 
 Trajectory read_trajectory(const Model& model, const std::string& path) {
-  const Model* joints = model.all_free() ? nullptr : &model;
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
   };
@@ -226,7 +222,7 @@ Trajectory read_trajectory(const Model& model, const std::string& path) {
     ++line_no;
     if (line.empty()) continue;
     parse_row(line, line_no, out.columns, row, fail);
-    check_row_state(model, joints, out.columns, row, line_no, fail);
+    check_row_state(model, out.columns, row, line_no, fail);
     // Interpolating between rows needs times in order.
     if (!out.values.empty() && row[0] < out.values[out.values.size() - out.columns.size()])
       throw fail(line_no, "t = " + number(row[0]) + " is before the previous row's t = " +
