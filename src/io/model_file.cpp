@@ -1358,8 +1358,9 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
       file.q.segment(m.coordinate_offset(k), q[i].size()) = q[i];
       file.z.segment(m.speed_offset(k), z[i].size()) = z[i];
     }
-    // An all-free model's initial state is its `initial:` entries as read (the same numbers).
-    if (!m.all_free()) joint_state(m, file.q, file.z, file.initial);
+    // The notes' state of (q, z); a free body's slices are copied, so an all-free model's is
+    // its `initial:` entries as read (the same numbers).
+    joint_state(m, file.q, file.z, file.initial);
     return file;
   } catch (const ModelError& e) {
     // Everything the Model checks was checked above with a location; this is a safety net,
