@@ -98,6 +98,12 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
     if (model.lower_body(k) == kGround) out << " " << frame_label(model, k);
   out << "\nforce elements: " << model.forces().size() << ", gravity = ["
       << model.gravity().transpose() << "]\n";
+  if (model.frames().empty()) return;
+  out << "frames: " << model.frames().size() << "\n";
+  for (const Frame& f : model.frames()) {
+    out << "  " << f.name << " on " << (f.body == kGround ? "ground" : model.body(f.body).name)
+        << " at [" << f.at.transpose() << "]\n";
+  }
 }
 
 void add_info(CLI::App& app) {

@@ -57,12 +57,13 @@ std::string check_inertia(const Matrix3& inertia) {
 
 Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
              std::vector<std::shared_ptr<const ForceElement>> forces, std::string name,
-             std::vector<Joint> joints)
+             std::vector<Joint> joints, std::vector<Frame> frames)
     : bodies_(std::move(bodies)),
       gravity_(std::move(gravity)),
       forces_(std::move(forces)),
       name_(std::move(name)),
-      joints_(std::move(joints)) {
+      joints_(std::move(joints)),
+      frames_(std::move(frames)) {
   const int n = num_bodies();
   if (n == 0) throw ModelError("model: a model needs at least one body");
   if (!gravity_.allFinite()) fail("gravity", "has a non-finite component");
@@ -126,6 +127,27 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
   for (const ForceElement* f : joint_elements_)
     if (const auto* load = dynamic_cast<const JointLoad*>(f)) joint_loads_.push_back(load);
   if (joint_loads_.size() != joint_elements_.size()) joint_loads_.clear();
+  std::unordered_set<std::string> frame_names;
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    Frame& f = frames_[i];
+    const std::string where = "frame " + std::to_string(i + 1) + " '" + f.name + "'";
+    if (!valid_name(f.name)) fail(where, "name must be non-empty and use only [A-Za-z0-9_-]");
+    if (!frame_names.insert(f.name).second) fail(where, "duplicate frame name '" + f.name + "'");
+    if (names.count(f.name))
+      fail(where, "a body has this name too; a frame needs a name of its own");
+    if (f.body != kGround && (f.body < 0 || f.body >= n))
+      fail(where, "body index " + std::to_string(f.body) + " out of range");
+    if (!all_finite(f.at)) fail(where, "at has a non-finite component");
+    if (!all_finite(f.rotation) || std::abs(f.rotation.norm() - 1.0) > 1e-6)
+      fail(where, "rotation: Euler parameters must have unit norm (within 1e-6)");
+    f.rotation.normalize();
+  }
+}
+
+int Model::frame_index(const std::string& name) const {
+  for (size_t f = 0; f < frames_.size(); ++f)
+    if (frames_[f].name == name) return static_cast<int>(f);
+  return -2;
 }
 
 void Model::set_up_joints() {
@@ -177,7 +199,8 @@ Model with_joints(const Model& model, std::vector<Joint> joints,
                   std::vector<std::shared_ptr<const ForceElement>> more_forces) {
   std::vector<std::shared_ptr<const ForceElement>> forces = model.forces();
   forces.insert(forces.end(), more_forces.begin(), more_forces.end());
-  return Model(model.bodies(), model.gravity(), std::move(forces), model.name(), std::move(joints));
+  return Model(model.bodies(), model.gravity(), std::move(forces), model.name(), std::move(joints),
+               model.frames());
 }
 
 int Model::body_index(const std::string& name) const {

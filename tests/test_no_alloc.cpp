@@ -14,7 +14,10 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/frames.hpp"
+#include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"
+#include "kanedyn/kinematics.hpp"
 #include "kanedyn/testing/generate.hpp"
 
 namespace {
@@ -183,6 +186,27 @@ TEST(NoAlloc, StagedRecursiveRouteForAnUnknownElement) {
     for (int i = 0; i < 5; ++i) forward_dynamics(model, g.initial, data, Route::recursive);
   });
   EXPECT_EQ(count, 0);
+}
+
+TEST(NoAlloc, FrameJacobian) {
+  // A chain of revolute joints under a free root, with a frame on its tip.
+  const GeneratedSystem g = chain_model(12);
+  std::vector<Joint> joints(12);
+  for (size_t k = 1; k < joints.size(); ++k) joints[k].type = JointType::revolute;
+  const Model model(g.model.bodies(), g.model.gravity(), g.model.forces(), "", joints,
+                    {Frame{"tip", 11, Vector3(0.1, 0, 0), Vector4(0, 0, 0, 1)}});
+  VectorX q = VectorX::Zero(model.num_coordinates()), z = VectorX::Ones(model.num_speeds());
+  q[3] = 1.0;  // the root's identity rotation
+  State state(model);
+  joint_state(model, q, z, state);
+  Data data(model, DataOptions::recursive_only());
+  compute_kinematics(model, state, data);
+  MatrixX Jv(3, model.num_speeds()), Jw(3, model.num_speeds());
+  const long count = count_allocations([&] {
+    for (int i = 0; i < 5; ++i) frame_jacobian(model, 0, q, data.kinematics, Jv, Jw);
+  });
+  EXPECT_EQ(count, 0);
+  EXPECT_TRUE(Jv.allFinite());
 }
 
 }  // namespace

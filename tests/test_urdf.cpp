@@ -19,6 +19,7 @@
 #include "../src/io/xml_scan.hpp"
 #include "file_support.hpp"
 #include "kanedyn/data.hpp"
+#include "kanedyn/frames.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/urdf.hpp"
 #include "kanedyn/joint_dynamics.hpp"
@@ -714,6 +715,24 @@ TEST(Urdf, JointedModelPlacesEveryLinkAsUrdfDoes) {
     const Pose flange = child(link1, Vec(0, 0.01, 0.4), rpy(0.1, 0.2, 0.785398163397));
     const Pose tool = child(flange, Vec(0.05, 0, 0), rpy(0.2, 0, 0), Vec::UnitZ(), b);
     expect_poses(f, q, {link1, tool});
+    // The massless links on fixed joints are frames, placed as URDF places the links.
+    const Pose tcp = child(tool, Vec(0, 0, 0.12), Mat::Identity());
+    State state(f.model);
+    joint_state(f.model, q, VectorX::Zero(f.model.num_speeds()), state);
+    Data data(f.model);
+    compute_kinematics(f.model, state, data);
+    const std::vector<std::pair<std::string, Pose>> frames{
+        {"pedestal", pedestal}, {"flange", flange}, {"tcp", tcp}};
+    ASSERT_EQ(f.model.frames().size(), frames.size());
+    for (const auto& [name, pose] : frames) {
+      const int i = f.model.frame_index(name);
+      ASSERT_GE(i, 0) << name;
+      const FrameState s = frame_state(f.model, i, state, data.kinematics);
+      EXPECT_LT((s.R.transpose() - pose.r).cwiseAbs().maxCoeff(), 1e-14) << name;
+      EXPECT_LT((s.position - pose.p).norm(), 1e-14) << name;
+    }
+    EXPECT_EQ(f.model.frame(f.model.frame_index("pedestal")).body, kGround);
+    EXPECT_EQ(f.model.frame(f.model.frame_index("tcp")).body, 1);
   }
 }
 

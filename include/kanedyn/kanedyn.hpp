@@ -5,6 +5,7 @@
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/frames.hpp"
 #include "kanedyn/inspect.hpp"
 #include "kanedyn/integrate.hpp"
 #include "kanedyn/io/csv.hpp"

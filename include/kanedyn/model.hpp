@@ -32,6 +32,16 @@ struct BodySpec {
   Vector3 joint = Vector3::Zero();  ///< {q'_K}: O_J to Q_K, body-J components (inertial for roots)
 };
 
+/// A named point with axes fixed in a body or in the ground (docs/model-format.md, "Frames"): a
+/// tool point, a sensor, a marker. frames.hpp gives its pose, velocity and Jacobian.
+struct Frame {
+  std::string name;                      ///< unique among frames and bodies, [A-Za-z0-9_-]+
+  int body = kGround;                    ///< the body K (0-based index) or kGround
+  Vector3 at = Vector3::Zero();          ///< origin from O_K, body-K components (inertial: ground)
+  Vector4 rotation{0.0, 0.0, 0.0, 1.0};  ///< Euler parameters of the frame's axes relative to
+                                         ///< K's: [R(rotation)] maps body-K to frame components
+};
+
 /// A tree (or forest) of N rigid bodies, each with its joint to its lower body. Body indices
 /// are 0-based: index k is body K = k+1 of the notes; lower_body(k) == kGround (-1) means
 /// L(K) = 0. With every joint free (the default) it is the notes' unconstrained tree.
@@ -46,7 +56,7 @@ class Model {
   /// empty for every body free.
   Model(std::vector<BodySpec> bodies, Vector3 gravity = Vector3::Zero(),
         std::vector<std::shared_ptr<const ForceElement>> forces = {}, std::string name = "",
-        std::vector<Joint> joints = {});
+        std::vector<Joint> joints = {}, std::vector<Frame> frames = {});
 
   int num_bodies() const { return static_cast<int>(bodies_.size()); }  ///< N
   int num_y() const { return 6 * num_bodies(); }                       ///< 6N, size of {y}
@@ -82,6 +92,12 @@ class Model {
   const std::vector<BodySpec>& bodies() const { return bodies_; }
   /// Index of the body with this name, or -2 if there is none.
   int body_index(const std::string& name) const;
+
+  /// The model's frames (rotations normalized), in the order given.
+  const std::vector<Frame>& frames() const { return frames_; }
+  const Frame& frame(int f) const { return frames_[static_cast<size_t>(f)]; }
+  /// Index of the frame with this name, or -2 if there is none.
+  int frame_index(const std::string& name) const;
 
   int lower_body(int k) const { return bodies_[static_cast<size_t>(k)].lower_body; }  ///< L(K)
   /// u_K: number of bodies below K in its own tree (0 for a body attached to R).
@@ -170,6 +186,7 @@ class Model {
   std::vector<std::shared_ptr<const ForceElement>> forces_;
   std::string name_;
   std::vector<Joint> joints_;
+  std::vector<Frame> frames_;
   bool all_free_ = true, body_forces_ = false;
   std::vector<const ForceElement*> joint_elements_;
   std::vector<const JointLoad*> joint_loads_;
@@ -186,8 +203,9 @@ class Model {
   double total_mass_ = 0.0;
 };
 
-/// The same bodies, gravity, force elements and name with these joints (one per body), and
-/// more force elements (e.g. joint springs on the new joints) after the model's own.
+/// The same bodies, gravity, force elements, name and frames with these joints (one per
+/// body), and more force elements (e.g. joint springs on the new joints) after the model's
+/// own.
 Model with_joints(const Model& model, std::vector<Joint> joints,
                   std::vector<std::shared_ptr<const ForceElement>> more_forces = {});
 

@@ -1268,6 +1268,42 @@ void read_force(const Reader& r, const Field& f, const BodyNames& names,
     forces.push_back(std::make_shared<ConstantTorque>(body, value));
 }
 
+/// The `frames` section (docs/model-format.md, "Frames"): each a name unique among frames and
+/// bodies, a body (or ground), an origin and axes.
+std::vector<Frame> read_frames(const Reader& r, const Field& f, const BodyNames& bodies) {
+  std::vector<Frame> frames;
+  std::vector<std::string> seen;
+  const std::vector<Field> items = r.list(f, "frame entries");
+  for (size_t i = 0; i < items.size(); ++i) {
+    const Mapping m = r.mapping(items[i]);
+    m.allow({"name", "body", "at", "rotation"});
+    Frame frame;
+    const Field name_field = m.require("name");
+    const std::string_view name = r.text_view(name_field);
+    if (!valid_body_name(name))
+      r.fail(name_field,
+             "frame name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
+    if (name == "ground")
+      r.fail(name_field, "'ground' is reserved for the inertial frame; choose another name");
+    if (bodies.index.find(name) >= 0)
+      r.fail(name_field,
+             "frame name " + quote(name) + " is a body's name; a frame needs a name of its own");
+    for (size_t j = 0; j < seen.size(); ++j)
+      if (seen[j] == name)
+        r.fail(name_field, "duplicate frame name " + quote(name) + " (already used by " +
+                               index_path("frames", j) + ")");
+    frame.name = std::string(name);
+    seen.push_back(frame.name);
+    const Field body_field = m.require("body");
+    frame.body =
+        r.text_view(body_field) == "ground" ? kGround : body_reference(r, body_field, bodies);
+    if (const auto v = m.get("at")) frame.at = r.vector3(*v);
+    if (const auto v = m.get("rotation")) frame.rotation = read_rotation(r, *v);
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
 SimulationSection read_simulation(const Reader& r, const Field& f) {
   const Mapping m = r.mapping(f);
   m.allow({"t_end", "dt_out", "integrator", "rtol", "atol", "step", "route", "method"});
@@ -1311,7 +1347,7 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
   if (const std::string f = r.text(format); f != kFormat)
     r.fail(format, "unsupported format " + quote(f) +
                        "; this version reads 'format: " + std::string(kFormat) + "'");
-  top.allow({"format", "name", "gravity", "bodies", "forces", "simulation"});
+  top.allow({"format", "name", "gravity", "bodies", "forces", "frames", "simulation"});
 
   const std::string name = top.has("name") ? r.text(*top.get("name")) : "";
   const Vector3 gravity = top.has("gravity") ? r.vector3(*top.get("gravity")) : Vector3::Zero();
@@ -1323,6 +1359,9 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
   if (const auto forces_field = top.get("forces"))
     for (const Field& item : r.list(*forces_field, "force entries"))
       read_force(r, item, names, bodies.joints, forces);
+
+  std::vector<Frame> frames;
+  if (const auto v = top.get("frames")) frames = read_frames(r, *v, names);
 
   SimulationSection simulation;
   if (const auto v = top.get("simulation")) simulation = read_simulation(r, *v);
@@ -1341,8 +1380,8 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
   }
 
   try {
-    Model model(std::move(bodies.specs), gravity, std::move(forces), name,
-                std::move(bodies.joints));
+    Model model(std::move(bodies.specs), gravity, std::move(forces), name, std::move(bodies.joints),
+                std::move(frames));
     ModelFile file{std::move(model), std::move(initial), std::move(simulation),
                    source_name,      VectorX(),          VectorX()};
     const Model& m = file.model;

@@ -324,6 +324,13 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
     return static_cast<int>(bodies.size()) - 1;
   };
 
+  // Massless links on fixed joints: frames of the body (or the ground) they are fixed to.
+  struct FrameOut {
+    std::string name, link;
+    Place at;
+  };
+  std::vector<FrameOut> frames;
+
   std::unordered_map<std::string, Place> place;
   // Depth first, without recursion (a chain may be thousands of links long): a body is
   // written when its joint comes off the stack, so each subtree is written whole.
@@ -434,7 +441,9 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
             to.q = a.conjugate();
           }
         }
-      } else if (type != "weld") {
+      } else if (type == "weld") {
+        frames.push_back({body_name(child->name), child->name, to});
+      } else {
         fail(quoted_name("link", child->name),
              "has no mass, but " + jname + " (" +
                  (type == "free" ? std::string("floating") : type) +
@@ -478,6 +487,24 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
                  "': its joints form a closed loop, and a kanedyn model is a tree");
   }
   if (geometry) notes.add_line("visual and collision geometry is ignored");
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const FrameOut& frame = frames[f];
+    if (const auto it = body_link.find(frame.name); it != body_link.end())
+      fail(quoted_name("link", frame.link),
+           "its frame name '" + frame.name + "' is the body name of " +
+               quoted_name("link", it->second) + " (names use only [A-Za-z0-9_-]): rename one");
+    for (std::size_t g = 0; g < f; ++g)
+      if (frames[g].name == frame.name)
+        fail(quoted_name("link", frame.link),
+             "its frame name '" + frame.name + "' is that of " +
+                 quoted_name("link", frames[g].link) +
+                 " too (names use only [A-Za-z0-9_-]): rename one of them");
+    notes.add("link",
+              "has no mass and a fixed joint: it is a frame of " +
+                  (frame.at.body < 0 ? std::string("the ground")
+                                     : "body '" + bodies[frame.at.body].name + "'"),
+              frame.link);
+  }
   if (bodies.empty())
     fail(quoted_name("robot", model->getName()),
          "no link has a mass: there is no body to simulate");
@@ -521,6 +548,14 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
     forces = true;
     y += "  - type: joint_spring  # <dynamics> of joint " + printable(b.joint) + "\n";
     y += "    body: \"" + b.name + "\"\n    damping: " + num(b.damping) + "\n";
+  }
+  if (!frames.empty()) y += "frames:  # massless links on fixed joints\n";
+  for (const FrameOut& f : frames) {
+    y += "  - name: \"" + f.name + "\"  # link " + printable(f.link) + "\n";
+    y += "    body: " +
+         (f.at.body < 0 ? std::string("ground") : "\"" + bodies[f.at.body].name + "\"") + "\n";
+    y += "    at: " + vec(f.at.p) + "\n";
+    if (!is_identity(f.at.q)) y += "    rotation: " + axis_angle(f.at.q) + "\n";
   }
   // What is written must load: read it back with the loader's own rules, so that no command
   // refuses a file the import wrote. A refusal here is a value the checks above let through
