@@ -9,10 +9,11 @@
 
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
+
+#include "joint_dynamics.hpp"
 
 namespace kanedyn {
 
@@ -52,7 +53,7 @@ struct Dynamics::Impl {
   State work;
   bool loads_current = false;
   // Any other model.
-  std::optional<JointDynamics> joint;
+  std::optional<detail::JointDynamics> joint;
   VectorX drift_q;  // project()'s copy of q when the Euler parameters are not projected
 
   // The notes' state from q, z (an all-free model's slices are x, y body by body).
