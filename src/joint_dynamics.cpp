@@ -21,6 +21,7 @@
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/rotation.hpp"
 
+#include "equations.hpp"
 #include "joint_motion.hpp"
 #include "spd.hpp"
 #include "tree_ldlt.hpp"
@@ -362,7 +363,8 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
       l.c.tail<3>().setZero();
     } else {
       const Vector3 sd = rj.transpose() * jm.slide_rate;
-      l.c.tail<3>() = w_j.cross(w_j.cross(l.r) + 2.0 * sd);
+      eq::store(l.c.data() + 3,
+                eq::transport_acceleration(eq::vec(w_j), eq::vec(sd), eq::vec(l.r)));
     }
     // Newton-Euler about O_K in inertial components, with A = d/dt V (a_O the acceleration of
     // the material point O_K): [I_O] A + b is the force needed, b = (w x [I_G] w + m c x
@@ -370,16 +372,21 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     // ([R_K]^T M'_K + c x F_K, F_K): every force element and gravity, or, with no force
     // element, nothing, gravity being the ground's acceleration -g: a uniform -g on every A
     // shifts [I_O] A by -(c x m g, m g), the weight about O_K.
+    // The terms of Newton-Euler are the notes' (src/equations.inc), in inertial components.
     const BodySpec& body = model.body(k);
-    const Vector3 cg = rk.transpose() * body.com;
+    const eq::Mat3<double> r_k = eq::mat(rk);
+    const eq::Vec3<double> w = eq::vec(l.w);
+    const eq::Vec3<double> cg = eq::transpose_times(r_k, eq::vec(body.com));
     const Matrix3 inertia_g = inertial_axes(body.inertia, rk);
-    const Vector3 wwc = l.w.cross(l.w.cross(cg));
-    spatial_inertia(body.mass, cg, inertia_g, l.IA);
-    l.p.head<3>() = l.w.cross(inertia_g * l.w) + body.mass * cg.cross(wwc);
-    l.p.tail<3>() = body.mass * wwc;
+    const eq::Vec3<double> wwc = eq::centripetal_acceleration(w, cg);
+    spatial_inertia(body.mass, eq::eigen(cg), inertia_g, l.IA);
+    eq::store(l.p.data(),
+              eq::gyroscopic_moment(eq::sym(inertia_g), w) + body.mass * eq::cross(cg, wwc));
+    eq::store(l.p.data() + 3, body.mass * wwc);
     if (loads) {
       const Vector3& f = data.loads.force[i];
-      l.p.head<3>() -= rk.transpose() * data.loads.moment_b[i] + cg.cross(f);
+      l.p.head<3>() -= eq::eigen(eq::transpose_times(r_k, eq::vec(data.loads.moment_b[i])) +
+                                 eq::cross(cg, eq::vec(f)));
       l.p.tail<3>() -= f;
     }
   }

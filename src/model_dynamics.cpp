@@ -1,6 +1,6 @@
 // Dynamics: forward dynamics of any model at its state (q, z), and the derivative simulate()
 // integrates. The route dispatch of the library is here and only here: the notes' kernels
-// (forward_dynamics) for an all-free model, JointDynamics for any other.
+// (forward_dynamics) for an all-free model, detail::JointDynamics for any other.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
