@@ -13,9 +13,10 @@ namespace {
 size_t at(long long i) { return static_cast<size_t>(i); }
 
 // A pair of 6-row nodes (two bodies of [A] of Eq. 37, or two free joints) takes Eigen's
-// fixed-size products, the others the loops below.
-using Block6 = Eigen::Map<Matrix6>;
-using ConstBlock6 = Eigen::Map<const Matrix6>;
+// fixed-size products, the others the loops below. Every 6x6 block starts at an even number of
+// doubles (the storage is 16-byte aligned), so that it is as aligned as a Matrix6.
+using Block6 = Eigen::Map<Matrix6, Eigen::Aligned16>;
+using ConstBlock6 = Eigen::Map<const Matrix6, Eigen::Aligned16>;
 
 }  // namespace
 
@@ -52,6 +53,7 @@ TreeLdlt::TreeLdlt(const std::vector<int>& sizes, const std::vector<int>& lower)
     if (sizes[k] > 0) {
       const size_t first = node_.size();
       for (int c = static_cast<int>(k); c >= 0;) {
+        if (sizes[k] == 6 && sizes[at(c)] == 6) doubles += doubles % 2;  // see Block6
         node_.push_back(c);
         data_offset_.push_back(doubles);
         doubles += static_cast<long long>(sizes[k]) * sizes[at(c)];
@@ -72,6 +74,16 @@ TreeLdlt::TreeLdlt(const std::vector<int>& sizes, const std::vector<int>& lower)
     for (int r = 0; r < row_length(static_cast<int>(k)); ++r)
       scalar = scalar && sizes[at(row_node(static_cast<int>(k), r))] == 1;
     scalar_row_[k] = scalar ? 1 : 0;
+  }
+  // A row of 6-row nodes only: its blocks, and those of its ancestors' rows, are consecutive
+  // 6x6 blocks.
+  six_row_.assign(n, 0);
+  for (size_t k = 0; k < n; ++k) {
+    if (sizes[k] != 6) continue;
+    bool six = true;
+    for (int r = 0; r < row_length(static_cast<int>(k)); ++r)
+      six = six && sizes[at(row_node(static_cast<int>(k), r))] == 6;
+    six_row_[k] = six ? 1 : 0;
   }
 }
 
@@ -129,6 +141,23 @@ bool TreeLdlt::compute() {
         const double* a = row_.data() + (r1 - 1);
         const int count = len - r1;
         for (int t = 0; t < count; ++t) target[t] -= l1 * a[t];
+      }
+      continue;
+    }
+    if (six_row_[at(k)]) {
+      // The loops below with every block 6x6: k's row and each I's are runs of 36 doubles.
+      double* a_k = block(k, 0);
+      for (int r = 1; r < len; ++r) {
+        double* saved = row_.data() + 36 * r;
+        std::copy(a_k + 36 * r, a_k + 36 * (r + 1), saved);
+        Block6(a_k + 36 * r).noalias() = ConstBlock6(d) * ConstBlock6(saved);
+      }
+      for (int r1 = 1; r1 < len; ++r1) {
+        const ConstBlock6 l1(a_k + 36 * r1);
+        double* row_i = block(row_node(k, r1), 0);
+        for (int r2 = r1; r2 < len; ++r2)
+          Block6(row_i + 36 * (r2 - r1)).noalias() -=
+              l1.transpose() * ConstBlock6(row_.data() + 36 * r2);
       }
       continue;
     }
@@ -226,7 +255,7 @@ void TreeLdlt::solve_in_place(Eigen::Ref<VectorX> b) const {
 
 void TreeLdlt::compute(const Model& model, const std::vector<Matrix6>& a_blocks) {
   for (long long e = 0; e < model.chain_entries(); ++e)
-    Block6(data_.data() + 36 * e) = a_blocks[at(e)];
+    Block6(data_.data() + data_offset_[at(e)]) = a_blocks[at(e)];
   info_ = compute() ? Eigen::Success : Eigen::NumericalIssue;
 }
 
@@ -249,7 +278,7 @@ std::size_t TreeLdlt::memory_bytes() const {
          data_offset_.capacity() * sizeof(long long) +
          (data_.capacity() + row_.capacity() + static_cast<size_t>(blocked_.size())) *
              sizeof(double) +
-         scalar_row_.capacity();
+         scalar_row_.capacity() + six_row_.capacity();
 }
 
 }  // namespace kanedyn::detail

@@ -80,6 +80,7 @@ class TreeLdlt {
   std::vector<double> data_;
   std::vector<double> row_;                // the current block row of A while a node is eliminated
   std::vector<unsigned char> scalar_row_;  // every node of k's row has size 1
+  std::vector<unsigned char> six_row_;     // every node of k's row has size 6
   VectorX blocked_;                        // solve_in_place(model, b)'s b, node by node
   Eigen::ComputationInfo info_ = Eigen::Success;
 };
