@@ -1,4 +1,4 @@
-// Google Benchmark entries of JointDynamics::evaluate(): chains of revolute links (the
+// Google Benchmark entries of Dynamics::evaluate() on jointed models: chains of revolute links (the
 // generated chain's links, gravity and bushings, every joint revolute about the link's x axis)
 // by the articulated-body route (joints_recursive) and the block-sparse projected route
 // (joints_assembled, O(N d^2): only the shorter chains), and the jointed human figure of
@@ -17,7 +17,6 @@
 
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/testing/generate.hpp"
 
@@ -55,11 +54,11 @@ JointedChain human_jointed() {
 
 void run(benchmark::State& bench, const JointedChain& c, Route route) {
   const int n = c.model->num_bodies();
-  JointDynamics dyn(*c.model);
-  VectorX zdot(c.model->num_speeds());
-  dyn.evaluate(c.q, c.z, route, zdot);  // the assembled route builds its blocks once
+  Dynamics dyn(*c.model, route);
+  VectorX zdot(c.model->num_speeds()), qdot(c.model->num_coordinates());
+  dyn.evaluate(c.q, c.z, zdot, qdot);  // the assembled route builds its blocks once
   for (auto _ : bench) {
-    dyn.evaluate(c.q, c.z, route, zdot);
+    dyn.evaluate(c.q, c.z, zdot, qdot);
     benchmark::DoNotOptimize(zdot.data());
     benchmark::ClobberMemory();
   }

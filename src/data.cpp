@@ -83,7 +83,7 @@ Data::Data(const Model& model, const DataOptions& opts)
     if (options_.dense_mass_matrix) kane.A = MatrixX::Zero(m, m);
     detail::AssembledScratch& a = w.assembled;
     a.A_blocks.assign(at(model.chain_entries()), Matrix6::Zero());
-    a.factor = TreeLdlt(model);
+    a.factor = detail::TreeLdlt(model);
     a.bias_O.assign(n, Vector3::Zero());
     a.h_b = a.bias_O;
     a.subtree_mass.assign(n, 0.0);

@@ -10,9 +10,8 @@
 // and s_block as ConstraintMatrix. With force elements the per-body loads come from
 // compute_resultants, at the state joint_state gives, with the kinematics of compute_kinematics;
 // without them gravity is the ground's acceleration and that state is computed only when asked.
-#include "kanedyn/joint_dynamics.hpp"
+#include "joint_dynamics.hpp"
 
-#include <Eigen/LU>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -22,10 +21,12 @@
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/rotation.hpp"
 
-#include "joint_ldlt.hpp"
+#include "equations.hpp"
 #include "joint_motion.hpp"
+#include "spd.hpp"
+#include "tree_ldlt.hpp"
 
-namespace kanedyn {
+namespace kanedyn::detail {
 
 namespace {
 
@@ -63,50 +64,6 @@ void spatial_inertia(double mass, const Vector3& c, const Matrix3& inertia_g, Ma
   i.topRightCorner<3, 3>() = mcx;
   i.bottomLeftCorner<3, 3>() = -mcx;
   i.bottomRightCorner<3, 3>() = mass * Matrix3::Identity();
-}
-
-// The lower Cholesky factor [L] of a symmetric positive definite M x M matrix, D = [L][L]^T, by
-// fixed-size loops that the compiler unrolls (Eigen's LLT of a fixed 6x6 runs its general
-// blocked kernels).
-template <int M>
-Eigen::Matrix<double, M, M> cholesky(const Eigen::Matrix<double, M, M>& d) {
-  Eigen::Matrix<double, M, M> l = Eigen::Matrix<double, M, M>::Zero();
-  for (int c = 0; c < M; ++c) {
-    double diag = d(c, c);
-    for (int e = 0; e < c; ++e) diag -= l(c, e) * l(c, e);
-    l(c, c) = std::sqrt(diag);
-    for (int r = c + 1; r < M; ++r) {
-      double v = d(r, c);
-      for (int e = 0; e < c; ++e) v -= l(r, e) * l(c, e);
-      l(r, c) = v / l(c, c);
-    }
-  }
-  return l;
-}
-
-// The inverse of the joint-space inertia block D (M x M, symmetric positive definite, M <= 3:
-// a free joint's M = 6 takes solve_spd instead), by the cofactor formula.
-template <int M>
-Eigen::Matrix<double, M, M> inverse_spd(const Eigen::Matrix<double, M, M>& d) {
-  static_assert(M >= 1 && M <= 3);
-  return d.inverse();
-}
-
-// x = D^-1 b for a symmetric positive definite 6x6 D, by its Cholesky factor.
-Vector6 solve_spd(const Matrix6& d, const Vector6& b) {
-  const Matrix6 l = cholesky<6>(d);
-  Vector6 x;
-  for (int r = 0; r < 6; ++r) {  // [L] y = b
-    double v = b[r];
-    for (int e = 0; e < r; ++e) v -= l(r, e) * x[e];
-    x[r] = v / l(r, r);
-  }
-  for (int r = 5; r >= 0; --r) {  // [L]^T x = y
-    double v = x[r];
-    for (int e = r + 1; e < 6; ++e) v -= l(e, r) * x[e];
-    x[r] = v / l(r, r);
-  }
-  return x;
 }
 
 // [P_K] = | a [I]     0   |  (a = 1; a = 0 for a free body), applied by blocks, with
@@ -242,7 +199,7 @@ struct JointDynamics::Impl {
     for (int k = 0; k < n; ++k) {
       d_offset[at(k)] = doubles;
       const int w = speeds[at(k)];
-      if (w < 6) doubles += w * w;  // a free joint needs no D^-1 (solve_spd)
+      if (w < 6) doubles += w * w;  // a free joint needs no D^-1 (recursive_inward)
     }
     D_inv.assign(at(doubles), 0.0);
   }
@@ -280,7 +237,7 @@ struct JointDynamics::Impl {
   std::vector<double> S, U, D_inv;
   std::vector<int> d_offset;
   // The assembled route's blocks of [C]^T [A] [C] and their factor, made on its first use.
-  std::optional<detail::JointTreeLdlt> ldlt;
+  std::optional<TreeLdlt> ldlt;
 
   void update_state(std::vector<detail::JointMotion>* tables = nullptr, bool complete = true);
   void complete_kinematics();
@@ -406,7 +363,8 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
       l.c.tail<3>().setZero();
     } else {
       const Vector3 sd = rj.transpose() * jm.slide_rate;
-      l.c.tail<3>() = w_j.cross(w_j.cross(l.r) + 2.0 * sd);
+      eq::store(l.c.data() + 3,
+                eq::transport_acceleration(eq::vec(w_j), eq::vec(sd), eq::vec(l.r)));
     }
     // Newton-Euler about O_K in inertial components, with A = d/dt V (a_O the acceleration of
     // the material point O_K): [I_O] A + b is the force needed, b = (w x [I_G] w + m c x
@@ -414,16 +372,21 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     // ([R_K]^T M'_K + c x F_K, F_K): every force element and gravity, or, with no force
     // element, nothing, gravity being the ground's acceleration -g: a uniform -g on every A
     // shifts [I_O] A by -(c x m g, m g), the weight about O_K.
+    // The terms of Newton-Euler are the notes' (src/equations.inc), in inertial components.
     const BodySpec& body = model.body(k);
-    const Vector3 cg = rk.transpose() * body.com;
+    const eq::Mat3<double> r_k = eq::mat(rk);
+    const eq::Vec3<double> w = eq::vec(l.w);
+    const eq::Vec3<double> cg = eq::transpose_times(r_k, eq::vec(body.com));
     const Matrix3 inertia_g = inertial_axes(body.inertia, rk);
-    const Vector3 wwc = l.w.cross(l.w.cross(cg));
-    spatial_inertia(body.mass, cg, inertia_g, l.IA);
-    l.p.head<3>() = l.w.cross(inertia_g * l.w) + body.mass * cg.cross(wwc);
-    l.p.tail<3>() = body.mass * wwc;
+    const eq::Vec3<double> wwc = eq::centripetal_acceleration(w, cg);
+    spatial_inertia(body.mass, eq::eigen(cg), inertia_g, l.IA);
+    eq::store(l.p.data(),
+              eq::gyroscopic_moment(eq::sym(inertia_g), w) + body.mass * eq::cross(cg, wwc));
+    eq::store(l.p.data() + 3, body.mass * wwc);
     if (loads) {
       const Vector3& f = data.loads.force[i];
-      l.p.head<3>() -= rk.transpose() * data.loads.moment_b[i] + cg.cross(f);
+      l.p.head<3>() -= eq::eigen(eq::transpose_times(r_k, eq::vec(data.loads.moment_b[i])) +
+                                 eq::cross(cg, eq::vec(f)));
       l.p.tail<3>() -= f;
     }
   }
@@ -444,7 +407,9 @@ void JointDynamics::Impl::recursive_inward(int k) {
     // [S] (M = 6) is invertible: IA - [U] D^-1 [U]^T = 0 and p + [U] D^-1 u = [S]^-T Q = 0 (no
     // joint loads on a free body), so K passes nothing on, and its acceleration is the free
     // body's, A_K = -IA^-1 p (then z dot_K = [S]^-1 (A_K - [P] A_J - c), outward).
-    l.A = -solve_spd(l.IA, l.p);
+    Matrix6 ia_inv = l.IA;
+    invert_spd6(ia_inv);
+    l.A.noalias() = -(ia_inv * l.p);
     return;
   } else {
     if constexpr (M > 0) {
@@ -476,7 +441,8 @@ void JointDynamics::Impl::recursive_inward(int k) {
         d.noalias() = s.transpose() * uk;
         uu = joint_force.segment<M>(off) - s.transpose() * l.p;
       }
-      d_inv = inverse_spd<M>(d);
+      invert_spd<M>(d);
+      d_inv = d;
       if (j == kGround) return;  // a root passes nothing on
       const Eigen::Matrix<double, 6, M> ud = uk * d_inv;
       l.IA.noalias() -= ud * uk.transpose();
@@ -579,14 +545,14 @@ void JointDynamics::Impl::assembled(Eigen::Ref<VectorX> zdot) {
       sizes.push_back(speeds[at(k)]);
       lower.push_back(model.lower_body(k));
     }
-    const long long blocks = detail::JointTreeLdlt::count_blocks(sizes, lower);
+    const long long blocks = TreeLdlt::count_blocks(sizes, lower);
     if (blocks > Model::kMaxFlatChainEntries)
       throw ModelError("joints: " + std::to_string(blocks) +
                        " blocks of [C]^T [A] [C] are too many for Route::assembled (limit " +
                        std::to_string(Model::kMaxFlatChainEntries) + "); use Route::recursive");
     ldlt.emplace(sizes, lower);
   }
-  detail::JointTreeLdlt& f = *ldlt;
+  TreeLdlt& f = *ldlt;
   // A_K at z dot = 0 (outward), then the force each body needs at that motion,
   // [I_O] A_K + b_K - F_ext,K, and [I_O] itself, summed over subtrees through [P]^T (inward):
   // the composite inertia and force of K's subtree about O_K. Every body of K's subtree has
@@ -675,4 +641,4 @@ void JointDynamics::derivative(const VectorX& qz, Route route, Eigen::Ref<Vector
   evaluate(s.q, s.z, route, dqz.tail(nz));
 }
 
-}  // namespace kanedyn
+}  // namespace kanedyn::detail

@@ -8,6 +8,7 @@
 #include "kanedyn/partials.hpp"
 
 #include "assembled.hpp"
+#include "equations.hpp"
 
 namespace kanedyn {
 
@@ -115,8 +116,8 @@ void force_vector(const Model& model, const State& state, const Kinematics& kin,
       continue;
     }
     const Vector3 wj = state.angular_velocity(j);
-    const Vector3 rel =
-        2.0 * wj.cross(state.translation_rate(k)) + wj.cross(wj.cross(kin.qs_b[at(k)]));
+    const Vector3 rel = eq::eigen(eq::transport_acceleration(
+        eq::vec(wj), eq::vec(state.translation_rate(k)), eq::vec(kin.qs_b[at(k)])));
     a.bias_O[at(k)] = a.bias_O[at(j)] + kin.R[at(j)].transpose() * rel;
   }
   // Eq. (38): the loads less m [v_G,y dot]{y} (Eq. 29) and the gyroscopic moment.
@@ -125,7 +126,9 @@ void force_vector(const Model& model, const State& state, const Kinematics& kin,
       [&](int k, Vector3& g, Vector3& m) {
         const BodySpec& b = model.body(k);
         const Vector3 w = state.angular_velocity(k);
-        const Vector3 bias_g = a.bias_O[at(k)] + kin.R[at(k)].transpose() * w.cross(w.cross(b.com));
+        const Vector3 bias_g =
+            a.bias_O[at(k)] + kin.R[at(k)].transpose() * eq::eigen(eq::centripetal_acceleration(
+                                                             eq::vec(w), eq::vec(b.com)));
         g = loads.force[at(k)] - b.mass * bias_g;
         m = loads.moment_b[at(k)] - w.cross(b.inertia * w);
       },

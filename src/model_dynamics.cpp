@@ -1,6 +1,6 @@
 // Dynamics: forward dynamics of any model at its state (q, z), and the derivative simulate()
 // integrates. The route dispatch of the library is here and only here: the notes' kernels
-// (forward_dynamics) for an all-free model, JointDynamics for any other.
+// (forward_dynamics) for an all-free model, detail::JointDynamics for any other.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -9,10 +9,11 @@
 
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
+
+#include "joint_dynamics.hpp"
 
 namespace kanedyn {
 
@@ -52,7 +53,7 @@ struct Dynamics::Impl {
   State work;
   bool loads_current = false;
   // Any other model.
-  std::optional<JointDynamics> joint;
+  std::optional<detail::JointDynamics> joint;
   VectorX drift_q;  // project()'s copy of q when the Euler parameters are not projected
 
   // The notes' state from q, z (an all-free model's slices are x, y body by body).

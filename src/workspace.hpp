@@ -7,7 +7,8 @@
 #include <vector>
 
 #include "kanedyn/data.hpp"
-#include "kanedyn/tree_ldlt.hpp"
+
+#include "tree_ldlt.hpp"
 
 namespace kanedyn {
 

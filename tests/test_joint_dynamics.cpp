@@ -15,15 +15,16 @@
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/integrate.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "test_support.hpp"
 
-#include "../src/joint_ldlt.hpp"
+#include "../src/joint_dynamics.hpp"
 
 namespace kanedyn {
 namespace {
+
+using detail::JointDynamics;
 
 // A joint spring with damping and a constant joint force on a loadable joint, with probability
 // 2/3 (damping 0 when `damped` is false: a conservative spring).
@@ -315,59 +316,6 @@ TEST(JointDynamics, AllWeldToOneFreeRoot) {
         EXPECT_LT((momentum_rate - force).norm(), 1e-10 * (1.0 + force.norm()));
       }
     }
-  }
-}
-
-// The variable-block tree LDL^T on matrices with a tree's sparsity: A = L^T D L built from a
-// random unit block lower triangular L with blocks only at (node, node on its chain) and SPD
-// diagonal blocks D, so A has exactly that sparsity; node sizes 0..6 mixed, and all 1 (the
-// scalar rows' path). The solve must equal the dense LDL^T's: both are backward stable on
-// these well-conditioned matrices (cond ~1e3), 1e-10 relative.
-TEST(JointDynamics, VariableBlockTreeLdltSolvesLikeTheDenseFactor) {
-  std::mt19937 rng(11);
-  for (int trial = 0; trial < 30; ++trial) {
-    const int n = test::uniform_int(rng, 1, 25);
-    const bool scalar = trial % 3 == 0, chain = trial % 2 == 0;
-    std::vector<int> sizes, lower, offset{0};
-    constexpr int kSizes[] = {0, 1, 2, 3, 6};
-    for (int k = 0; k < n; ++k) {
-      sizes.push_back(scalar ? 1 : kSizes[test::uniform_int(rng, 0, 4)]);
-      lower.push_back(k == 0 ? -1 : (chain ? k - 1 : test::uniform_int(rng, -1, k - 1)));
-      offset.push_back(offset.back() + sizes.back());
-    }
-    const int total = offset.back();
-    if (total == 0) continue;
-    auto on_chain = [&](int a, int k) {  // a is k or one of its ancestors
-      for (int c = k; c >= 0; c = lower[static_cast<size_t>(c)])
-        if (c == a) return true;
-      return false;
-    };
-    MatrixX L = MatrixX::Identity(total, total), D = MatrixX::Zero(total, total);
-    for (int k = 0; k < n; ++k) {
-      const int mk = sizes[static_cast<size_t>(k)], ok = offset[static_cast<size_t>(k)];
-      if (mk == 0) continue;
-      const MatrixX r = MatrixX::Random(mk, mk);
-      D.block(ok, ok, mk, mk) = r * r.transpose() + MatrixX::Identity(mk, mk);
-      for (int a = 0; a < k; ++a)
-        if (on_chain(a, k) && sizes[static_cast<size_t>(a)] > 0)
-          L.block(ok, offset[static_cast<size_t>(a)], mk, sizes[static_cast<size_t>(a)]) =
-              0.3 * MatrixX::Random(mk, sizes[static_cast<size_t>(a)]);
-    }
-    const MatrixX A = L.transpose() * D * L;
-    detail::JointTreeLdlt f(sizes, lower);
-    for (int k = 0; k < n; ++k)
-      for (int r = 0; r < f.row_length(k); ++r) {
-        const int a = f.row_node(k, r);
-        Eigen::Map<MatrixX>(f.block(k, r), f.size(k), f.size(a)) =
-            A.block(f.offset(k), f.offset(a), f.size(k), f.size(a));
-      }
-    ASSERT_TRUE(f.compute());
-    const VectorX b = VectorX::Random(total);
-    VectorX x = b;
-    f.solve_in_place(x);
-    const VectorX expected = A.ldlt().solve(b);
-    EXPECT_LT(relative_difference(x, expected), 1e-10) << "trial " << trial;
-    EXPECT_LT(test::max_abs(A * x - b), 1e-10 * (1.0 + test::max_abs(b)));
   }
 }
 

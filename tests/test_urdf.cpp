@@ -22,7 +22,6 @@
 #include "kanedyn/frames.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/urdf.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/rotation.hpp"
@@ -270,10 +269,10 @@ std::string planar_robot(const std::string& origin, const std::string& axis) {
 
 /// The puck's joint accelerations by both routes at (q, z).
 VectorX planar_zdot(const Model& model, const VectorX& q, const VectorX& z) {
-  JointDynamics dyn(model);
-  VectorX recursive(3), assembled(3);
-  dyn.evaluate(q, z, Route::recursive, recursive);
-  dyn.evaluate(q, z, Route::assembled, assembled);
+  Dynamics by_recursion(model, Route::recursive), by_assembly(model, Route::assembled);
+  VectorX recursive(3), assembled(3), qdot(model.num_coordinates());
+  by_recursion.evaluate(q, z, recursive, qdot);
+  by_assembly.evaluate(q, z, assembled, qdot);
   EXPECT_LT((recursive - assembled).norm(), 1e-12);
   return recursive;
 }

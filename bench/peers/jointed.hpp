@@ -14,7 +14,7 @@
 
 namespace peers {
 
-/// A kanedyn model with joints at a state. JointDynamics keeps a reference to the model, so a
+/// A kanedyn model with joints at a state. Dynamics keeps a reference to the model, so a
 /// case is held by pointer and never moves.
 struct JointedCase {
   std::string name;

@@ -16,7 +16,7 @@
 
 #include "jointed.hpp"
 #include "kanedyn/data.hpp"
-#include "kanedyn/joint_dynamics.hpp"
+#include "kanedyn/dynamics.hpp"
 #include "kanedyn/joints.hpp"
 
 namespace peers {
@@ -120,7 +120,7 @@ bool compare_section(const JointedOptions& opt) {
   std::cout << "\n## Jointed models\n"
             << "# joint accelerations at " << opt.states
             << " random states per model (the first also timed), compared in kanedyn's z order "
-               "and convention with JointDynamics::evaluate(Route::recursive); tolerance "
+               "and convention with Dynamics::evaluate (Route::recursive); tolerance "
                "max("
             << format_sci(opt.tolerance)
             << ", 10 cond(M) eps) of the largest |z dot| (cond(M): the 2-norm condition number "
@@ -132,8 +132,8 @@ bool compare_section(const JointedOptions& opt) {
   bool all_agree = true;
   for (size_t ci = 0; ci < cases.size(); ++ci) {
     JointedCase& c = *cases[ci];
-    kanedyn::JointDynamics ws(c.model);
-    VectorX zdot(c.model.num_speeds());
+    kanedyn::Dynamics ws(c.model, kanedyn::Route::recursive);
+    VectorX zdot(c.model.num_speeds()), qdot(c.model.num_coordinates());
     std::mt19937 rng(opt.seed);
     std::vector<VectorX> q0z0;  // the timed state
     double spread = 0;          // largest difference between two peers' z dot, relative
@@ -142,7 +142,7 @@ bool compare_section(const JointedOptions& opt) {
     for (int s = 0; s < opt.states; ++s) {
       random_joint_state(c, rng);
       if (s == 0) q0z0 = {c.q, c.z};
-      ws.evaluate(c.q, c.z, kanedyn::Route::recursive, zdot);
+      ws.evaluate(c.q, c.z, zdot, qdot);
       const double condition = mass_matrix_condition(c);
       worst_condition = std::max(worst_condition, condition);
       const double tolerance =
@@ -193,8 +193,8 @@ bool compare_section(const JointedOptions& opt) {
       if (!table[ci][ei].note.empty()) continue;
       Runner& r = runners[ei];
       if (ei == 0) {
-        r.run_batch = [&c, &ws, &zdot](long count) {
-          for (long b = 0; b < count; ++b) ws.evaluate(c.q, c.z, kanedyn::Route::recursive, zdot);
+        r.run_batch = [&c, &ws, &zdot, &qdot](long count) {
+          for (long b = 0; b < count; ++b) ws.evaluate(c.q, c.z, zdot, qdot);
         };
       } else {
         engines[ei] = columns[ei].info->make(sys);
@@ -298,7 +298,7 @@ std::string per_body(double ns) {
 }
 
 void scaling_section(const JointedOptions& opt) {
-  std::cout << "\n## kanedyn JointDynamics::evaluate (Route::recursive) on revolute chains\n"
+  std::cout << "\n## kanedyn Dynamics::evaluate (Route::recursive) on revolute chains\n"
             << "# median ns per evaluation and per body; a size is skipped when predicted (from "
                "the two sizes before it) above "
             << opt.max_eval_seconds << " s/eval\n\n"
@@ -326,11 +326,11 @@ void scaling_section(const JointedOptions& opt) {
     const std::unique_ptr<JointedCase> c = revolute_chain(n, opt.seed);
     std::mt19937 rng(opt.seed);
     random_joint_state(*c, rng);
-    kanedyn::JointDynamics ws(c->model);
-    VectorX zdot(c->model.num_speeds());
+    kanedyn::Dynamics ws(c->model, kanedyn::Route::recursive);
+    VectorX zdot(c->model.num_speeds()), qdot(c->model.num_coordinates());
     Runner r;
     r.run_batch = [&](long count) {
-      for (long b = 0; b < count; ++b) ws.evaluate(c->q, c->z, kanedyn::Route::recursive, zdot);
+      for (long b = 0; b < count; ++b) ws.evaluate(c->q, c->z, zdot, qdot);
     };
     const auto t0 = Clock::now();
     r.run_batch(1);

@@ -1,5 +1,5 @@
 // kanedyn_peers' jointed sections: the same jointed trees (jointed.hpp) in kanedyn
-// (JointDynamics) and the peers; joint accelerations compared at random states, forward
+// (Dynamics) and the peers; joint accelerations compared at random states, forward
 // dynamics timed, and kanedyn's time per body on revolute chains (docs/performance.md,
 // "Jointed models").
 #pragma once

@@ -1,7 +1,7 @@
 // kanedyn_peers: one forward-dynamics evaluation of the same model at the same state in
 // kanedyn (recursive and Kane routes), Simbody, MuJoCo and DART; median time per evaluation,
 // ratios to kanedyn, and agreement of the body accelerations. The jointed sections
-// (jointed_section.hpp) do the same for jointed trees with kanedyn's JointDynamics, and time
+// (jointed_section.hpp) do the same for jointed trees with kanedyn's Dynamics, and time
 // it per body on revolute chains. See docs/performance.md.
 #include <CLI/CLI.hpp>
 

@@ -29,9 +29,9 @@
 #include "describe.hpp"
 #include "jointed.hpp"
 #include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
 #include "kanedyn/integrate.hpp"
 #include "kanedyn/io/model_file.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
 #include "kanedyn/testing/generate.hpp"
@@ -241,31 +241,27 @@ Trajectory run_kanedyn(const Case& c, double t_end, double dt_out, double rtol) 
   return out;
 }
 
-// The jointed tree integrated in (q; z) by kanedyn's Dopri5 on JointDynamics::derivative,
-// poses at every dt_out from its continuous extension (joint coordinates normalized, then the
-// notes' state and kinematics).
+// The jointed tree integrated by kanedyn's Dopri5 on Dynamics::derivative (in (q; z)), poses at
+// every dt_out from its continuous extension (Dynamics::unpack: joint coordinates normalized,
+// then the notes' state), and the state's kinematics.
 Trajectory run_kanedyn_jointed(const peers::JointedCase& c, double t_end, double dt_out,
                                double rtol) {
-  kanedyn::JointDynamics ws(c.model);
-  const int nq = c.model.num_coordinates(), nz = c.model.num_speeds(), n = c.model.num_bodies();
+  kanedyn::Dynamics ws(c.model, kanedyn::Route::recursive);
+  const int n = c.model.num_bodies();
   kanedyn::Dopri5Options options;
   options.rtol = rtol;
   options.atol = rtol * 1e-2;
   kanedyn::Dopri5 integrator(
-      nq + nz,
-      [&ws](double, const kanedyn::VectorX& x, kanedyn::VectorX& dx) {
-        ws.derivative(x, kanedyn::Route::recursive, dx);
-      },
+      ws.size(),
+      [&ws](double, const kanedyn::VectorX& x, kanedyn::VectorX& dx) { ws.derivative(x, dx); },
       options);
-  kanedyn::VectorX x(nq + nz);
-  x << c.q, c.z;
+  kanedyn::VectorX x(ws.size()), q, z;
+  ws.pack(c.q, c.z, x);
   kanedyn::State state(c.model);
   kanedyn::Data data(c.model, kanedyn::DataOptions::recursive_only());
   Trajectory out;
   auto record = [&](double t, const kanedyn::VectorX& at) {
-    kanedyn::VectorX q = at.head(nq);
-    kanedyn::normalize_joint_coordinates(c.model, q);
-    kanedyn::joint_state(c.model, q, at.tail(nz), state);
+    ws.unpack(at, true, q, z, state);
     kanedyn::compute_kinematics(c.model, state, data);
     std::vector<peers::BodyPose> poses(static_cast<size_t>(n));
     for (int k = 0; k < n; ++k) {
@@ -288,7 +284,7 @@ Trajectory run_kanedyn_jointed(const peers::JointedCase& c, double t_end, double
     throw std::runtime_error("kanedyn: the jointed initial state is not finite");
   record(0.0, x);
   const long outputs = std::lround(t_end / dt_out);
-  kanedyn::VectorX at(nq + nz);
+  kanedyn::VectorX at(ws.size());
   for (long i = 1; i <= outputs; ++i) {
     const double t = i == outputs ? t_end : static_cast<double>(i) * dt_out;
     while (integrator.time() < t)

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 
 namespace peers {
@@ -136,12 +136,12 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
   // of the inertias here, far below rounding).
   skel->setTimeStep(1e-30);
 
-  kanedyn::JointDynamics ws(model);
+  kanedyn::Dynamics ws(model, kanedyn::Route::recursive);
   kanedyn::Data data(model, kanedyn::DataOptions{});
   std::uniform_real_distribution<double> uniform(-1, 1);
   constexpr double eps = std::numeric_limits<double>::epsilon();
   for (int s = 0; s < opt.states; ++s) {
-    VectorX q = file.q, z = VectorX::Zero(n), zdot(n);
+    VectorX q = file.q, z = VectorX::Zero(n), zdot(n), qdot(model.num_coordinates());
     Eigen::VectorXd dq(n), dz(n);
     for (int i = 0; i < n; ++i) {
       q[q_index[static_cast<size_t>(i)]] = uniform(rng);
@@ -149,7 +149,7 @@ Row compare_file(const std::string& path, const UrdfOptions& opt, std::mt19937& 
       dq[dart_index[static_cast<size_t>(i)]] = q[q_index[static_cast<size_t>(i)]];
       dz[dart_index[static_cast<size_t>(i)]] = z[i];
     }
-    ws.evaluate(q, z, kanedyn::Route::recursive, zdot);
+    ws.evaluate(q, z, zdot, qdot);
     const MatrixX A = kanedyn::projected_equations(model, q, z, data).A_z;
 
     skel->setPositions(dq);
@@ -186,7 +186,7 @@ bool run_urdf_section(const UrdfOptions& opt) {
             << "Largest relative differences over " << opt.states
             << " random states (joint positions and velocities in [-1, 1]): the joint-space "
                "mass matrix (kanedyn's projected A_z against Skeleton::getMassMatrix) and the "
-               "joint accelerations (JointDynamics::evaluate(Route::recursive) against "
+               "joint accelerations (Dynamics::evaluate (Route::recursive) against "
                "computeForwardDynamics, relative to the largest, or to 1 where that is "
                "smaller); tolerance "
             << opt.tolerance

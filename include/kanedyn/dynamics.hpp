@@ -13,7 +13,7 @@ namespace kanedyn {
 
 enum class Route {
   /// Assemble [A] and {f} (Eqs. 37-38) block-sparse and solve Eq. (36) by the tree-ordered
-  /// block LDL^T (tree_ldlt.hpp); O(N d^2) for a tree of depth d.
+  /// block LDL^T (src/tree_ldlt.cpp); O(N d^2) for a tree of depth d.
   assembled,
   /// O(N): Newton-Euler per body, then s'' from the relative motion (docs/theory.md); one
   /// fused SIMD pass over the bodies when every force element is of a built-in type.
@@ -38,9 +38,9 @@ void forward_dynamics(const Model& model, const State& state, Data& data,
 /// integrates: the one entry point, with the route dispatch of the library (docs/theory.md,
 /// "One model, one state"). For an all-free model the route's kernel is forward_dynamics()
 /// above (the fused SIMD pass when every force element is built in, else the staged O(N)
-/// route; or the assembled Eqs. 37-38); for any other model JointDynamics (the
-/// articulated-body recursion; or the projected Kane equations, factored in tree order).
-/// The model must outlive it; not for concurrent calls on one object.
+/// route; or the assembled Eqs. 37-38); for any other model the jointed kernel
+/// (src/joint_dynamics.cpp: the articulated-body recursion; or the projected Kane equations,
+/// factored in tree order). The model must outlive it; not for concurrent calls on one object.
 class Dynamics {
  public:
   /// max_simd_lanes caps the fused pass's width (DataOptions::max_simd_lanes).

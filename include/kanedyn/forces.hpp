@@ -28,7 +28,7 @@ class ForceElement {
   /// Whether apply() reads the positions or velocities in kin (p_O, p_G, qs_b, v_O, v_G) and
   /// not only the state and the rotations R. True unless an element says otherwise, so that
   /// an element written elsewhere is given all of them; the built-in ones read the state and R
-  /// only, and the jointed route (JointDynamics) then computes the rest only when asked for it.
+  /// only, and the jointed route (Dynamics) then computes the rest only when asked for it.
   virtual bool reads_positions() const { return true; }
   /// Potential energy stored in the element (0 for constant loads, which are not conservative
   /// in general and are left out of the energy).

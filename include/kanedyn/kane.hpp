@@ -1,7 +1,7 @@
 // Eqs. (31)-(38): Kane's equations [A]{y dot} = {f} (Eq. 36), with every term kept for output
 // and teaching. [A] is assembled block by block in O(number of nonzero blocks) from the
 // partial velocity blocks and subtree (composite) sums and factored by a tree-ordered block
-// LDL^T without fill-in (tree_ldlt.hpp); docs/theory.md, "O(N) forward dynamics".
+// LDL^T without fill-in (src/tree_ldlt.cpp); docs/theory.md, "O(N) forward dynamics".
 #pragma once
 
 #include "kanedyn/data.hpp"

@@ -11,7 +11,6 @@
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/joint.hpp"
-#include "kanedyn/joint_dynamics.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/kinematic_equations.hpp"

@@ -114,11 +114,11 @@ long rk4_substeps(double span, double step);
 /// spherical joint's q) are normalized first, and after each accepted step
 /// (project_euler_parameters); max_euler_drift records their drift. The derivative is the
 /// model's forward dynamics by settings.route (dynamics.hpp): for an all-free model the
-/// notes' Eqs. (36), (39)-(40) in the layout of Eq. (1), otherwise JointDynamics::derivative.
-/// The energy is total_energy at (q, z) (with the joint springs' potentials). Calls observer
-/// (if set) at every output time, the first at t_start. Throws std::invalid_argument for
-/// inconsistent settings or a state of the wrong size; integration failures are reported in
-/// the returned stats (naming the body and its column), not thrown.
+/// notes' Eqs. (36), (39)-(40) in the layout of Eq. (1), otherwise the jointed kernel's
+/// (Dynamics::derivative). The energy is total_energy at (q, z) (with the joint springs'
+/// potentials). Calls observer (if set) at every output time, the first at t_start. Throws
+/// std::invalid_argument for inconsistent settings or a state of the wrong size; integration
+/// failures are reported in the returned stats (naming the body and its column), not thrown.
 SimulationStats simulate(const Model& model, const VectorX& q0, const VectorX& z0,
                          const SimulationSettings& settings, const Observer& observer = {});
 

@@ -11,7 +11,7 @@
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
 
-namespace kanedyn {
+namespace kanedyn::detail {
 
 /// The workspace of one Model, which must outlive it. Copies are independent.
 class JointDynamics {
@@ -53,4 +53,4 @@ class JointDynamics {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace kanedyn
+}  // namespace kanedyn::detail
