@@ -91,6 +91,22 @@ std::string Dynamics::kernel() const {
                                      : "articulated-body recursion over the joints";
 }
 
+void Dynamics::evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot) {
+  Impl& s = *impl_;
+  if (!s.notes) {
+    s.joint->evaluate(q, z, s.route, zdot);
+    return;
+  }
+  s.notes_state(q, z);
+  forward_dynamics(s.model, s.work, s.data, s.route);
+  s.loads_current = false;
+  const int n = s.n;
+  for (int k = 0; k < n; ++k) {  // Eq. (1)'s layout to z's, body by body
+    zdot.segment<3>(6 * k) = s.data.ydot.segment<3>(3 * k);
+    zdot.segment<3>(6 * k + 3) = s.data.ydot.segment<3>(3 * n + 3 * k);
+  }
+}
+
 void Dynamics::evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot,
                         Eigen::Ref<VectorX> qdot) {
   Impl& s = *impl_;

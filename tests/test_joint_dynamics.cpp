@@ -665,6 +665,9 @@ TEST(Dynamics, IsTheNotesKernelForAnAllFreeModelAndJointDynamicsOtherwise) {
     joint_coordinates(model, rates, eq, ez);  // the same permutation as (q, z) of (x, y)
     EXPECT_EQ(zdot, ez);
     EXPECT_EQ(qdot, eq);
+    VectorX zdot_alone(model.num_speeds());
+    dyn.evaluate(q, z, zdot_alone);  // z dot without q dot: the same bits
+    EXPECT_EQ(zdot_alone, zdot);
     EXPECT_EQ(dyn.state().x, s.x);
     EXPECT_EQ(dyn.data().kinematics.R.size(), 8u);
     EXPECT_EQ(dyn.kernel(),
@@ -685,6 +688,9 @@ TEST(Dynamics, IsTheNotesKernelForAnAllFreeModelAndJointDynamicsOtherwise) {
       joint_coordinate_rates(c.model, c.q, c.z, expected_q);
       EXPECT_EQ(zdot, expected) << c.name;
       EXPECT_EQ(qdot, expected_q) << c.name;
+      VectorX zdot_alone(c.model.num_speeds());
+      dyn.evaluate(c.q, c.z, zdot_alone);
+      EXPECT_EQ(zdot_alone, zdot) << c.name;
       VectorX v(dyn.size()), dv(dyn.size()), dqz(dyn.size());
       dyn.pack(c.q, c.z, v);
       dyn.derivative(v, dv);

@@ -193,8 +193,8 @@ bool compare_section(const JointedOptions& opt) {
       if (!table[ci][ei].note.empty()) continue;
       Runner& r = runners[ei];
       if (ei == 0) {
-        r.run_batch = [&c, &ws, &zdot, &qdot](long count) {
-          for (long b = 0; b < count; ++b) ws.evaluate(c.q, c.z, zdot, qdot);
+        r.run_batch = [&c, &ws, &zdot](long count) {
+          for (long b = 0; b < count; ++b) ws.evaluate(c.q, c.z, zdot);
         };
       } else {
         engines[ei] = columns[ei].info->make(sys);
@@ -327,10 +327,10 @@ void scaling_section(const JointedOptions& opt) {
     std::mt19937 rng(opt.seed);
     random_joint_state(*c, rng);
     kanedyn::Dynamics ws(c->model, kanedyn::Route::recursive);
-    VectorX zdot(c->model.num_speeds()), qdot(c->model.num_coordinates());
+    VectorX zdot(c->model.num_speeds());
     Runner r;
     r.run_batch = [&](long count) {
-      for (long b = 0; b < count; ++b) ws.evaluate(c->q, c->z, zdot, qdot);
+      for (long b = 0; b < count; ++b) ws.evaluate(c->q, c->z, zdot);
     };
     const auto t0 = Clock::now();
     r.run_batch(1);

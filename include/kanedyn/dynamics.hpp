@@ -65,6 +65,9 @@ class Dynamics {
   /// call.
   void evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot,
                 Eigen::Ref<VectorX> qdot);
+  /// z dot alone (forward dynamics, as Pinocchio's aba(q, v, tau)): the same numbers, without
+  /// the kinematic equations' q dot.
+  void evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot);
   /// The notes' state (x, y) of the last evaluation's (q, z), and its kinematics and loads
   /// (computed on request where the kernel did not need them).
   const State& state();
