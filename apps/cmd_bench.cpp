@@ -157,9 +157,10 @@ void add_bench(CLI::App& app) {
       const Route route = parse_route(m);
       if (std::find(routes.begin(), routes.end(), route) == routes.end()) routes.push_back(route);
     }
-    // The free tree's assembled route needs the flat chains; a jointed model's builds its
-    // blocks on its first evaluation, and says when they would be too many.
-    const bool assembled_fits = file.jointed() || file.model.has_flat_chains();
+    // The assembled route needs the flat chains (simulate's rule, validate_settings); a
+    // jointed model's also builds its blocks on its first evaluation, and says when they
+    // would be too many.
+    const bool assembled_fits = file.model.has_flat_chains();
     if (routes.empty()) {
       // By default both routes; the assembled route only where it can be built.
       routes = {Route::recursive};

@@ -109,19 +109,14 @@ void Dynamics::evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> 
 
 void Dynamics::evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot,
                         Eigen::Ref<VectorX> qdot) {
+  evaluate(q, z, zdot);
   Impl& s = *impl_;
   if (!s.notes) {
-    s.joint->evaluate(q, z, s.route, zdot);
     joint_coordinate_rates(s.model, q, z, qdot);
     return;
   }
-  s.notes_state(q, z);
-  forward_dynamics(s.model, s.work, s.data, s.route);
-  s.loads_current = false;
   const int n = s.n;
-  for (int k = 0; k < n; ++k) {  // Eq. (1)'s layout to (q, z)'s, body by body
-    zdot.segment<3>(6 * k) = s.data.ydot.segment<3>(3 * k);
-    zdot.segment<3>(6 * k + 3) = s.data.ydot.segment<3>(3 * n + 3 * k);
+  for (int k = 0; k < n; ++k) {  // Eqs. (39)-(40) as forward_dynamics left them, in q's layout
     qdot.segment<4>(7 * k) = s.data.xdot.segment<4>(4 * k);
     qdot.segment<3>(7 * k + 4) = s.data.xdot.segment<3>(4 * n + 3 * k);
   }

@@ -7,11 +7,13 @@
 
 #include "bindings.hpp"
 #include "kanedyn/energy.hpp"
+#include "kanedyn/frames.hpp"
 #include "kanedyn/inspect.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kane.hpp"
+#include "kanedyn/kinematics.hpp"
 
 namespace kanedyn::python {
 
@@ -83,6 +85,23 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
     }
   }
   return e;
+}
+
+/// The index of the frame named `name`; KeyError with the closest name otherwise.
+int frame_argument(const PyModel& p, const std::string& name) {
+  const int f = p.model().frame_index(name);
+  if (f >= 0) return f;
+  std::vector<std::string> names;
+  for (const Frame& frame : p.model().frames()) names.push_back(frame.name);
+  const std::string near = io::closest_word(name, names);
+  throw py::key_error("no frame named '" + io::printable(name, 60) + "'" +
+                      (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+}
+
+/// The notes' state of (q, z) and its kinematics, in a pooled workspace.
+void kinematics_at(const PyModel& p, const VectorX& q, const VectorX& z, PyModel::Workspace& work) {
+  joint_state(p.model(), q, z, work.state);
+  compute_kinematics(p.model(), work.state, work.data);
 }
 
 /// The joint coordinates of the zero pose: identity rotations (e4 = 1 in a free body's eps_K
@@ -460,6 +479,55 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def_property_readonly(
           "simulation", [](const PyModel& p) { return simulation_section(p.file().simulation); },
           "the file's simulation: section (only the keys it sets)")
+      .def_property_readonly(
+          "frames",
+          [](const PyModel& p) {
+            std::vector<std::string> names;
+            for (const Frame& f : p.model().frames()) names.push_back(f.name);
+            return names;
+          },
+          "the names of the model's frames (the file's frames:, and a URDF's massless links on "
+          "fixed joints)")
+      .def(
+          "frame",
+          [](const PyModel& p, const std::string& name, py::object state_obj) {
+            const int f = frame_argument(p, name);
+            VectorX q, z;
+            model_state(p, state_obj, q, z);
+            PyModel::Lease work(p);
+            kinematics_at(p, q, z, *work);
+            const FrameState s = frame_state(p.model(), f, work->state, work->data.kinematics);
+            py::dict out;
+            out["position"] = to_numpy(s.position);
+            out["R"] = to_numpy(s.R);
+            out["velocity"] = to_numpy(s.velocity);
+            out["angular_velocity"] = to_numpy(s.angular_velocity);
+            return out;
+          },
+          py::arg("name"), py::arg("state") = py::none(),
+          "The frame at a state (default: the initial state), inertial components: a dict of "
+          "its origin's 'position' and 'velocity', its 'angular_velocity', and 'R' (inertial "
+          "to frame components, as a body's [R_K]).")
+      .def(
+          "jacobian",
+          [](const PyModel& p, const std::string& name, py::object state_obj) {
+            const int f = frame_argument(p, name);
+            VectorX q, z;
+            model_state(p, state_obj, q, z);
+            const int n = p.model().num_speeds();
+            MatrixX Jv(3, n), Jw(3, n);
+            {
+              PyModel::Lease work(p);
+              kinematics_at(p, q, z, *work);
+              frame_jacobian(p.model(), f, q, work->data.kinematics, Jv, Jw);
+            }
+            return py::make_tuple(to_numpy(Jv), to_numpy(Jw));
+          },
+          py::arg("name"), py::arg("state") = py::none(),
+          "(Jv, Jw), each 3 x n: the partial velocities of the frame's origin and of its "
+          "angular velocity with respect to the speeds z (inertial components), so that "
+          "velocity = Jv @ state.z and angular_velocity = Jw @ state.z. In the notes' terms "
+          "[v_P,y][C] and [R_K]^T [w'_K,y][C] (docs/theory.md, \"Frames and Jacobians\").")
       .def(
           "body_number",
           [](const PyModel& p, const std::string& name) {
