@@ -37,11 +37,9 @@ std::string sizes(const char* what, int n, int per_body) {
 /// (it costs about 0.1 us).
 constexpr int kReleaseGilBodies = 32;
 
-/// The rates of a model with joints at (q, z) given as two arrays: what simulate()
-/// integrates (Dynamics::derivative), by the recursive route.
-py::tuple joint_rates(const PyModel& m, py::handle q_obj, py::handle z_obj) {
-  VectorX q, z;
-  model_state(m, py::none(), q_obj, z_obj, q, z);
+/// The rates of a model with joints at its checked state (q, z): what simulate() integrates
+/// (Dynamics::derivative), by the recursive route.
+py::tuple joint_rates(const PyModel& m, const VectorX& q, const VectorX& z) {
   PyModel::Lease work(m);
   Dynamics& dynamics = *work->dynamics;
   dynamics.pack(q, z, work->v);
@@ -68,9 +66,13 @@ py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
     }
     VectorX q, z;
     model_state(m, x, q, z);
-    return joint_rates(m, to_numpy(q), to_numpy(z));
+    return joint_rates(m, q, z);
   }
-  if (!m.notes_layout()) return joint_rates(m, x, y);
+  if (!m.notes_layout()) {
+    VectorX q, z;
+    model_state(m, py::none(), x, y, q, z);
+    return joint_rates(m, q, z);
+  }
   const int n = m.N();
   const double *x_data = nullptr, *y_data = nullptr;
   py::ssize_t x_stride = 1, y_stride = 1;
