@@ -90,6 +90,13 @@ void print_tables(const io::ModelFile& file, const Data& data, const std::string
   std::printf("equations of motion of %s at %s: [A]{ydot} = {f} (Eq. 36)\n",
               io::printable(file.path).c_str(), where.c_str());
   std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n", n);
+  if (file.model.num_inputs() > 0) {
+    std::printf("inputs u:");
+    for (int i = 0; i < file.model.num_inputs(); ++i)
+      std::printf(" %s = %.10g", file.model.inputs()[static_cast<size_t>(i)].name.c_str(),
+                  data.inputs[i]);
+    std::printf("\n");
+  }
   if (!full && n > kTableBodies) {
     print_block_structure(file.model, data);
     print_column("{f} (Eq. 38)", data.kane.f, speed_label, n);
@@ -144,19 +151,29 @@ void print_json(const io::ModelFile& file, const Data& data, const ProjectedEqua
   const int n = model.num_bodies();
   using Json = nlohmann::ordered_json;
   Json out;
-  out["N"] = n;
-  out["L"] = Json::array();
-  out["u"] = Json::array();
-  for (int k = 0; k < n; ++k) {
-    out["L"].push_back(model.lower_body(k) + 1);
-    out["u"].push_back(model.depth(k));
-  }
   auto vec = [](const VectorX& v) {
     Json a = Json::array();
     // nlohmann writes the shortest decimal that reads back as the same double: full precision.
     for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
     return a;
   };
+  out["N"] = n;
+  out["L"] = Json::array();
+  Json depth = Json::array();
+  for (int k = 0; k < n; ++k) {
+    out["L"].push_back(model.lower_body(k) + 1);
+    depth.push_back(model.depth(k));
+  }
+  // "u" is the notes' u_K, except in a model with inputs, where it is the inputs' values
+  // (docs/model-format.md) and u_K moves to "u_K".
+  if (model.num_inputs() > 0) {
+    out["u"] = vec(data.inputs);
+    out["inputs"] = Json::array();
+    for (const Input& in : model.inputs()) out["inputs"].push_back(in.name);
+    out["u_K"] = std::move(depth);
+  } else {
+    out["u"] = std::move(depth);
+  }
   Json a = Json::array();
   for (Eigen::Index i = 0; i < data.kane.A.rows(); ++i)
     a.push_back(vec(data.kane.A.row(i).transpose()));
@@ -209,7 +226,7 @@ void add_eom(CLI::App& app) {
     double t = 0.0;
     std::string where;
     VectorX q, z;
-    const State state = chosen_state(file, opt->state, t, where, q, z);
+    const State state = chosen_state(file, opt->state, t, where, q, z, data.inputs);
     std::optional<ProjectedEquations> projected;
     if (file.jointed()) projected = projected_equations(file.model, q, z, data);
     kane_equations(file.model, state, data);

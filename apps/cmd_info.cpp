@@ -98,11 +98,30 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
     if (model.lower_body(k) == kGround) out << " " << frame_label(model, k);
   out << "\nforce elements: " << model.forces().size() << ", gravity = ["
       << model.gravity().transpose() << "]\n";
-  if (model.frames().empty()) return;
-  out << "frames: " << model.frames().size() << "\n";
-  for (const Frame& f : model.frames()) {
-    out << "  " << f.name << " on " << (f.body == kGround ? "ground" : model.body(f.body).name)
-        << " at [" << f.at.transpose() << "]\n";
+  if (!model.frames().empty()) {
+    out << "frames: " << model.frames().size() << "\n";
+    for (const Frame& f : model.frames())
+      out << "  " << f.name << " on " << (f.body == kGround ? "ground" : model.body(f.body).name)
+          << " at [" << f.at.transpose() << "]\n";
+  }
+  if (model.inputs().empty()) return;
+  out << "inputs: " << model.num_inputs() << " (u_1..u_m, in this order)\n";
+  for (const Input& in : model.inputs()) {
+    const std::string& body = model.body(in.body).name;
+    out << "  " << in.name << ": ";
+    switch (in.type) {
+      case InputType::joint:
+        out << "joint, speed " << in.speed + 1 << " of " << body << "\n";
+        break;
+      case InputType::force:
+        out << "force along [" << in.direction.transpose() << "] at [" << in.point.transpose()
+            << "] of " << body << "\n";
+        break;
+      case InputType::torque:
+        out << "torque about [" << in.axis.transpose() << "] on " << body
+            << (in.reaction ? ", and its reaction on the lower body" : "") << "\n";
+        break;
+    }
   }
 }
 

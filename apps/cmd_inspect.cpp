@@ -373,11 +373,11 @@ void add_inspect(CLI::App& app) {
           " for which the partial velocity blocks are built");
     double t = 0.0;
     std::string where;
-    VectorX q, z;
-    const State state = chosen_state(file, opt->state, t, where, q, z);
+    VectorX q, z, u;
+    const State state = chosen_state(file, opt->state, t, where, q, z, u);
     const int row_index =
         opt->row.empty() ? -1 : parse_row(opt->path, opt->row, file.model.num_bodies());
-    const Inspection in = inspect(file.model, q, z, t, bodies);
+    const Inspection in = inspect(file.model, q, z, t, bodies, u);
     // Every number printed is finite, or nothing is printed (JSON has no NaN).
     if (const std::string bad = in.first_non_finite(); !bad.empty())
       throw std::runtime_error(opt->path + ": the quantities at this state are not finite (" + bad +

@@ -22,6 +22,7 @@
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/io/trajectory.hpp"
 #include "kanedyn/simulate.hpp"
 #include "options.hpp"
 
@@ -38,6 +39,7 @@ struct Options {
   bool no_output = false;
   double t_end = kDefaults.t_end, dt_out = kDefaults.dt_out;
   std::string integrator, route;
+  std::string inputs, inputs_hold = "zero-order";
   double rtol = kDefaults.rtol, atol = kDefaults.atol, step = kDefaults.step;
   // Which flags were given (they win over the model file's `simulation:` section).
   CLI::Option *t_end_opt = nullptr, *dt_out_opt = nullptr, *integrator_opt = nullptr,
@@ -180,6 +182,12 @@ void print_summary(const io::ModelFile& file, const SimulationSettings& s,
                 to_string(s.route).c_str());
   else
     std::printf("  integrator rk4 (step <= %.3g), route %s\n", s.step, to_string(s.route).c_str());
+  if (s.inputs)
+    std::printf("  inputs: %d, from a table of %d rows (%s hold)\n", model.num_inputs(),
+                s.inputs->rows(), to_string(s.inputs->hold()).c_str());
+  else if (model.num_inputs() > 0)
+    std::printf("  inputs: %d, all 0 (none driven: --inputs FILE.csv drives them)\n",
+                model.num_inputs());
   std::printf("  steps: %ld accepted, %ld rejected; %ld derivative evaluations; wall time %.3g s\n",
               st.steps_accepted, st.steps_rejected, st.evaluations, st.wall_seconds);
   std::printf("  energy: %.10g -> %.10g (%s change %.3g)\n", st.energy_initial, st.energy_final,
@@ -300,6 +308,16 @@ int run(const Options& o) {
     warn_disk_space(file, base, out);
   }
   warn_rk4_stability(model, base);
+  SimulationSettings settings = base;
+  if (!o.inputs.empty()) {
+    settings.inputs = std::make_shared<const InputTable>(
+        io::read_input_table(model, o.inputs, parse_input_hold(o.inputs_hold)));
+    try {
+      validate_settings(model, settings);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(o.inputs + ": " + e.what());
+    }
+  }
 
   // The handlers first: from the moment OUT.partial exists, a signal leaves it whole.
   SignalGuard signals;
@@ -314,7 +332,6 @@ int run(const Options& o) {
   };
   Progress progress(base.t_start, base.t_end);
   StepWatch watch(base.t_start, base.t_end, base.dt_out);
-  SimulationSettings settings = base;
   settings.observer_kinematics = false;
   settings.on_step = [&](double t) {
     if (progress.update(t) && writer) writer->flush();
@@ -322,8 +339,8 @@ int run(const Options& o) {
     return g_signal == 0;
   };
   const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
-                                Data&) {
-    if (!o.no_output) open_writer().write_row(t, state, q, z);
+                                Data& data) {
+    if (!o.no_output) open_writer().write_row(t, state, q, z, &data.inputs);
   };
   const auto kept = [&](bool with_time, double t) {
     if (!writer)
@@ -405,6 +422,13 @@ void add_simulate(CLI::App& app) {
   auto* no_output = cmd->add_flag("--no-output", o->no_output,
                                   "write no trajectory: the run and its summary only");
   out_opt->excludes(no_output);
+  auto* inputs_opt = cmd->add_option(
+      "--inputs", o->inputs,
+      "CSV of input values over time: a header 't' and input names, then rows; held between "
+      "rows (zero-order) unless --inputs-hold linear; the integrator restarts at every row");
+  cmd->add_option("--inputs-hold", o->inputs_hold, "zero-order (default) or linear")
+      ->check(CLI::IsMember({"zero-order", "linear"}))
+      ->needs(inputs_opt);
   cmd->callback([o] {
     const int code = run(*o);
     if (code != 0) {

@@ -59,11 +59,51 @@ void add_state_options(CLI::App* cmd, StateChoice& choice) {
                 ->check(decimal_number(false));
   trajectory->needs(t);
   t->needs(trajectory);
+  cmd->add_option("--input", choice.inputs,
+                  "NAME=VALUE: an input's value (repeatable); the others are 0, or the "
+                  "trajectory row's");
 }
 
 State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
                    std::string& where) {
   VectorX q, z;
+  return chosen_state(file, choice, t, where, q, z);
+}
+
+State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
+                   std::string& where, VectorX& q, VectorX& z, VectorX& u) {
+  const Model& model = file.model;
+  u = VectorX::Zero(model.num_inputs());
+  if (!choice.trajectory.empty()) {
+    const io::TrajectoryRow row = io::read_trajectory_row(model, choice.trajectory, choice.t);
+    u = row.inputs;
+  }
+  std::vector<std::string> names;
+  for (const Input& in : model.inputs()) names.push_back(in.name);
+  for (const std::string& given : choice.inputs) {
+    const size_t eq = given.find('=');
+    if (eq == std::string::npos)
+      throw std::runtime_error("--input " + io::printable(given, 60) +
+                               ": expected NAME=VALUE, e.g. --input " +
+                               (names.empty() ? std::string("shoulder") : names[0]) + "=1.5");
+    const std::string name = given.substr(0, eq), value = given.substr(eq + 1);
+    const int i = model.input_index(name);
+    if (i < 0) {
+      const std::string near = io::closest_word(name, names);
+      throw std::runtime_error("--input " + io::printable(given, 60) + ": " +
+                               (names.empty()
+                                    ? "the model has no inputs"
+                                    : "unknown input '" + io::printable(name, 60) + "'" +
+                                          (near.empty() ? "" : " (did you mean '" + near + "'?)")));
+    }
+    double v = 0.0;
+    const char* last = value.data() + value.size();
+    const auto [end, error] = std::from_chars(value.data(), last, v);
+    if (error != std::errc() || end != last || value.empty() || !std::isfinite(v))
+      throw std::runtime_error("--input " + io::printable(given, 60) +
+                               ": the value must be a finite decimal number");
+    u[i] = v;
+  }
   return chosen_state(file, choice, t, where, q, z);
 }
 

@@ -29,6 +29,7 @@ std::string chain_text(const Model& model, int k);
 struct StateChoice {
   std::string trajectory;
   double t = 0.0;
+  std::vector<std::string> inputs;  ///< --input NAME=VALUE
 };
 void add_state_options(CLI::App* cmd, StateChoice& choice);
 
@@ -41,5 +42,9 @@ State chosen_state(const io::ModelFile& file, const StateChoice& choice, double&
 /// file's initial ones, or the row's j, jd columns); empty for the free tree.
 State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
                    std::string& where, VectorX& q, VectorX& z);
+/// The same, and the inputs' values there: the row's input columns (zero at the initial
+/// state), then every --input NAME=VALUE.
+State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
+                   std::string& where, VectorX& q, VectorX& z, VectorX& u);
 
 }  // namespace kanedyn::cli

@@ -75,6 +75,7 @@ Data::Data(const Model& model, const DataOptions& opts)
     partials.vO_s = partials.vG_w = partials.vG_s = partials.vO_w;
     partials.vO_w_dot = partials.vO_s_dot = partials.vG_w_dot = partials.vG_s_dot = partials.vO_w;
   }
+  inputs = VectorX::Zero(model.num_inputs());
   ydot = VectorX::Zero(m);
   xdot = VectorX::Zero(7 * static_cast<Eigen::Index>(n));
   if (options_.kane_terms) {
@@ -90,7 +91,8 @@ Data::Data(const Model& model, const DataOptions& opts)
     a.composite.assign(n, Matrix36::Zero());
   }
   w.lanes = fused::chosen_lanes(options_.max_simd_lanes);
-  w.plan = fused::compile(model, w.lanes);
+  // The fused pass computes only the built-in force elements' loads.
+  if (model.num_inputs() == 0) w.plan = fused::compile(model, w.lanes);
   if (w.plan) w.fused_scratch.assign(w.plan->scratch_size, 0.0);
 }
 
@@ -99,6 +101,7 @@ Data::Data(const Data& other)
       partials(other.partials),
       loads(other.loads),
       kane(other.kane),
+      inputs(other.inputs),
       ydot(other.ydot),
       xdot(other.xdot),
       options_(other.options_),

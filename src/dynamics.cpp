@@ -74,7 +74,7 @@ void detail::staged_forward_dynamics(const Model& model, const State& state, Dat
   if (route == Route::assembled && !data.options().kane_terms)
     throw std::invalid_argument("Route::assembled needs a Data made with DataOptions::kane_terms");
   compute_kinematics(model, state, w.kinematics);
-  compute_resultants(model, state, w.kinematics, w.loads);
+  compute_resultants(model, state, w.kinematics, data.inputs, w.loads);
   if (route == Route::assembled) {
     assembled::mass_matrix(model, w.kinematics, w.assembled);
     assembled::force_vector(model, state, w.kinematics, w.loads, w.assembled, w.load_sum,

@@ -190,8 +190,68 @@ void compute_resultants(const Model& model, const State& state, const Kinematics
   for (const auto& element : model.forces()) element->apply(model, state, kin, loads);
 }
 
+void compute_resultants(const Model& model, const State& state, const Kinematics& kin,
+                        const VectorX& u, Loads& loads) {
+  compute_resultants(model, state, kin, loads);
+  if (model.has_body_inputs()) add_input_loads(model, u, state, kin, loads);
+}
+
 void compute_resultants(const Model& model, const State& state, Data& data) {
-  compute_resultants(model, state, data.kinematics, data.loads);
+  compute_resultants(model, state, data.kinematics, data.inputs, data.loads);
+}
+
+void add_input_loads(const Model& model, const VectorX& u, const State& state,
+                     const Kinematics& kin, Loads& loads) {
+  const auto& inputs = model.inputs();
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const Input& in = inputs[i];
+    const double value = u[static_cast<Eigen::Index>(i)];
+    const int k = in.body;
+    const int j = model.lower_body(k);
+    switch (in.type) {
+      case InputType::force: {
+        const Vector3 f_b = value * in.direction;  // body K
+        loads.force[at(k)].noalias() += kin.R[at(k)].transpose() * f_b;
+        loads.moment_b[at(k)] += (in.point - model.body(k).com).cross(f_b);
+        break;
+      }
+      case InputType::torque: {
+        const Vector3 m_b = value * in.axis;  // body K
+        loads.moment_b[at(k)] += m_b;
+        if (in.reaction && j != kGround)
+          loads.moment_b[at(j)].noalias() -= kin.R[at(j)] * (kin.R[at(k)].transpose() * m_b);
+        break;
+      }
+      case InputType::joint: {
+        if (model.joint(k).type != JointType::free) break;  // add_input_joint_forces
+        if (in.speed < 3) {  // w'_K i: a moment about e_i, body-K components
+          loads.moment_b[at(k)][in.speed] += value;
+          break;
+        }
+        // s'_K dot i: the force e_i (body J) at O_K on K, reversed on J.
+        Vector3 f_j = Vector3::Zero();
+        f_j[in.speed - 3] = value;
+        const Vector3 f = j == kGround ? f_j : Vector3(kin.R[at(j)].transpose() * f_j);
+        loads.force[at(k)] += f;
+        loads.moment_b[at(k)] -= model.body(k).com.cross(kin.R[at(k)] * f);
+        if (j == kGround) break;
+        loads.force[at(j)] -= f;
+        // Arm from G_J to O_K in body J: q'_K + s'_K - r'_J.
+        const Vector3 arm = model.body(k).joint + state.translation(k) - model.body(j).com;
+        loads.moment_b[at(j)] -= arm.cross(f_j);
+        break;
+      }
+    }
+  }
+}
+
+void add_input_joint_forces(const Model& model, const VectorX& u, Eigen::Ref<VectorX> Q) {
+  const auto& inputs = model.inputs();
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const Input& in = inputs[i];
+    if (in.type != InputType::joint || model.joint(in.body).type == JointType::free) continue;
+    Q[model.speed_offset(in.body) + in.speed] += u[static_cast<Eigen::Index>(i)];
+  }
 }
 
 }  // namespace kanedyn

@@ -21,8 +21,8 @@ std::string rt(int j) { return "[R_" + num(j) + "]^T"; }
 
 }  // namespace
 
-Inspection inspect(const Model& model, const State& state, double t,
-                   const std::vector<int>& bodies) {
+Inspection inspect(const Model& model, const State& state, double t, const std::vector<int>& bodies,
+                   const VectorX& inputs) {
   const int n = model.num_bodies();
   for (const int k : bodies)
     if (k < 0 || k >= n)
@@ -30,7 +30,11 @@ Inspection inspect(const Model& model, const State& state, double t,
                               std::to_string(n - 1));
   // {y dot} by the O(N) route: the assembled route's tree LDL^T costs O(N d^2), cubic for a
   // long chain (a 1000-body chain: seconds), and both solve Eq. (36) to round-off.
+  if (inputs.size() != 0 && inputs.size() != model.num_inputs())
+    throw std::invalid_argument("inspect: " + std::to_string(inputs.size()) + " input values for " +
+                                std::to_string(model.num_inputs()) + " inputs");
   Data data(model, DataOptions{.kane_terms = false, .dense_mass_matrix = false});
+  if (inputs.size() > 0) data.inputs = inputs;
   compute_kinematics(model, state, data);
   compute_partials_recursive(model, state, data);
   compute_partial_rates(model, state, data);
@@ -185,15 +189,16 @@ std::vector<std::vector<int>> mass_matrix_structure(const Model& model) {
 }
 
 Inspection inspect(const Model& model, const VectorX& q, const VectorX& z, double t,
-                   const std::vector<int>& bodies) {
+                   const std::vector<int>& bodies, const VectorX& inputs) {
   if (q.size() != model.num_coordinates() || z.size() != model.num_speeds())
     throw std::invalid_argument("inspect: q and z do not have the model's sizes");
   const int n = model.num_bodies();
   State state(model);
   joint_state(model, q, z, state);
-  Inspection out = inspect(model, state, t, bodies);
+  Inspection out = inspect(model, state, t, bodies, inputs);
   if (model.all_free()) return out;
   Data data(model, DataOptions{.partials = false});
+  if (inputs.size() > 0) data.inputs = inputs;
   ProjectedEquations e = projected_equations(model, q, z, data);
   JointInspection j;
   j.n = model.num_speeds();

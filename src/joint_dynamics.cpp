@@ -175,7 +175,8 @@ struct JointDynamics::Impl {
     offset.assign(at(n), 0);
     joint_type.assign(at(n), JointType::free);
     links.resize(at(n));
-    if (m.has_body_force_elements()) motions.resize(at(n));
+    if (m.has_body_force_elements() || m.has_body_inputs()) motions.resize(at(n));
+    joint_forces = m.has_joint_force_elements() || m.num_inputs() > 0;
     for (const auto& element : m.forces())
       loads_read_positions = loads_read_positions || element->reads_positions();
     translation.assign(at(n), Matrix36::Zero());
@@ -215,7 +216,9 @@ struct JointDynamics::Impl {
   bool kinematics_complete = true;
   bool loads_read_positions = false;
   VectorX joint_force;  // Q of the force elements on joint coordinates, in the order of z
-  VectorX u;            // recursive: Q_K - [S_K]^T p_K per joint
+  // Whether joint_force can be nonzero (joint force elements or inputs).
+  bool joint_forces = false;
+  VectorX u;  // recursive: Q_K - [S_K]^T p_K per joint
   // The acceleration of the ground: -g when gravity enters as the ground's acceleration (no
   // force element), zero when compute_resultants supplies it with the other loads.
   Vector6 ground = Vector6::Zero();
@@ -292,9 +295,10 @@ void JointDynamics::Impl::complete_kinematics() {
 void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
   joint_force.setZero();
   add_joint_forces(model, qq, zz, joint_force);
+  if (model.num_inputs() > 0) add_input_joint_forces(model, data.inputs, joint_force);
   q_seen = qq;
   z_seen = zz;
-  const bool loads = model.has_body_force_elements();
+  const bool loads = model.has_body_force_elements() || model.has_body_inputs();
   if (loads)  // the joint tables come with the state, [R_K] with its kinematics
     update_state(&motions, loads_read_positions);
   else
@@ -421,11 +425,13 @@ void JointDynamics::Impl::recursive_inward(int k) {
       Eigen::Matrix<double, M, M> d;
       if constexpr (Shape == Subspace::ball) {
         // [S] = [S'] [R_K]^T with [S'] = ([I]; 0): [U] D^-1 [U]^T and [U] D^-1 u are those of
-        // [S'] ([U'] = IA [S'], D' = [S']^T [U'], u' = -[S']^T p: no joint loads), and
-        // z dot_K = [R_K] z', z' their solution (outward). U, D^-1 and u hold the primed ones.
+        // [S'] ([U'] = IA [S'], D' = [S']^T [U'], u' = [R_K]^T Q - [S']^T p, Q the joint's
+        // generalized forces, since z = [R_K] z'), and z dot_K = [R_K] z', z' their solution
+        // (outward). U, D^-1 and u hold the primed ones.
         uk = l.IA.leftCols<3>();
         d = l.IA.topLeftCorner<3, 3>();
         uu = -l.p.head<3>();
+        if (joint_forces) uu.noalias() += l.R.transpose() * joint_force.segment<3>(off);
       } else if constexpr (Shape == Subspace::angular) {
         const auto sw = s.template topRows<3>();
         uk.noalias() = l.IA.leftCols<3>() * sw;
@@ -619,6 +625,11 @@ Data& JointDynamics::data() {
   return impl_->data;
 }
 const Model& JointDynamics::model() const { return impl_->model; }
+void JointDynamics::set_inputs(const VectorX& u) {
+  impl_->data.inputs = u;
+  impl_->state_current = false;  // data()'s loads follow the new values
+}
+const VectorX& JointDynamics::inputs() const { return impl_->data.inputs; }
 
 void JointDynamics::evaluate(const VectorX& q, const VectorX& z, Route route,
                              Eigen::Ref<VectorX> zdot) {

@@ -47,6 +47,10 @@ class JointDynamics {
   /// Its kinematics and loads (see evaluate()).
   Data& data();
   const Model& model() const;
+  /// The inputs' values every later evaluation uses (the Data's inputs; size checked by the
+  /// caller).
+  void set_inputs(const VectorX& u);
+  const VectorX& inputs() const;
 
  private:
   struct Impl;

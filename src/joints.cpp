@@ -482,6 +482,7 @@ ProjectedEquations projected_equations(const Model& model, const VectorX& q, con
   e.A_z = e.C.transpose() * A * e.C;
   e.f_z = e.C.transpose() * (data.kane.f - A * e.Cdot_z);
   add_joint_forces(model, q, z, e.f_z);
+  add_input_joint_forces(model, data.inputs, e.f_z);
   e.zdot = e.A_z.ldlt().solve(e.f_z);
   return e;
 }

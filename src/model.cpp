@@ -57,13 +57,14 @@ std::string check_inertia(const Matrix3& inertia) {
 
 Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
              std::vector<std::shared_ptr<const ForceElement>> forces, std::string name,
-             std::vector<Joint> joints, std::vector<Frame> frames)
+             std::vector<Joint> joints, std::vector<Frame> frames, std::vector<Input> inputs)
     : bodies_(std::move(bodies)),
       gravity_(std::move(gravity)),
       forces_(std::move(forces)),
       name_(std::move(name)),
       joints_(std::move(joints)),
-      frames_(std::move(frames)) {
+      frames_(std::move(frames)),
+      inputs_(std::move(inputs)) {
   const int n = num_bodies();
   if (n == 0) throw ModelError("model: a model needs at least one body");
   if (!gravity_.allFinite()) fail("gravity", "has a non-finite component");
@@ -142,6 +143,54 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
       fail(where, "rotation: Euler parameters must have unit norm (within 1e-6)");
     f.rotation.normalize();
   }
+  set_up_inputs();
+}
+
+void Model::set_up_inputs() {
+  const int n = num_bodies();
+  std::unordered_set<std::string> input_names;
+  for (size_t i = 0; i < inputs_.size(); ++i) {
+    Input& in = inputs_[i];
+    const std::string where = "input " + std::to_string(i + 1) + " '" + in.name + "'";
+    if (!valid_name(in.name)) fail(where, "name must be non-empty and use only [A-Za-z0-9_-]");
+    if (!input_names.insert(in.name).second) fail(where, "duplicate input name '" + in.name + "'");
+    if (in.body < 0 || in.body >= n)
+      fail(where, "body index " + std::to_string(in.body) + " out of range");
+    const Joint& jt = joint(in.body);
+    switch (in.type) {
+      case InputType::joint: {
+        const int speeds = speed_count(jt.type);
+        if (speeds == 0)
+          fail(where, "speed: body '" + body(in.body).name + "' has a " + to_string(jt.type) +
+                          " joint, which has no speeds to drive");
+        if (in.speed < 0 || in.speed >= speeds)
+          fail(where, "speed: " + std::to_string(in.speed + 1) + " is out of range; body '" +
+                          body(in.body).name + "' has " + std::to_string(speeds) + " speed" +
+                          (speeds == 1 ? "" : "s") + " (1.." + std::to_string(speeds) + ")");
+        if (jt.type == JointType::free) body_inputs_ = true;
+        break;
+      }
+      case InputType::force:
+        if (!all_finite(in.direction) || !all_finite(in.point))
+          fail(where, "direction and point must be finite");
+        if (in.direction.norm() == 0.0) fail(where, "direction: a zero vector has no direction");
+        in.direction.normalize();
+        body_inputs_ = true;
+        break;
+      case InputType::torque:
+        if (!all_finite(in.axis)) fail(where, "axis must be finite");
+        if (in.axis.norm() == 0.0) fail(where, "axis: a zero vector has no direction");
+        in.axis.normalize();
+        body_inputs_ = true;
+        break;
+    }
+  }
+}
+
+int Model::input_index(const std::string& name) const {
+  for (size_t i = 0; i < inputs_.size(); ++i)
+    if (inputs_[i].name == name) return static_cast<int>(i);
+  return -2;
 }
 
 int Model::frame_index(const std::string& name) const {
@@ -200,7 +249,7 @@ Model with_joints(const Model& model, std::vector<Joint> joints,
   std::vector<std::shared_ptr<const ForceElement>> forces = model.forces();
   forces.insert(forces.end(), more_forces.begin(), more_forces.end());
   return Model(model.bodies(), model.gravity(), std::move(forces), model.name(), std::move(joints),
-               model.frames());
+               model.frames(), model.inputs());
 }
 
 int Model::body_index(const std::string& name) const {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "kanedyn/dynamics.hpp"
@@ -120,6 +121,30 @@ void Dynamics::evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> 
     qdot.segment<4>(7 * k) = s.data.xdot.segment<4>(4 * k);
     qdot.segment<3>(7 * k + 4) = s.data.xdot.segment<3>(4 * n + 3 * k);
   }
+}
+
+void Dynamics::set_inputs(const VectorX& u) {
+  Impl& s = *impl_;
+  if (u.size() != s.model.num_inputs())
+    throw std::invalid_argument("inputs: " + std::to_string(u.size()) + " values for " +
+                                std::to_string(s.model.num_inputs()) + " inputs");
+  if (!s.notes) {
+    s.joint->set_inputs(u);
+    return;
+  }
+  s.data.inputs = u;
+  s.loads_current = false;
+}
+
+const VectorX& Dynamics::inputs() const {
+  const Impl& s = *impl_;
+  return s.notes ? s.data.inputs : s.joint->inputs();
+}
+
+void Dynamics::forward(const VectorX& q, const VectorX& z, const VectorX& u,
+                       Eigen::Ref<VectorX> zdot) {
+  set_inputs(u);
+  evaluate(q, z, zdot);
 }
 
 const State& Dynamics::state() {

@@ -27,6 +27,8 @@ std::string to_string(SimulationStatus status) {
       return "non-finite state";
     case SimulationStatus::step_underflow:
       return "step size underflow";
+    case SimulationStatus::controller_error:
+      return "controller error";
   }
   return "unknown";
 }
@@ -156,10 +158,22 @@ void validate_settings(const SimulationSettings& s) {
        !std::isfinite(s.atol)))
     throw std::invalid_argument("simulate: rtol and atol must be >= 0 and not both 0");
   if (!(s.max_step > 0.0)) throw std::invalid_argument("simulate: max_step must be > 0");
+  if (s.inputs && s.controller)
+    throw std::invalid_argument("simulate: give an input table or a controller, not both");
+  if (!(std::isfinite(s.control_interval) && s.control_interval >= 0.0))
+    throw std::invalid_argument("simulate: control_interval must be finite and >= 0");
+  if (s.control_interval > 0.0 && (s.t_end - s.t_start) / s.control_interval > kMaxOutputTimes)
+    throw std::invalid_argument("simulate: control_interval = " + format_g(s.control_interval) +
+                                " gives more than " + format_g(kMaxOutputTimes) +
+                                " control instants");
 }
 
 void validate_settings(const Model& model, const SimulationSettings& s) {
   validate_settings(s);
+  if (s.inputs && s.inputs->num_inputs() != model.num_inputs())
+    throw std::invalid_argument("simulate: the input table has " +
+                                std::to_string(s.inputs->num_inputs()) + " columns of values for " +
+                                std::to_string(model.num_inputs()) + " inputs");
   if (s.route == Route::assembled && !model.has_flat_chains())
     throw std::invalid_argument(
         "simulate: the model's " + std::to_string(model.num_bodies()) + " bodies have " +
@@ -231,8 +245,20 @@ class Run {
         out_state_(model),
         z_(VectorX::Zero(size_)),
         z_out_(VectorX::Zero(size_)),
-        z_prev_(VectorX::Zero(size_)) {
+        z_prev_(VectorX::Zero(size_)),
+        u_(VectorX::Zero(model.num_inputs())),
+        u_out_(u_),
+        cq_(VectorX::Zero(model.num_coordinates())),
+        cz_(VectorX::Zero(model.num_speeds())) {
     stats_.t_reached = settings.t_start;
+    if (settings.inputs) {
+      drive_ = Drive::table;
+      segment_ = settings.inputs->segment(settings.t_start);
+      settings.inputs->value(settings.t_start, segment_, u_);
+      dynamics_.set_inputs(u_);
+    } else if (settings.controller) {
+      drive_ = settings.control_interval > 0.0 ? Drive::interval : Drive::every_evaluation;
+    }
     normalize_joint_coordinates(model, q_);
     const bool finite = q_.allFinite() && z0.allFinite();
     dynamics_.pack(q_, z0, z_);
@@ -246,10 +272,8 @@ class Run {
     if (check_state(z_, s_.t_start, s_.t_start)) {
       if (!std::isfinite(stats_.energy_initial))
         fail_energy(s_.t_start, stats_.energy_initial);
-      else if (s_.integrator == Integrator::rk4)
-        run_rk4();
       else
-        run_dopri5();
+        integrate();
     }
     final_energy();
     // A run that ends with a finite state but a non-finite energy (the potential of a huge
@@ -269,7 +293,114 @@ class Run {
   }
 
   OdeFunction ode() {
-    return [this](double, const VectorX& v, VectorX& dv) { dynamics_.derivative(v, dv); };
+    if (drive_ == Drive::none || drive_ == Drive::interval ||
+        (drive_ == Drive::table && s_.inputs->hold() == InputHold::zero_order))
+      return [this](double, const VectorX& v, VectorX& dv) { dynamics_.derivative(v, dv); };
+    return [this](double t, const VectorX& v, VectorX& dv) {
+      if (drive_ == Drive::table) {
+        s_.inputs->value(t, segment_, u_);
+      } else {
+        joint_coordinates_of(v);
+        control(t, cq_, cz_);
+      }
+      dynamics_.set_inputs(u_);
+      dynamics_.derivative(v, dv);
+    };
+  }
+  /// The model's (q, z) of the integrated v into cq_, cz_: (q; z) itself, or for an all-free
+  /// model the notes' ({x}; {y}) of Eq. (1) body by body.
+  void joint_coordinates_of(const VectorX& v) {
+    if (!model_.all_free()) {
+      cq_ = v.head(cq_.size());
+      cz_ = v.tail(cz_.size());
+      return;
+    }
+    const int n = model_.num_bodies();
+    for (int k = 0; k < n; ++k) {
+      cq_.segment<4>(7 * k) = v.segment<4>(4 * k);
+      cq_.segment<3>(7 * k + 4) = v.segment<3>(4 * n + 3 * k);
+      cz_.segment<3>(6 * k) = v.segment<3>(7 * n + 3 * k);
+      cz_.segment<3>(6 * k + 3) = v.segment<3>(10 * n + 3 * k);
+    }
+  }
+  /// The controller's u_ at (t, q, z); its exception becomes a ControllerFailure.
+  void control(double t, const VectorX& q, const VectorX& z) {
+    try {
+      s_.controller(t, q, z, u_);
+    } catch (const std::exception& e) {
+      throw ControllerFailure{t, e.what()};
+    } catch (...) {
+      throw ControllerFailure{t, "an exception that is not a std::exception"};
+    }
+    if (!u_.allFinite()) throw ControllerFailure{t, "it set a value that is not finite"};
+  }
+  /// The end of the segment from t: the next row time of the table or control instant after t,
+  /// or t_end. Integrators never step across it.
+  double segment_end(double t) const {
+    double end = s_.t_end;
+    if (drive_ == Drive::table) {
+      const auto& times = s_.inputs->times();
+      const auto next = static_cast<size_t>(segment_ + 1);
+      if (next < times.size()) end = std::min(end, times[next]);
+    } else if (drive_ == Drive::interval) {
+      end = std::min(end, control_time(control_index_ + 1));
+    }
+    (void)t;
+    return end;
+  }
+  double control_time(long i) const {
+    return s_.t_start + static_cast<double>(i) * s_.control_interval;
+  }
+  /// At a segment's end t before t_end, with v the state there: the next row's values, or the
+  /// controller's at this instant.
+  void cross(double t, const VectorX& v) {
+    if (drive_ == Drive::table) {
+      segment_ = s_.inputs->segment(t);
+      s_.inputs->value(t, segment_, u_);
+    } else if (drive_ == Drive::interval) {
+      while (control_time(control_index_ + 1) <= t) ++control_index_;
+      joint_coordinates_of(v);
+      control(t, cq_, cz_);
+    }
+    dynamics_.set_inputs(u_);
+  }
+  /// The inputs in force at an output time t (at the state q_, z_state_ of the output).
+  void output_inputs(double t) {
+    if (drive_ == Drive::table) {
+      s_.inputs->value(t, u_out_);
+    } else if (drive_ == Drive::every_evaluation) {
+      u_out_ = u_;
+      try {
+        s_.controller(t, q_, z_state_, u_out_);
+      } catch (const std::exception& e) {
+        throw ControllerFailure{t, e.what()};
+      } catch (...) {
+        throw ControllerFailure{t, "an exception that is not a std::exception"};
+      }
+    } else {
+      u_out_ = u_;
+    }
+    data_.inputs = u_out_;
+  }
+  /// Runs the integrator; a controller's failure ends the run with the state of the last
+  /// accepted step.
+  void integrate() {
+    z_prev_ = z_;
+    try {
+      if (drive_ == Drive::interval) {
+        joint_coordinates_of(z_);
+        control(s_.t_start, cq_, cz_);
+        dynamics_.set_inputs(u_);
+      }
+      if (s_.integrator == Integrator::rk4)
+        run_rk4();
+      else
+        run_dopri5();
+    } catch (const ControllerFailure& f) {
+      if (s_.integrator == Integrator::rk4) z_ = z_prev_;
+      stats_.status = SimulationStatus::controller_error;
+      stats_.message = "the controller failed at t = " + format_time(f.t) + ": " + f.what;
+    }
   }
 
   double project(VectorX& v) { return dynamics_.project(v, s_.project_euler_parameters); }
@@ -284,6 +415,7 @@ class Run {
     if (observer_) {
       dynamics_.unpack(z, s_.project_euler_parameters, q_, z_state_, out_state_);
       if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
+      if (drive_ != Drive::none) output_inputs(t);
       observer_(t, out_state_, q_, z_state_, data_);
     }
     ++stats_.outputs;
@@ -314,9 +446,10 @@ class Run {
   /// on_step is asked between them too, so that a signal stops the run within a few rows.
   /// Returns false when on_step asked to stop.
   template <class Dense>
-  bool emit_up_to(double t, const Dense& dense) {
+  bool emit_up_to(double t, const Dense& dense, bool before_t = false) {
     long since_asked = 0;
-    while (!outputs_done() && output_time(next_output_) <= t) {
+    while (!outputs_done() &&
+           (before_t ? output_time(next_output_) < t : output_time(next_output_) <= t)) {
       const double t_out = output_time(next_output_);
       if (t_out == t) {
         emit(t_out, z_);
@@ -346,24 +479,31 @@ class Run {
     emit(t, z_);
     while (!outputs_done()) {
       const double t_next = output_time(next_output_);
-      const double span = t_next - t;
-      const long substeps = rk4_substeps(span, s_.step);
-      const double h = span / static_cast<double>(substeps);
-      for (long i = 0; i < substeps; ++i) {
-        const double t_new = i + 1 == substeps ? t_next : t + h;
-        z_prev_ = z_;
-        rk4.step(t, h, z_);
-        stats_.evaluations = rk4.evaluations();
-        if (!check_state(z_, t, t_new)) {
-          z_ = z_prev_;  // the last good state, for the final energy
-          return;
+      // Each output interval, split at the segments' ends (a table's rows, control
+      // instants), in equal steps no longer than s_.step.
+      while (t < t_next) {
+        const double end = segment_end(t);
+        const double stop = std::min(t_next, end);
+        const double span = stop - t;
+        const long substeps = rk4_substeps(span, s_.step);
+        const double h = span / static_cast<double>(substeps);
+        for (long i = 0; i < substeps; ++i) {
+          const double t_new = i + 1 == substeps ? stop : t + h;
+          z_prev_ = z_;
+          rk4.step(t, h, z_);
+          stats_.evaluations = rk4.evaluations();
+          if (!check_state(z_, t, t_new)) {
+            z_ = z_prev_;  // the last good state, for the final energy
+            return;
+          }
+          step_done(t_new, project(z_));
+          t = t_new;
+          if (!keep_going(t) && !(outputs_done() || (t == s_.t_end))) {
+            interrupted(t);
+            return;
+          }
         }
-        step_done(t_new, project(z_));
-        t = t_new;
-        if (!keep_going(t) && !(outputs_done() || (t == s_.t_end))) {
-          interrupted(t);
-          return;
-        }
+        if (t == end && t < s_.t_end) cross(t, z_);
       }
       emit(t, z_);
     }
@@ -392,8 +532,10 @@ class Run {
     opt.atol = s_.atol;
     opt.max_step = s_.max_step;
     Dopri5 dp(size_, ode(), opt);
-    const StepStatus started = dp.start(s_.t_start, z_, s_.t_end);
+    double end = segment_end(s_.t_start);
+    const StepStatus started = dp.start(s_.t_start, z_, end);
     stats_.evaluations = dp.evaluations();
+    long evaluations = 0, rejected = 0;  // of the segments before the current one
     if (started != StepStatus::ok) {
       fail(SimulationStatus::non_finite, dp.failed_component(),
            "non-finite initial state or derivative at t = " + format_time(s_.t_start),
@@ -404,8 +546,8 @@ class Run {
     while (!outputs_done()) {
       const double t_old = dp.time();
       const StepStatus status = dp.step();
-      stats_.evaluations = dp.evaluations();
-      stats_.steps_rejected = dp.steps_rejected();
+      stats_.evaluations = evaluations + dp.evaluations();
+      stats_.steps_rejected = rejected + dp.steps_rejected();
       if (status == StepStatus::non_finite) {
         fail(SimulationStatus::non_finite, dp.failed_component(),
              "non-finite state after t = " + format_time(t_old),
@@ -427,8 +569,27 @@ class Run {
       if (!check_state(dp.state(), t_old, t)) return;
       step_done(t, project(dp.mutable_state()));
       std::memcpy(z_.data(), dp.state().data(), sizeof(double) * static_cast<size_t>(size_));
-      const bool asked_on =
-          emit_up_to(t, [&](double t_out, VectorX& z) { dp.dense_output(t_out, z); });
+      const auto dense = [&](double t_out, VectorX& z) { dp.dense_output(t_out, z); };
+      if (t == end && t < s_.t_end) {
+        // A segment's end: the outputs before it on this segment's inputs, then the new
+        // inputs, and a restart (the derivative jumps here).
+        if (!emit_up_to(t, dense, true)) {
+          interrupted(t);
+          return;
+        }
+        cross(t, z_);
+        evaluations += dp.evaluations();
+        rejected += dp.steps_rejected();
+        end = segment_end(t);
+        if (dp.start(t, z_, end) != StepStatus::ok) {
+          fail(SimulationStatus::non_finite, dp.failed_component(),
+               "non-finite derivative at t = " + format_time(t) + " after the inputs changed",
+               " is not finite");
+          return;
+        }
+        stats_.evaluations = evaluations + dp.evaluations();
+      }
+      const bool asked_on = emit_up_to(t, dense);
       if ((!asked_on || !keep_going(t)) && !outputs_done()) {
         interrupted(t);
         return;
@@ -453,6 +614,18 @@ class Run {
   Data data_;
   State work_, out_state_;
   VectorX z_, z_out_, z_prev_;
+  // What sets the inputs: nothing (zero), a table, a controller at every evaluation, or a
+  // controller at control instants.
+  enum class Drive { none, table, every_evaluation, interval };
+  struct ControllerFailure {
+    double t;
+    std::string what;
+  };
+  Drive drive_ = Drive::none;
+  VectorX u_, u_out_;       ///< the inputs the derivative uses; those at an output time
+  VectorX cq_, cz_;         ///< the state handed to the controller
+  int segment_ = -1;        ///< the table's segment being integrated
+  long control_index_ = 0;  ///< the last control instant: t_start + index * control_interval
   long next_output_ = 0;
   bool done_outputs_ = false;
   SimulationStats stats_;

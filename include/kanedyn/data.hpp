@@ -107,6 +107,9 @@ class Data {
   Partials partials;
   Loads loads;
   KaneTerms kane;
+  /// u: the inputs' values (model.num_inputs(), zero at first), read by every evaluation that
+  /// works in this Data (compute_resultants, forward_dynamics, Dynamics).
+  VectorX inputs;
   VectorX ydot;  ///< 6N: {y dot}, the solution of Eq. (36)
   VectorX xdot;  ///< 7N: {x dot}, Eqs. (39)-(40)
 

@@ -68,6 +68,14 @@ class Dynamics {
   /// z dot alone (forward dynamics, as Pinocchio's aba(q, v, tau)): the same numbers, without
   /// the kinematic equations' q dot.
   void evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot);
+  /// z dot = F(q, z, u): forward dynamics with the inputs at the values u (set_inputs(u), then
+  /// evaluate(q, z, zdot)), as Pinocchio's aba(q, v, tau) with u in place of tau.
+  void forward(const VectorX& q, const VectorX& z, const VectorX& u, Eigen::Ref<VectorX> zdot);
+  /// The inputs' values u (size model().num_inputs(); docs/model-format.md, "Inputs") that
+  /// every later evaluate() and derivative() uses: zero until set. Throws std::invalid_argument
+  /// for a wrong size. No heap allocation.
+  void set_inputs(const VectorX& u);
+  const VectorX& inputs() const;
   /// The notes' state (x, y) of the last evaluation's (q, z), and its kinematics and loads
   /// (computed on request where the kernel did not need them).
   const State& state();

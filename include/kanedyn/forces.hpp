@@ -148,12 +148,26 @@ double joint_potential_energy(const Model& model, const VectorX& q);
 /// Power removed by the elements' damping on joint speeds at z (>= 0).
 double joint_damping_power(const Model& model, const VectorX& z);
 
-/// Per-body resultants {F_K} (at G_K, inertial) and {M'_K} (body) of gravity and every force
-/// element, into data.loads. Needs data.kinematics of the state (compute_kinematics).
+/// Per-body resultants {F_K} (at G_K, inertial) and {M'_K} (body) of gravity, every force
+/// element and the inputs at data.inputs, into data.loads. Needs data.kinematics of the state
+/// (compute_kinematics).
 void compute_resultants(const Model& model, const State& state, Data& data);
-/// The same into loads, from kin.
+/// The same into loads, from kin, without the inputs (all zero).
 void compute_resultants(const Model& model, const State& state, const Kinematics& kin,
                         Loads& loads);
+/// The same with the inputs at the values u (size model.num_inputs()).
+void compute_resultants(const Model& model, const State& state, const Kinematics& kin,
+                        const VectorX& u, Loads& loads);
+
+/// Adds the body loads of the inputs at the values u (docs/model-format.md, "Inputs") to loads:
+/// force and torque inputs, and joint inputs on free bodies (a moment u e_i on K for w'_K i; for
+/// s'_K dot i a force u e_i, body-J components, on K at O_K and reversed on J at the point of J
+/// coinciding with O_K, whose generalized force is u on that speed alone, as a bushing's). Reads
+/// kin.R only. In input order, after the force elements.
+void add_input_loads(const Model& model, const VectorX& u, const State& state,
+                     const Kinematics& kin, Loads& loads);
+/// Adds u_i to Q (in the order of z) for every joint input on a joint other than free.
+void add_input_joint_forces(const Model& model, const VectorX& u, Eigen::Ref<VectorX> Q);
 
 /// Eq. (31): {F_y} = sum_K [v_G_K,y]^T {F_K} + [w'_K,y]^T {M'_K}, into data.kane.F_y, O(N): by
 /// subtree sums of the loads, the inward pass of Eq. (38). Needs data.kinematics and

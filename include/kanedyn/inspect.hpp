@@ -91,15 +91,16 @@ struct Inspection {
 /// model whose chains are too long for the partial velocity blocks
 /// (Model::kMaxFlatChainEntries) and std::out_of_range for an index outside 0..N-1.
 Inspection inspect(const Model& model, const State& state, double t = 0.0,
-                   const std::vector<int>& bodies = {});
+                   const std::vector<int>& bodies = {}, const VectorX& inputs = VectorX());
 
+/// inputs: the inputs' values (model.num_inputs(); empty: zero).
 /// The same at the model's state q, z (its notes' state from joint_state). When some joint is
 /// not free, Inspection::joints holds the joints: Inspection::ydot stays the free tree's
 /// Eq. (36) at that state, and joints.ydot is the jointed system's; this forms the dense
 /// projected equations (O(N^2) memory: for inspection) and also throws ModelError when the
 /// model's angular chains are not stored (has_angular_chains()).
 Inspection inspect(const Model& model, const VectorX& q, const VectorX& z, double t = 0.0,
-                   const std::vector<int>& bodies = {});
+                   const std::vector<int>& bodies = {}, const VectorX& inputs = VectorX());
 
 /// One nonzero 3x3 block of a partial velocity matrix (or its rate) in the notes' symbols.
 struct SymbolicBlock {

@@ -6,6 +6,7 @@
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/frames.hpp"
+#include "kanedyn/inputs.hpp"
 #include "kanedyn/inspect.hpp"
 #include "kanedyn/integrate.hpp"
 #include "kanedyn/io/csv.hpp"

@@ -42,6 +42,26 @@ struct Frame {
                                          ///< K's: [R(rotation)] maps body-K to frame components
 };
 
+/// What an input's value drives (docs/model-format.md, "Inputs").
+enum class InputType {
+  joint,   ///< u adds to the generalized force on one speed z of the body
+  force,   ///< a force u {d} at a point fixed in the body
+  torque,  ///< a moment u {a} on the body (and -u {a} on L(K) when `reaction`)
+};
+
+/// An input u_i: a scalar that a controller, a file or a program sets while the system moves.
+/// Its load is linear in u_i; a value nobody sets is 0.
+struct Input {
+  std::string name;  ///< unique among inputs, [A-Za-z0-9_-]+
+  InputType type = InputType::joint;
+  int body = 0;   ///< the body K (0-based index)
+  int speed = 0;  ///< joint: 0-based index into the body's speeds (free: w'_K 1..3, s'_K dot 1..3)
+  Vector3 direction = Vector3::UnitZ();  ///< force: {d}, body-K components (normalized)
+  Vector3 point = Vector3::Zero();       ///< force: from O_K, body-K components
+  Vector3 axis = Vector3::UnitZ();       ///< torque: {a}, body-K components (normalized)
+  bool reaction = false;                 ///< torque: the opposite moment on J = L(K) too
+};
+
 /// A tree (or forest) of N rigid bodies, each with its joint to its lower body. Body indices
 /// are 0-based: index k is body K = k+1 of the notes; lower_body(k) == kGround (-1) means
 /// L(K) = 0. With every joint free (the default) it is the notes' unconstrained tree.
@@ -56,7 +76,8 @@ class Model {
   /// empty for every body free.
   Model(std::vector<BodySpec> bodies, Vector3 gravity = Vector3::Zero(),
         std::vector<std::shared_ptr<const ForceElement>> forces = {}, std::string name = "",
-        std::vector<Joint> joints = {}, std::vector<Frame> frames = {});
+        std::vector<Joint> joints = {}, std::vector<Frame> frames = {},
+        std::vector<Input> inputs = {});
 
   int num_bodies() const { return static_cast<int>(bodies_.size()); }  ///< N
   int num_y() const { return 6 * num_bodies(); }                       ///< 6N, size of {y}
@@ -98,6 +119,16 @@ class Model {
   const Frame& frame(int f) const { return frames_[static_cast<size_t>(f)]; }
   /// Index of the frame with this name, or -2 if there is none.
   int frame_index(const std::string& name) const;
+
+  /// The inputs u_1 .. u_m (directions and axes normalized), in the order given.
+  const std::vector<Input>& inputs() const { return inputs_; }
+  int num_inputs() const { return static_cast<int>(inputs_.size()); }  ///< m
+  /// Index of the input with this name, or -2 if there is none.
+  int input_index(const std::string& name) const;
+  /// True when some input loads bodies (force and torque inputs, and joint inputs on free
+  /// bodies, whose speeds' generalized forces are body loads); the others add to the joints'
+  /// generalized forces only.
+  bool has_body_inputs() const { return body_inputs_; }
 
   int lower_body(int k) const { return bodies_[static_cast<size_t>(k)].lower_body; }  ///< L(K)
   /// u_K: number of bodies below K in its own tree (0 for a body attached to R).
@@ -180,6 +211,7 @@ class Model {
 
  private:
   void set_up_joints();
+  void set_up_inputs();
 
   std::vector<BodySpec> bodies_;
   Vector3 gravity_;
@@ -187,7 +219,8 @@ class Model {
   std::string name_;
   std::vector<Joint> joints_;
   std::vector<Frame> frames_;
-  bool all_free_ = true, body_forces_ = false;
+  std::vector<Input> inputs_;
+  bool all_free_ = true, body_forces_ = false, body_inputs_ = false;
   std::vector<const ForceElement*> joint_elements_;
   std::vector<const JointLoad*> joint_loads_;
   std::vector<int> q_offset_, z_offset_;
@@ -203,7 +236,7 @@ class Model {
   double total_mass_ = 0.0;
 };
 
-/// The same bodies, gravity, force elements, name and frames with these joints (one per
+/// The same bodies, gravity, force elements, name, frames and inputs with these joints (one per
 /// body), and more force elements (e.g. joint springs on the new joints) after the model's
 /// own.
 Model with_joints(const Model& model, std::vector<Joint> joints,

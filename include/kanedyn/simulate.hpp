@@ -5,16 +5,24 @@
 
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
+#include "kanedyn/inputs.hpp"
 #include "kanedyn/integrate.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
 
 namespace kanedyn {
+
+/// Sets the inputs u (model.num_inputs() entries, holding the values it set last; zero at
+/// first) from the time and the model's state (q, z). An exception it throws stops the run as
+/// a failure (SimulationStatus::controller_error), the output before it kept.
+using Controller =
+    std::function<void(double t, const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> u)>;
 
 /// How to simulate. Times in the model's time unit (s in the examples).
 struct SimulationSettings {
@@ -40,13 +48,25 @@ struct SimulationSettings {
   /// one step spans many output times; return false to stop the run (status interrupted).
   /// Keep it cheap: it runs once per step.
   std::function<bool(double t)> on_step;
+
+  /// The inputs' values over time (docs/model-format.md, "Inputs"): the table's value in force
+  /// at each time, never stepped across a row's time (the integrator restarts there). Null:
+  /// every input 0, unless a controller sets them. Its num_inputs() must be the model's.
+  std::shared_ptr<const InputTable> inputs;
+  /// Sets the inputs instead of a table (not both). With control_interval 0 it is called at
+  /// every evaluation of the derivative with the state being evaluated, and at every output time
+  /// for the values written there, so it must be a function of (t, q, z) alone. With
+  /// control_interval > 0 it is called at t_start + i control_interval (and not otherwise),
+  /// its value held until the next call; the integrator restarts at each of these instants.
+  Controller controller;
+  double control_interval = 0.0;
 };
 
 /// Called at each output time with the model's state there: its notes' state (x, y), its joint
 /// coordinates q and speeds z (for an all-free model, the same numbers body by body), and data
-/// holding the kinematics of that state (R, p_O, p_G, v_O, v_G: compute_kinematics; unless
-/// settings.observer_kinematics is false), which may be used as scratch (e.g. to call
-/// total_energy). Exceptions thrown by the observer leave simulate().
+/// holding the inputs in force then (data.inputs) and the kinematics of that state (R, p_O, p_G,
+/// v_O, v_G: compute_kinematics; unless settings.observer_kinematics is false), which may be used
+/// as scratch (e.g. to call total_energy). Exceptions thrown by the observer leave simulate().
 using Observer = std::function<void(double t, const State& state, const VectorX& q,
                                     const VectorX& z, Data& data)>;
 
@@ -60,10 +80,11 @@ enum class SimulationStatus {
   /// the state became non-finite or diverged (a component beyond kStateBound) at an accepted
   /// step, or the energy at the start or the end is not finite
   non_finite,
-  step_underflow,  ///< dopri5 could not meet the tolerances with any representable step
+  step_underflow,    ///< dopri5 could not meet the tolerances with any representable step
+  controller_error,  ///< the controller threw (the message has its what())
 };
 
-/// "completed", "interrupted", "non-finite state", "step size underflow".
+/// "completed", "interrupted", "non-finite state", "step size underflow", "controller error".
 std::string to_string(SimulationStatus status);
 
 /// What happened in a run.

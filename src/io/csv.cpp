@@ -102,6 +102,7 @@ std::vector<std::string> trajectory_columns(const Model& model, const Model* joi
     for (int i = 1; i <= speed_count(t); ++i) columns.push_back(name + ".jd" + std::to_string(i));
   }
   columns.emplace_back("energy");
+  for (const Input& in : model.inputs()) columns.push_back("input." + in.name);
   return columns;
 }
 }  // namespace
@@ -116,7 +117,8 @@ TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path)
   // A row holds 2 + 16N numbers (and the joint columns, 7 a body at most), each followed by
   // ',' or the newline.
   const size_t row_bytes = (kMaxNumberChars + 1) *
-                           (2 + (16 + (joints ? 7 : 0)) * static_cast<size_t>(model.num_bodies()));
+                           (2 + (16 + (joints ? 7 : 0)) * static_cast<size_t>(model.num_bodies()) +
+                            static_cast<size_t>(model.num_inputs()));
   buffer_ = std::make_unique_for_overwrite<char[]>(kFlushBytes + row_bytes);
   std::string header;
   const auto columns = trajectory_columns(model);
@@ -172,6 +174,7 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
   }
   *p++ = ',';
   p = put_number(p, energy);
+  if (model_.num_inputs() > 0) put(data.inputs);
   *p++ = '\n';
   // A row with "nan" or "inf" is no result: refuse it (the file keeps the rows before it).
   // Checked on the text, where a non-finite number is the only one holding 'n'.
@@ -247,6 +250,7 @@ struct BackgroundTrajectoryWriter::Impl {
         ny(static_cast<size_t>(model.num_y())),
         nq(model.all_free() ? 0 : static_cast<size_t>(model.num_coordinates())),
         nz(model.all_free() ? 0 : static_cast<size_t>(model.num_speeds())),
+        nu(static_cast<size_t>(model.num_inputs())),
         q(VectorX::Zero(static_cast<Eigen::Index>(nq))),
         z(VectorX::Zero(static_cast<Eigen::Index>(nz))) {
     const size_t slot_bytes = sizeof(double) * slot_size();
@@ -269,8 +273,8 @@ struct BackgroundTrajectoryWriter::Impl {
     }
   }
 
-  /// A slot of the ring: t, then {x}, then {y}, then (jointed) q and z.
-  size_t slot_size() const { return 1 + nx + ny + nq + nz; }
+  /// A slot of the ring: t, then {x}, then {y}, then (jointed) q and z, then the inputs.
+  size_t slot_size() const { return 1 + nx + ny + nq + nz + nu; }
   double* slot(size_t i) { return ring.data() + i * slot_size(); }
 
   /// The thread: block signals (they are for the program's own threads), then write rows.
@@ -309,6 +313,7 @@ struct BackgroundTrajectoryWriter::Impl {
         std::copy_n(p + 1, nx, state.x.data());
         std::copy_n(p + 1 + nx, ny, state.y.data());
         compute_kinematics(model, state, data);
+        std::copy_n(p + 1 + nx + ny + nq + nz, nu, data.inputs.data());
         if (writer.joints()) {
           std::copy_n(p + 1 + nx + ny, nq, q.data());
           std::copy_n(p + 1 + nx + ny + nq, nz, z.data());
@@ -364,7 +369,7 @@ struct BackgroundTrajectoryWriter::Impl {
   TrajectoryWriter writer;
   Data data;    // the thread's kinematics
   State state;  // the thread's copy of the row being written
-  size_t nx, ny, nq, nz;
+  size_t nx, ny, nq, nz, nu;
   VectorX q, z;  // the thread's copy of the row's joint coordinates and speeds
   size_t capacity = 0, wake_at = 0;
   std::vector<double> ring;  // capacity slots
@@ -392,16 +397,16 @@ BackgroundTrajectoryWriter::~BackgroundTrajectoryWriter() {
   }
 }
 
-void BackgroundTrajectoryWriter::write_row(double t, const State& state) {
+void BackgroundTrajectoryWriter::write_row(double t, const State& state, const VectorX* inputs) {
   if (impl_->writer.joints())
     throw std::invalid_argument(
         "BackgroundTrajectoryWriter: a jointed model's rows need their joint coordinates");
   static const VectorX none;
-  queue(t, state, none, none);
+  queue(t, state, none, none, inputs);
 }
 
 void BackgroundTrajectoryWriter::write_row(double t, const State& state, const VectorX& jq,
-                                           const VectorX& jz) {
+                                           const VectorX& jz, const VectorX* inputs) {
   const Model& model = impl_->writer.model();
   if (jq.size() != model.num_coordinates() || jz.size() != model.num_speeds())
     throw std::invalid_argument(
@@ -409,15 +414,17 @@ void BackgroundTrajectoryWriter::write_row(double t, const State& state, const V
   // An all-free model's rows are its notes' state: (q, z) hold the same numbers.
   static const VectorX none;
   if (impl_->writer.joints())
-    queue(t, state, jq, jz);
+    queue(t, state, jq, jz, inputs);
   else
-    queue(t, state, none, none);
+    queue(t, state, none, none, inputs);
 }
 
 void BackgroundTrajectoryWriter::queue(double t, const State& state, const VectorX& jq,
-                                       const VectorX& jz) {
+                                       const VectorX& jz, const VectorX* inputs) {
   Impl& q = *impl_;
   if (q.closed) throw std::logic_error("BackgroundTrajectoryWriter: write_row after close");
+  if (inputs && static_cast<size_t>(inputs->size()) != q.nu)
+    throw std::invalid_argument("BackgroundTrajectoryWriter: the inputs are not the model's size");
   if (static_cast<size_t>(state.x.size()) != q.nx || static_cast<size_t>(state.y.size()) != q.ny)
     throw std::invalid_argument("BackgroundTrajectoryWriter: the state is not the model's size");
   std::unique_lock lock(q.mutex);
@@ -434,6 +441,10 @@ void BackgroundTrajectoryWriter::queue(double t, const State& state, const Vecto
   std::copy_n(state.y.data(), q.ny, p + 1 + q.nx);
   std::copy_n(jq.data(), q.nq, p + 1 + q.nx + q.ny);
   std::copy_n(jz.data(), q.nz, p + 1 + q.nx + q.ny + q.nq);
+  if (inputs)
+    std::copy_n(inputs->data(), q.nu, p + 1 + q.nx + q.ny + q.nq + q.nz);
+  else
+    std::fill_n(p + 1 + q.nx + q.ny + q.nq + q.nz, q.nu, 0.0);
   ++q.count;
   ++q.queued;
   const bool wake = q.consumer_waiting && q.count >= q.wake_at;

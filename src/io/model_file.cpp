@@ -1304,6 +1304,74 @@ std::vector<Frame> read_frames(const Reader& r, const Field& f, const BodyNames&
   return frames;
 }
 
+/// The `inputs` section (docs/model-format.md, "Inputs"): u_1 .. u_m in the order given, each
+/// checked against its body's joint here, where the place in the file is known.
+std::vector<Input> read_inputs(const Reader& r, const Field& f, const BodiesSection& bodies) {
+  std::vector<Input> inputs;
+  const std::vector<Field> items = r.list(f, "input entries");
+  for (size_t i = 0; i < items.size(); ++i) {
+    const Mapping m = r.mapping(items[i]);
+    m.allow({"name", "type", "body", "speed", "direction", "point", "axis", "reaction"});
+    Input in;
+    const Field name_field = m.require("name");
+    const std::string_view name = r.text_view(name_field);
+    if (!valid_body_name(name))
+      r.fail(name_field,
+             "input name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
+    for (size_t j = 0; j < inputs.size(); ++j)
+      if (inputs[j].name == name)
+        r.fail(name_field, "duplicate input name " + quote(name) + " (already used by " +
+                               index_path("inputs", j) + ")");
+    in.name = std::string(name);
+    const std::string type =
+        r.choice(m.require("type"), {"joint", "force", "torque"}, "input type");
+    if (type == "joint")
+      m.allow({"name", "type", "body", "speed"});
+    else if (type == "force")
+      m.allow({"name", "type", "body", "direction", "point"});
+    else
+      m.allow({"name", "type", "body", "axis", "reaction"});
+    const Field body_field = m.require("body");
+    in.body = body_reference(r, body_field, bodies.names);
+    const BodySpec& body = bodies.specs[static_cast<size_t>(in.body)];
+    const JointType jt = bodies.joints[static_cast<size_t>(in.body)].type;
+    if (type == "joint") {
+      in.type = InputType::joint;
+      const int speeds = speed_count(jt);
+      if (speeds == 0)
+        r.fail(body_field, "a joint input drives one of the body's speeds, and body '" + body.name +
+                               "' has a " + to_string(jt) + " joint, which has none");
+      if (const auto v = m.get("speed")) {
+        const double s = r.number(*v);
+        if (s != std::floor(s) || s < 1 || s > speeds)
+          r.fail(*v, "speed must be a whole number from 1 to " + std::to_string(speeds) +
+                         " (body '" + body.name + "' has a " + to_string(jt) + " joint with " +
+                         std::to_string(speeds) + " speed" + (speeds == 1 ? "" : "s") + "), got " +
+                         printable(v->node.Scalar()));
+        in.speed = static_cast<int>(s) - 1;
+      }
+    } else if (type == "force") {
+      in.type = InputType::force;
+      const Field d = m.require("direction");
+      in.direction = r.vector3(d);
+      if (in.direction.norm() == 0.0) r.fail(d, "direction: a zero vector has no direction");
+      in.point = body.com;  // the mass centre unless given
+      if (const auto v = m.get("point")) in.point = r.vector3(*v);
+    } else {
+      in.type = InputType::torque;
+      const Field a = m.require("axis");
+      in.axis = r.vector3(a);
+      if (in.axis.norm() == 0.0) r.fail(a, "axis: a zero vector has no direction");
+      if (const auto v = m.get("reaction")) {
+        const std::string b = r.choice(*v, {"true", "false"}, "value for reaction");
+        in.reaction = b == "true";
+      }
+    }
+    inputs.push_back(std::move(in));
+  }
+  return inputs;
+}
+
 SimulationSection read_simulation(const Reader& r, const Field& f) {
   const Mapping m = r.mapping(f);
   m.allow({"t_end", "dt_out", "integrator", "rtol", "atol", "step", "route", "method"});
@@ -1347,7 +1415,7 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
   if (const std::string f = r.text(format); f != kFormat)
     r.fail(format, "unsupported format " + quote(f) +
                        "; this version reads 'format: " + std::string(kFormat) + "'");
-  top.allow({"format", "name", "gravity", "bodies", "forces", "frames", "simulation"});
+  top.allow({"format", "name", "gravity", "bodies", "forces", "frames", "inputs", "simulation"});
 
   const std::string name = top.has("name") ? r.text(*top.get("name")) : "";
   const Vector3 gravity = top.has("gravity") ? r.vector3(*top.get("gravity")) : Vector3::Zero();
@@ -1362,6 +1430,8 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
 
   std::vector<Frame> frames;
   if (const auto v = top.get("frames")) frames = read_frames(r, *v, names);
+  std::vector<Input> inputs;
+  if (const auto v = top.get("inputs")) inputs = read_inputs(r, *v, bodies);
 
   SimulationSection simulation;
   if (const auto v = top.get("simulation")) simulation = read_simulation(r, *v);
@@ -1381,7 +1451,7 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
 
   try {
     Model model(std::move(bodies.specs), gravity, std::move(forces), name, std::move(bodies.joints),
-                std::move(frames));
+                std::move(frames), std::move(inputs));
     ModelFile file{std::move(model), std::move(initial), std::move(simulation),
                    source_name,      VectorX(),          VectorX()};
     const Model& m = file.model;

@@ -205,6 +205,9 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
     }
     b += 16;
   }
+  // energy, then the inputs.
+  out.inputs = VectorX::Zero(model.num_inputs());
+  for (int i = 0; i < model.num_inputs(); ++i) out.inputs[i] = best[b + 1 + static_cast<size_t>(i)];
   return out;
 }
 
@@ -231,6 +234,95 @@ Trajectory read_trajectory(const Model& model, const std::string& path) {
   }
   if (out.values.empty()) throw fail(0, "the trajectory has no rows");
   return out;
+}
+
+InputTable read_input_table(const Model& model, const std::string& path, InputHold hold) {
+  const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
+    return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
+  };
+  const int m = model.num_inputs();
+  if (m == 0)
+    throw fail(0, "the model " +
+                      (model.name().empty() ? std::string() : "'" + model.name() + "' ") +
+                      "has no inputs to drive (a model file's `inputs:` section declares them)");
+  std::vector<std::string> names;
+  for (const Input& in : model.inputs()) names.push_back(in.name);
+  std::optional<LineReader> in;
+  std::string line;
+  // A header of t and every input, each name at most 256 bytes: longer lines are refused.
+  const size_t max_line = 32 * static_cast<size_t>(m + 1) + 256 * static_cast<size_t>(m + 1);
+  try {
+    in.emplace(path);
+    if (!in->next(line, max_line)) throw fail(0, "the file is empty; its first line is the header");
+  } catch (const std::runtime_error& e) {
+    throw fail(0, std::string(e.what()) + " (the inputs)");
+  }
+  // Column c of the file: -1 for t, else the input's index.
+  std::vector<int> column;
+  std::vector<std::string> header;
+  for (const std::string_view f : fields(line)) header.emplace_back(f);
+  bool has_t = false;
+  std::vector<bool> named(static_cast<size_t>(m), false);
+  for (size_t c = 0; c < header.size(); ++c) {
+    const std::string& h = header[c];
+    if (h == "t") {
+      if (has_t) throw fail(1, "column " + std::to_string(c + 1) + ": a second 't' column");
+      has_t = true;
+      column.push_back(-1);
+      continue;
+    }
+    const int i = model.input_index(h);
+    if (i < 0) {
+      const std::string near = closest_word(h, names);
+      throw fail(
+          1, "column " + std::to_string(c + 1) + ": unknown input '" + printable(h, 60) + "'" +
+                 (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                 "; the model's inputs are " + [&] {
+                   std::string all;
+                   for (size_t k = 0; k < names.size(); ++k) all += (k ? ", " : "") + names[k];
+                   return all;
+                 }());
+    }
+    if (named[static_cast<size_t>(i)])
+      throw fail(1, "column " + std::to_string(c + 1) + ": input '" + h + "' is named twice");
+    named[static_cast<size_t>(i)] = true;
+    column.push_back(i);
+  }
+  if (!has_t) throw fail(1, "the header has no 't' column (the time of each row)");
+  std::vector<double> times;
+  std::vector<double> values;  // row-major, m per row
+  std::vector<double> row(column.size());
+  int line_no = 1;
+  while (true) {
+    try {
+      if (!in->next(line, 32 * column.size() + 1024)) break;
+    } catch (const std::runtime_error& e) {
+      throw fail(line_no + 1, std::string(e.what()) + ", longer than any row of these inputs");
+    }
+    ++line_no;
+    if (line.empty()) continue;
+    parse_row(line, line_no, header, row, fail);
+    double t = 0.0;
+    const size_t first = values.size();
+    values.resize(first + static_cast<size_t>(m), 0.0);
+    for (size_t c = 0; c < column.size(); ++c) {
+      if (column[c] < 0)
+        t = row[c];
+      else
+        values[first + static_cast<size_t>(column[c])] = row[c];
+    }
+    if (!times.empty() && !(t > times.back()))
+      throw fail(line_no, "t = " + number(t) + " does not come after the previous row's t = " +
+                              number(times.back()) + "; the times must increase");
+    times.push_back(t);
+  }
+  if (times.empty()) throw fail(0, "the inputs have a header but no rows");
+  MatrixX table(static_cast<Eigen::Index>(times.size()), m);
+  for (size_t r = 0; r < times.size(); ++r)
+    for (int i = 0; i < m; ++i)
+      table(static_cast<Eigen::Index>(r), i) =
+          values[r * static_cast<size_t>(m) + static_cast<size_t>(i)];
+  return InputTable(std::move(times), std::move(table), hold);
 }
 
 }  // namespace kanedyn::io

@@ -19,7 +19,7 @@ namespace kanedyn::io {
 /// The header: t, then per body NAME.x NAME.y NAME.z NAME.e1..e4 NAME.s1..s3 NAME.w1..w3
 /// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns. A body
 /// whose joint is neither free nor weld adds NAME.j1..j<n> (its q) and NAME.jd1..jd<m> (its z)
-/// right after its own columns.
+/// right after its own columns. A model with inputs adds input.NAME per input after energy.
 std::vector<std::string> trajectory_columns(const Model& model);
 /// The columns of trajectory_columns() without any body's joint columns: t, 16 per body,
 /// energy.
@@ -40,7 +40,8 @@ class TrajectoryWriter {
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
 
   /// Appends one row: t, per body the mass centre G_K (data.kinematics.p_G, inertial: needs
-  /// compute_kinematics at this state), eps_K, s'_K, w'_K, s'_K dot, then energy. Numbers
+  /// compute_kinematics at this state), eps_K, s'_K, w'_K, s'_K dot, then energy, then the
+  /// inputs' values data.inputs (a model with inputs). Numbers
   /// are written in the shortest form that reads back as the same double (std::to_chars).
   /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails,
   /// or if a number of the row is not finite (naming the time and the column; the row is
@@ -103,10 +104,12 @@ class BackgroundTrajectoryWriter {
 
   /// Queues one row: t and a copy of the state (its Euler parameters as given). Throws
   /// std::invalid_argument for a state of another size than the model's.
-  void write_row(double t, const State& state);
+  /// inputs: the values in force at t (model.num_inputs(); null: zero).
+  void write_row(double t, const State& state, const VectorX* inputs = nullptr);
   /// The same with the model's state (q, z) (any model; queued when some joint is not free,
   /// whose rows have joint columns). Throws std::invalid_argument for q or z of the wrong size.
-  void write_row(double t, const State& state, const VectorX& q, const VectorX& z);
+  void write_row(double t, const State& state, const VectorX& q, const VectorX& z,
+                 const VectorX* inputs = nullptr);
   /// Asks the thread to write the queued rows to the file now (returns at once).
   void flush();
   /// Writes every queued row, stops the thread, closes and renames PATH.partial to PATH.
@@ -121,7 +124,8 @@ class BackgroundTrajectoryWriter {
   long rows() const;
 
  private:
-  void queue(double t, const State& state, const VectorX& q, const VectorX& z);
+  void queue(double t, const State& state, const VectorX& q, const VectorX& z,
+             const VectorX* inputs);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

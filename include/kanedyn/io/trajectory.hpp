@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/inputs.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
@@ -19,6 +20,8 @@ struct TrajectoryRow {
   /// The joint coordinates and speeds, the model's state (j, jd columns; a free body's are its
   /// e, s and w, sd columns).
   VectorX q, z;
+  /// The inputs in force at the row (its input.NAME columns; empty for a model without inputs).
+  VectorX inputs;
 };
 
 /// The row of the trajectory at `path` whose time is nearest to t, when it lies within half
@@ -44,5 +47,13 @@ struct Trajectory {
 /// Every row of the trajectory at `path`. Throws std::runtime_error naming the file, the line
 /// and the problem, as read_trajectory_row does, and also for a time that goes backwards.
 Trajectory read_trajectory(const Model& model, const std::string& path);
+
+/// The inputs CSV of `simulate --inputs` (docs/model-format.md, "Inputs"): a header `t` and
+/// input names (any order, each at most once; an input not named is 0), then rows of numbers
+/// with strictly increasing t. Throws std::runtime_error naming the file, the line and the
+/// problem: an unknown name (with the closest input name), a repeated or missing `t` column, a
+/// row of the wrong width or with a field that is not a finite number, times that do not
+/// increase, no rows, or a model without inputs.
+InputTable read_input_table(const Model& model, const std::string& path, InputHold hold);
 
 }  // namespace kanedyn::io
