@@ -7,6 +7,13 @@
 // route. Run e.g.
 //   build/bench/kanedyn_bench_joints --benchmark_repetitions=3
 // and read `per_body` (the "_min" aggregate is the least disturbed on a shared machine).
+//
+// The terms (terms.hpp) beside the forward dynamics of the same model and state, to be read as
+// ratios of one run: terms/forward, terms/inverse_dynamics, terms/mass_matrix and
+// terms/frame_jacobian (frame_jacobian of the model's first frame from kinematics computed
+// beforehand; terms/frame_jacobian_with_kinematics computes them each time: joint_state and
+// compute_kinematics) on the six-joint arm of examples/urdf/arm.urdf and the 512-link revolute
+// chain. Filter them with --benchmark_filter=terms.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -16,8 +23,11 @@
 #include <vector>
 
 #include "kanedyn/dynamics.hpp"
+#include "kanedyn/frames.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/joints.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "kanedyn/terms.hpp"
 #include "kanedyn/testing/generate.hpp"
 
 namespace kanedyn {
@@ -52,6 +62,60 @@ JointedChain human_jointed() {
   return c;
 }
 
+// The arm's initial q, with speeds drawn from a fixed seed so that the velocity terms count.
+JointedChain arm() {
+  io::ModelFile f = io::load_model_file(KANEDYN_SOURCE_DIR "/examples/urdf/arm.urdf");
+  JointedChain c;
+  c.model = std::make_unique<Model>(std::move(f.model));
+  c.q = f.q;
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> rate(-1.0, 1.0);
+  c.z = VectorX::NullaryExpr(c.model->num_speeds(), [&] { return rate(rng); });
+  return c;
+}
+
+// One of the terms, or the forward dynamics they are compared with, at the model's (q, z).
+enum class Term { forward, inverse_dynamics, mass_matrix, frame_jacobian, jacobian_and_kinematics };
+
+void run_term(benchmark::State& bench, const JointedChain& c, Term term) {
+  const Model& model = *c.model;
+  const int n = model.num_speeds();
+  Dynamics dyn(model);
+  Terms terms(model);
+  VectorX zdot(n), Q(n);
+  dyn.evaluate(c.q, c.z, zdot);
+  MatrixX M(n, n), Jv(3, n), Jw(3, n);
+  State state(model);
+  Data data(model, DataOptions::recursive_only());
+  joint_state(model, c.q, c.z, state);
+  compute_kinematics(model, state, data);
+  for (auto _ : bench) {
+    switch (term) {
+      case Term::forward:
+        dyn.evaluate(c.q, c.z, zdot);
+        benchmark::DoNotOptimize(zdot.data());
+        break;
+      case Term::inverse_dynamics:
+        terms.inverse_dynamics(c.q, c.z, zdot, Q);
+        benchmark::DoNotOptimize(Q.data());
+        break;
+      case Term::mass_matrix:
+        terms.mass_matrix(c.q, M);
+        benchmark::DoNotOptimize(M.data());
+        break;
+      case Term::jacobian_and_kinematics:
+        joint_state(model, c.q, c.z, state);
+        compute_kinematics(model, state, data);
+        [[fallthrough]];
+      case Term::frame_jacobian:
+        frame_jacobian(model, 0, c.q, data.kinematics, Jv, Jw);
+        benchmark::DoNotOptimize(Jv.data());
+        break;
+    }
+    benchmark::ClobberMemory();
+  }
+}
+
 void run(benchmark::State& bench, const JointedChain& c, Route route) {
   const int n = c.model->num_bodies();
   Dynamics dyn(*c.model, route);
@@ -82,6 +146,24 @@ void register_all() {
   for (const int n : {64, 512}) chain(Route::assembled, n);
   for (const Route route : {Route::recursive, Route::assembled})
     add(route, "human_jointed", human_jointed);
+
+  const auto term = [](const char* name, Term t, const std::string& model, auto make) {
+    benchmark::RegisterBenchmark((std::string("terms/") + name + "/" + model).c_str(),
+                                 [t, make](benchmark::State& b) { run_term(b, make(), t); })
+        ->Unit(benchmark::kMicrosecond)
+        ->ComputeStatistics("min", [](const std::vector<double>& v) {
+          return *std::min_element(v.begin(), v.end());
+        });
+  };
+  term("forward", Term::forward, "arm", arm);
+  term("inverse_dynamics", Term::inverse_dynamics, "arm", arm);
+  term("mass_matrix", Term::mass_matrix, "arm", arm);
+  term("frame_jacobian", Term::frame_jacobian, "arm", arm);
+  term("frame_jacobian_with_kinematics", Term::jacobian_and_kinematics, "arm", arm);
+  const auto chain512 = [] { return revolute_chain(512); };
+  term("forward", Term::forward, "chain-512", chain512);
+  term("inverse_dynamics", Term::inverse_dynamics, "chain-512", chain512);
+  term("mass_matrix", Term::mass_matrix, "chain-512", chain512);
 }
 
 }  // namespace

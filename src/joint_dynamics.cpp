@@ -23,6 +23,7 @@
 
 #include "equations.hpp"
 #include "joint_motion.hpp"
+#include "spatial.hpp"
 #include "spd.hpp"
 #include "tree_ldlt.hpp"
 
@@ -37,108 +38,6 @@ const Matrix3 kIdentity3 = Matrix3::Identity();
 
 // 6 x (speeds of one joint): fixed storage, no heap.
 using Block = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
-
-// The spatial inertia of body K about O_K for V = (w, v_O), inertial components: the kinetic
-// energy is 1/2 V^T [I_O] V, and [I_O] V = (angular momentum about O_K, linear momentum).
-//   [I_O] = | [I_G] - m [c~][c~]   m [c~] |     c = G_K - O_K, [I_G] = [R_K]^T [I'_G] [R_K]
-//           | -m [c~]              m [I]  |
-// [R]^T [I'] [R] for a symmetric [I'] (an inertia in body axes, [R] = [R_K]): its six distinct
-// entries, each the dot product of a column of [R] with [I'] times another.
-Matrix3 inertial_axes(const Matrix3& inertia, const Matrix3& r) {
-  Matrix3 ir;
-  ir.noalias() = inertia * r;
-  Matrix3 out;
-  for (int c = 0; c < 3; ++c)
-    for (int row = 0; row <= c; ++row) out(row, c) = out(c, row) = r.col(row).dot(ir.col(c));
-  return out;
-}
-
-// With [c~][c~] = c c^T - (c.c)[I].
-void spatial_inertia(double mass, const Vector3& c, const Matrix3& inertia_g, Matrix6& i) {
-  const Vector3 mc = mass * c;
-  const Matrix3 mcx = skew(mc);
-  auto tl = i.topLeftCorner<3, 3>();
-  tl = inertia_g;
-  tl.noalias() -= mc * c.transpose();
-  tl.diagonal().array() += mc.dot(c);
-  i.topRightCorner<3, 3>() = mcx;
-  i.bottomLeftCorner<3, 3>() = -mcx;
-  i.bottomRightCorner<3, 3>() = mass * Matrix3::Identity();
-}
-
-// [P_K] = | a [I]     0   |  (a = 1; a = 0 for a free body), applied by blocks, with
-//          | -[r~]   [I] |
-// r = O_K - O_J = [R_J]^T (q'_K + s'_K) in inertial components: every spatial quantity here is
-// in inertial axes about the body's own O_K, so carrying one from K to J shifts its point and
-// turns nothing.
-struct BodyMap {
-  const Vector3& r;
-  bool angular;  // a = 1: w_K carries w_J
-};
-
-// [P] V_J: (a w, v + w x r).
-Vector6 map_velocity(const BodyMap& m, const Vector6& v) {
-  Vector6 out;
-  out.head<3>() = m.angular ? Vector3(v.head<3>()) : Vector3::Zero();
-  out.tail<3>() = v.tail<3>() + v.head<3>().cross(m.r);
-  return out;
-}
-
-// [P]^T f for f = (moment about O_K, force): the same about O_J, (a n + r x F, F).
-template <typename Column>
-Vector6 carry_force(const BodyMap& m, const Column& f) {
-  const Vector3 force = f.template tail<3>();
-  Vector6 out;
-  out.template head<3>() = m.r.cross(force);
-  if (m.angular) out.template head<3>() += f.template head<3>();
-  out.template tail<3>() = force;
-  return out;
-}
-
-// target += [P]^T M [P] for a symmetric M = [A B; B^T C]: with W = C [r~] (so W^T = -[r~] C,
-// [r~]^T = -[r~]), the result is
-//   [a A - a (B[r~] + (B[r~])^T) + W^T [r~],  a B - W^T;  (a B - W^T)^T,  C],
-// its symmetric blocks from their upper triangles. Each product with [r~] is written out by
-// rows, u [r~] = (u2 r3 - u3 r2, u3 r1 - u1 r3, u1 r2 - u2 r1) for a row u: 18 products where a
-// product with the 3x3 skew matrix takes 27, and 6 entries of W^T [r~] where 9 would be formed.
-void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& target) {
-  const double rx = m.r.x(), ry = m.r.y(), rz = m.r.z();
-  double w[3][3];  // W = C [r~], by rows of C
-  double x[3][3];  // B [r~], by rows of B
-#pragma GCC unroll 3
-  for (int i = 0; i < 3; ++i) {
-    const double c0 = M(3 + i, 3), c1 = M(3 + i, 4), c2 = M(3 + i, 5);
-    w[i][0] = c1 * rz - c2 * ry;
-    w[i][1] = c2 * rx - c0 * rz;
-    w[i][2] = c0 * ry - c1 * rx;
-    const double b0 = M(i, 3), b1 = M(i, 4), b2 = M(i, 5);
-    x[i][0] = b1 * rz - b2 * ry;
-    x[i][1] = b2 * rx - b0 * rz;
-    x[i][2] = b0 * ry - b1 * rx;
-  }
-#pragma GCC unroll 3
-  for (int i = 0; i < 3; ++i) {
-    // Row i of W^T [r~] is column i of W times [r~].
-    const double u0 = w[0][i], u1 = w[1][i], u2 = w[2][i];
-    const double y[3] = {u1 * rz - u2 * ry, u2 * rx - u0 * rz, u0 * ry - u1 * rx};
-#pragma GCC unroll 3
-    for (int j = i; j < 3; ++j) {
-      double tl = y[j];
-      if (m.angular) tl += M(i, j) - x[i][j] - x[j][i];
-      target(i, j) += tl;
-      if (j != i) target(j, i) += tl;
-      const double br = M(3 + i, 3 + j);
-      target(3 + i, 3 + j) += br;
-      if (j != i) target(3 + j, 3 + i) += br;
-    }
-#pragma GCC unroll 3
-    for (int j = 0; j < 3; ++j) {
-      const double tr = (m.angular ? M(i, 3 + j) : 0.0) - w[j][i];
-      target(i, 3 + j) += tr;
-      target(3 + j, i) += tr;
-    }
-  }
-}
 
 // Where [S_K] = ([S_w]; [S_v]) has nonzero rows: the products with it skip the zero half.
 // ball: a spherical joint's [S] = ([R_K]^T; 0).
@@ -190,8 +89,7 @@ struct JointDynamics::Impl {
       // columns one by one.
       if (joint_type[i] == JointType::free) continue;
       translation[i] = joint_translation_block(t, k);
-      for (int col = 0; col < speeds[i]; ++col)
-        if (!translation[i].col(col).isZero(0.0)) translation_columns[i] |= 1u << col;
+      translation_columns[i] = slide_columns(translation[i], speeds[i]);
     }
     S.assign(6 * at(t.num_speeds()), 0.0);
     U = S;
@@ -333,43 +231,10 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
     l.w.noalias() = rk.transpose() * jm.w_rel;
     if (!is_free) l.w += w_j;
     l.r.noalias() = rj.transpose() * (model.body(k).joint + jm.slide);
-    const int w_count = speeds[i];
-    if (w_count > 0) {
-      Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> s(S.data() + 6 * off, 6, w_count);
-      if (type == JointType::prismatic) {
-        s.topRows<3>().setZero();
-      } else {
-        for (int col = 0; col < w_count; ++col)
-          s.col(col).head<3>().noalias() = rk.transpose() * jm.G.col(col);
-      }
-      // [R_J]^T [T_K]: its nonzero columns (the slide axis of a prismatic joint, the second
-      // column of a cylindrical one, F's x and y axes for a planar one), [0 I] for a free body.
-      s.bottomRows<3>().setZero();
-      if (is_free)
-        s.bottomRightCorner<3, 3>() = rj.transpose();
-      else
-        for (int col = 0; col < w_count; ++col)
-          if (translation_columns[i] & (1u << col))
-            s.col(col).tail<3>().noalias() = rj.transpose() * translation[i].col(col);
-    }
-    // c_K = d/dt V_K at z dot = 0 with J's acceleration zero. With d/dt ([R]^T u) = w x [R]^T u
-    // + [R]^T du/dt, w_rel = w_K - a w_J and the slide rate sd = [R_J]^T [T_K] z_K
-    // (dr/dt = w_J x r + sd):
-    //   angular  w_K x w_rel + [R_K]^T [G_K dot] z_K        (0 for a free body: w_rel = w_K)
-    //   linear   w_J x (w_J x r) + 2 w_J x sd
-    if (is_free) {
-      l.c.head<3>().setZero();
-    } else {
-      l.c.head<3>() = l.w.cross(l.w - w_j);
-      if (type == JointType::universal) l.c.head<3>().noalias() += rk.transpose() * jm.g_dot_z;
-    }
-    if (root) {
-      l.c.tail<3>().setZero();
-    } else {
-      const Vector3 sd = rj.transpose() * jm.slide_rate;
-      eq::store(l.c.data() + 3,
-                eq::transport_acceleration(eq::vec(w_j), eq::vec(sd), eq::vec(l.r)));
-    }
+    if (speeds[i] > 0)
+      motion_subspace(type, speeds[i], rk, rj, jm.G, translation[i], translation_columns[i],
+                      S.data() + 6 * off);
+    velocity_product_acceleration(type, root, l.w, w_j, rk, rj, jm, l.r, l.c);
     // Newton-Euler about O_K in inertial components, with A = d/dt V (a_O the acceleration of
     // the material point O_K): [I_O] A + b is the force needed, b = (w x [I_G] w + m c x
     // (w x (w x c)), m w x (w x c)), c = [R_K]^T r'_K. The external force about O_K is

@@ -21,4 +21,5 @@
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/simulate.hpp"
 #include "kanedyn/state.hpp"
+#include "kanedyn/terms.hpp"
 #include "kanedyn/types.hpp"
