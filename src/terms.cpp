@@ -6,6 +6,8 @@
 #include "kanedyn/terms.hpp"
 
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "kanedyn/data.hpp"
@@ -63,7 +65,7 @@ struct Terms::Impl {
                                                     : joint_translation_block(m, k));
       slides.push_back(detail::slide_columns(translation.back(), speeds.back()));
     }
-    if (m.has_body_force_elements()) {
+    if (m.has_body_force_elements() || m.has_body_inputs()) {
       data.emplace(m, DataOptions::recursive_only());
       state.emplace(m);
       motions.resize(at(n));
@@ -134,13 +136,22 @@ void Terms::Impl::outward(const VectorX& q) {
 // no element on a body, gravity alone as the ground's acceleration -g (docs/theory.md: a
 // uniform -g on every A_K shifts [I_O,K] A_K by minus K's weight about O_K).
 void Terms::Impl::own_loads(const VectorX& q, const VectorX& z, const VectorX* u) {
-  // The model's inputs u add their loads here, with the elements': on bodies through the
-  // resultants, on joint coordinates to joint_force. The Model has none yet.
-  (void)u;
+  // The inputs' loads come with the elements': on bodies through the resultants (Data::inputs),
+  // on joint coordinates into joint_force.
+  if (u && u->size() != model.num_inputs())
+    throw std::invalid_argument("inputs: " + std::to_string(u->size()) + " values for " +
+                                std::to_string(model.num_inputs()) + " inputs");
   joint_force.setZero();
   if (model.has_joint_force_elements()) add_joint_forces(model, q, z, joint_force);
-  body_loads = model.has_body_force_elements();
+  if (u && model.num_inputs() > 0) add_input_joint_forces(model, *u, joint_force);
+  body_loads = model.has_body_force_elements() || (u && model.has_body_inputs());
   if (body_loads) {
+    if (model.num_inputs() > 0) {
+      if (u)
+        data->inputs = *u;
+      else
+        data->inputs.setZero();
+    }
     detail::joint_state(model, q, z, *state, &motions);
     if (loads_read_positions)
       compute_kinematics(model, *state, *data);

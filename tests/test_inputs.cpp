@@ -16,6 +16,7 @@
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
+#include "kanedyn/terms.hpp"
 #include "test_support.hpp"
 
 namespace kanedyn {
@@ -544,6 +545,39 @@ TEST(Inputs, EveryRouteTakesThem) {
             << trial << " type " << t << " route " << to_string(route);
       }
     }
+  }
+}
+
+// Inverse dynamics counts the inputs among the model's own loads: at the z dot forward dynamics
+// gives with inputs u, the Q still needed is zero (1e-12 of the largest generalized force), and
+// without u it is the inputs' generalized forces.
+TEST(Inputs, InverseDynamicsCountsThem) {
+  std::mt19937 rng(15);
+  for (int trial = 0; trial < 30; ++trial) {
+    const Model base = random_jointed(rng, true);
+    std::vector<Input> inputs;
+    for (int t = 0; t < 3; ++t) {
+      Input in;
+      in.name = "u" + std::to_string(t);
+      if (random_input(base, rng, static_cast<InputType>(t), in)) inputs.push_back(in);
+    }
+    const Model m = rebuilt(base, base.forces(), inputs);
+    VectorX q, z;
+    random_joint_state(m, rng, q, z);
+    VectorX u(m.num_inputs());
+    for (int i = 0; i < u.size(); ++i) u[i] = uniform(rng, -5, 5);
+    const VectorX zdot = zdot_of(m, q, z, u);
+    Terms terms(m);
+    VectorX Q(m.num_speeds()), Q0(m.num_speeds());
+    terms.inverse_dynamics(q, z, zdot, Q, &u);
+    terms.inverse_dynamics(q, z, zdot, Q0);
+    Data data(m);
+    const VectorX f0 = projected_equations(m, q, z, data).f_z;
+    data.inputs = u;
+    const VectorX f_u = projected_equations(m, q, z, data).f_z;
+    const double scale = std::max(1.0, f0.cwiseAbs().maxCoeff());
+    EXPECT_LE(Q.cwiseAbs().maxCoeff(), 1e-12 * scale) << trial;
+    EXPECT_LE((Q0 - (f_u - f0)).cwiseAbs().maxCoeff(), 1e-12 * scale) << trial;
   }
 }
 

@@ -32,9 +32,9 @@ class Terms {
   /// Inverse dynamics, O(N) (Newton-Euler over the joints): the generalized forces Q that,
   /// added to the model's own loads (gravity, force elements, force elements on joint
   /// coordinates), give the motion z dot at (q, z): M z dot = f_z(q, z) + Q, so that forward
-  /// dynamics (Dynamics::evaluate) of the model with Q added returns z dot. u: the model's
-  /// inputs (values that add loads), passed on to where the model's own loads are computed; the
-  /// Model has no inputs yet, so it is not read.
+  /// dynamics (Dynamics::evaluate) of the model with Q added returns z dot. u: the values of the
+  /// model's inputs, whose loads count among its own (null: all 0; else model.num_inputs()
+  /// values, std::invalid_argument otherwise).
   void inverse_dynamics(const VectorX& q, const VectorX& z, const VectorX& zdot,
                         Eigen::Ref<VectorX> Q, const VectorX* u = nullptr);
 
