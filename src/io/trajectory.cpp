@@ -236,6 +236,115 @@ Trajectory read_trajectory(const Model& model, const std::string& path) {
   return out;
 }
 
+namespace {
+
+// The slope at t[at] of the polynomial through the points first..first+count-1 (Lagrange).
+double polynomial_slope(const std::vector<double>& t, const VectorX& y, size_t first, size_t count,
+                        size_t at) {
+  double slope = 0.0;
+  for (size_t i = first; i < first + count; ++i) {
+    // d/dt of l_i at t[at]: l_i(t) = prod_{j != i} (t - t_j) / (t_i - t_j).
+    double d = 0.0;
+    for (size_t m = first; m < first + count; ++m) {
+      if (m == i) continue;
+      double term = 1.0 / (t[i] - t[m]);
+      for (size_t j = first; j < first + count; ++j)
+        if (j != i && j != m) term *= (t[at] - t[j]) / (t[i] - t[j]);
+      d += term;
+    }
+    slope += y[static_cast<Eigen::Index>(i)] * d;
+  }
+  return slope;
+}
+
+}  // namespace
+
+VectorX spline_slopes(const std::vector<double>& t, const VectorX& y) {
+  const size_t n = t.size();
+  VectorX m = VectorX::Zero(static_cast<Eigen::Index>(n));
+  if (n < 4) {  // the polynomial through every point
+    for (size_t i = 0; i < n; ++i)
+      m[static_cast<Eigen::Index>(i)] = polynomial_slope(t, y, 0, n, i);
+    return m;
+  }
+  // Clamped: the end slopes from the cubics through the end rows, then the interior slopes of
+  // the C2 spline, h_i m_{i-1} + 2 (h_{i-1} + h_i) m_i + h_{i-1} m_{i+1} = 3 (h_i d_{i-1} +
+  // h_{i-1} d_i), d_i = (y_{i+1} - y_i) / h_i: a diagonally dominant tridiagonal system (Thomas).
+  m[0] = polynomial_slope(t, y, 0, 4, 0);
+  m[static_cast<Eigen::Index>(n - 1)] = polynomial_slope(t, y, n - 4, 4, n - 1);
+  const auto h = [&](size_t i) { return t[i + 1] - t[i]; };
+  const auto d = [&](size_t i) {
+    return (y[static_cast<Eigen::Index>(i + 1)] - y[static_cast<Eigen::Index>(i)]) / h(i);
+  };
+  const size_t k = n - 2;  // unknowns m_1 .. m_{n-2}
+  std::vector<double> diag(k), upper(k), rhs(k);
+  for (size_t r = 0; r < k; ++r) {
+    const size_t i = r + 1;
+    diag[r] = 2.0 * (h(i - 1) + h(i));
+    upper[r] = h(i - 1);
+    rhs[r] = 3.0 * (h(i) * d(i - 1) + h(i - 1) * d(i));
+  }
+  rhs[0] -= h(1) * m[0];
+  rhs[k - 1] -= h(n - 3) * m[static_cast<Eigen::Index>(n - 1)];
+  for (size_t r = 1; r < k; ++r) {  // eliminate the lower band: row r's lower entry is h(r + 1)
+    const double f = h(r + 1) / diag[r - 1];
+    diag[r] -= f * upper[r - 1];
+    rhs[r] -= f * rhs[r - 1];
+  }
+  for (size_t r = k; r-- > 0;) {
+    const double next = r + 1 < k ? m[static_cast<Eigen::Index>(r + 2)] : 0.0;
+    m[static_cast<Eigen::Index>(r + 1)] = (rhs[r] - (r + 1 < k ? upper[r] * next : 0.0)) / diag[r];
+  }
+  return m;
+}
+
+TrajectoryMotion trajectory_motion(const Model& model, const Trajectory& trajectory,
+                                   const std::string& path) {
+  const size_t rows = trajectory.rows();
+  if (rows < 2)
+    throw std::runtime_error(path +
+                             ": the accelerations need at least 2 rows; the trajectory has " +
+                             std::to_string(rows));
+  TrajectoryMotion out;
+  const auto nq = model.num_coordinates(), nz = model.num_speeds(), nu = model.num_inputs();
+  const auto cols = static_cast<Eigen::Index>(rows);
+  out.q = MatrixX::Zero(nq, cols);
+  out.z = MatrixX::Zero(nz, cols);
+  out.zdot = MatrixX::Zero(nz, cols);
+  out.u = MatrixX::Zero(nu, cols);
+  for (size_t r = 0; r < rows; ++r) {
+    out.t.push_back(trajectory.at(r, 0));
+    if (r > 0 && !(out.t[r] > out.t[r - 1]))
+      throw std::runtime_error(path + ":" + std::to_string(r + 2) + ": t = " + number(out.t[r]) +
+                               " repeats the previous row's; the accelerations need increasing "
+                               "times");
+    size_t b = 1;  // t, then 16 columns per body, each followed by its joint columns
+    const auto c = static_cast<Eigen::Index>(r);
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      const JointType type = model.joint(k).type;
+      const int o = model.coordinate_offset(k), p = model.speed_offset(k);
+      if (type == JointType::free) {  // the notes' own: (eps, s'), (w', s' dot)
+        for (int i = 0; i < 7; ++i)
+          out.q(o + i, c) = trajectory.at(r, b + 3 + static_cast<size_t>(i));
+        for (int i = 0; i < 6; ++i)
+          out.z(p + i, c) = trajectory.at(r, b + 10 + static_cast<size_t>(i));
+      } else if (type != JointType::weld) {
+        const int jq = coordinate_count(type), jz = speed_count(type);
+        for (int i = 0; i < jq; ++i)
+          out.q(o + i, c) = trajectory.at(r, b + 16 + static_cast<size_t>(i));
+        for (int i = 0; i < jz; ++i)
+          out.z(p + i, c) = trajectory.at(r, b + 16 + static_cast<size_t>(jq + i));
+        b += static_cast<size_t>(jq + jz);
+      }
+      b += 16;
+    }
+    for (int i = 0; i < nu; ++i) out.u(i, c) = trajectory.at(r, b + 1 + static_cast<size_t>(i));
+  }
+  for (int i = 0; i < nz; ++i)
+    out.zdot.row(i) = spline_slopes(out.t, out.z.row(i).transpose()).transpose();
+  return out;
+}
+
 InputTable read_input_table(const Model& model, const std::string& path, InputHold hold) {
   const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
     return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);

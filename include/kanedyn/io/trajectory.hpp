@@ -48,6 +48,24 @@ struct Trajectory {
 /// and the problem, as read_trajectory_row does, and also for a time that goes backwards.
 Trajectory read_trajectory(const Model& model, const std::string& path);
 
+/// The motion of a trajectory, row by row (columns of the matrices): the model's state (q, z),
+/// the inputs in force (the input columns; none: zero) and the accelerations z dot, each speed's
+/// column differentiated by a cubic spline through the rows (docs/model-format.md, "Generalized
+/// forces output"): interpolating, with the end slopes of the cubics through the first and the
+/// last four rows, so O(h^3) in the row spacing h for a smooth motion. Needs 2 rows or more
+/// (2: the line; 3: the parabola); throws std::runtime_error naming the file otherwise, and for
+/// rows with equal times.
+struct TrajectoryMotion {
+  std::vector<double> t;
+  MatrixX q, z, zdot, u;  ///< one column per row
+};
+TrajectoryMotion trajectory_motion(const Model& model, const Trajectory& trajectory,
+                                   const std::string& path);
+
+/// The derivative at every knot t_i of the cubic spline through (t_i, y_i) described at
+/// TrajectoryMotion (t strictly increasing, at least 2 knots).
+VectorX spline_slopes(const std::vector<double>& t, const VectorX& y);
+
 /// The inputs CSV of `simulate --inputs` (docs/model-format.md, "Inputs"): a header `t` and
 /// input names (any order, each at most once; an input not named is 0), then rows of numbers
 /// with strictly increasing t. Throws std::runtime_error naming the file, the line and the
