@@ -162,6 +162,8 @@ class Result:
         n = model.N
         rows = table.shape[0]
         q = z = None
+        # energy, then a model's inputs (input.NAME columns).
+        energy = np.ascontiguousarray(table[:, list(model.columns).index("energy")])
         if model.jointed:
             # Each body's 16 columns, then its joint columns: gather them by name.
             index = {c: i for i, c in enumerate(model.columns)}
@@ -177,7 +179,7 @@ class Result:
                 elif kind != "weld":
                     q[:, q_at : q_at + nq] = table[:, first + 16 : first + 16 + nq]
                     z[:, z_at : z_at + nz] = table[:, first + 16 + nq : first + 16 + nq + nz]
-            table = np.column_stack([table[:, 0], table[:, body_cols], table[:, -1]])
+            table = np.column_stack([table[:, 0], table[:, body_cols]])
         per_body = table[:, 1 : 1 + 16 * n].reshape(rows, n, 16)
         x = np.concatenate([per_body[:, :, 3:7].reshape(rows, 4 * n), per_body[:, :, 7:10].reshape(rows, 3 * n)], axis=1)
         y = np.concatenate([per_body[:, :, 10:13].reshape(rows, 3 * n), per_body[:, :, 13:16].reshape(rows, 3 * n)], axis=1)
@@ -187,7 +189,7 @@ class Result:
             np.ascontiguousarray(x),
             np.ascontiguousarray(y),
             np.ascontiguousarray(per_body[:, :, 0:3]),
-            np.ascontiguousarray(table[:, -1]),
+            energy,
             {},
             path,
             q,

@@ -557,6 +557,23 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
     y += "    at: " + vec(f.at.p) + "\n";
     if (!is_identity(f.at.q)) y += "    rotation: " + axis_angle(f.at.q) + "\n";
   }
+  // Every revolute, continuous and prismatic joint is an actuator: a joint input named after it
+  // (u on its speed, the joint torque or force), so that a controller can drive the robot.
+  {
+    std::vector<std::string> used;
+    bool any = false;
+    for (const Body& b : bodies) {
+      if (b.joint_type != "revolute" && b.joint_type != "prismatic") continue;
+      std::string name = body_name(b.joint);
+      for (int n = 2; std::find(used.begin(), used.end(), name) != used.end(); ++n)
+        name = body_name(b.joint) + "-" + std::to_string(n);
+      used.push_back(name);
+      if (!any) y += "inputs:  # the joints' torques and forces\n";
+      any = true;
+      y += "  - {name: \"" + name + "\", type: joint, body: \"" + b.name + "\"}  # joint " +
+           printable(b.joint) + "\n";
+    }
+  }
   // What is written must load: read it back with the loader's own rules, so that no command
   // refuses a file the import wrote. A refusal here is a value the checks above let through
   // (a number that reads back out of range, say); it names the URDF's link.
