@@ -174,6 +174,37 @@ void simulate_no_output(benchmark::State& st) {
 }
 BENCHMARK(simulate_no_output)->Unit(benchmark::kMillisecond);
 
+/// A controller's cost (docs/performance.md, "Controllers"): the URDF arm simulated for 1 s by
+/// rk4 (step 1 ms, no observer) with every input 0, and with a PD law on every joint input
+/// called at every evaluation (the same number of evaluations). The ratio of the two is the
+/// controller's overhead: the copy of the state handed to it, the call and the inputs set.
+void simulate_arm(benchmark::State& st, bool controlled) {
+  static const io::ModelFile file =
+      io::load_model_file(std::string(KANEDYN_SOURCE_DIR) + "/examples/urdf/arm.urdf");
+  const Model& m = file.model;
+  std::vector<Eigen::Index> coordinate, speed;
+  for (const Input& in : m.inputs()) {
+    coordinate.push_back(m.coordinate_offset(in.body));
+    speed.push_back(m.speed_offset(in.body) + in.speed);
+  }
+  SimulationSettings s;
+  s.t_end = 1.0;
+  s.dt_out = 1.0;
+  s.integrator = Integrator::rk4;
+  s.step = 1e-3;
+  if (controlled)
+    s.controller = [&](double, const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> u) {
+      for (size_t i = 0; i < speed.size(); ++i)
+        u[static_cast<Eigen::Index>(i)] = -4.0 * (q[coordinate[i]] - 0.3) - 0.1 * z[speed[i]];
+    };
+  SimulationStats stats;
+  for (auto _ : st) stats = simulate(m, file.q, file.z, s);
+  if (!stats.ok()) st.SkipWithError(stats.message.c_str());
+  st.counters["evals"] = static_cast<double>(stats.evaluations);
+}
+BENCHMARK_CAPTURE(simulate_arm, inputs_zero, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(simulate_arm, pd_every_evaluation, true)->Unit(benchmark::kMillisecond);
+
 /// One output row as the command writes it: energy from the kinematics and the CSV row
 /// (written to the file when 64 KiB have gathered).
 void csv_row(benchmark::State& st) {
