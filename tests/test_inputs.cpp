@@ -109,9 +109,10 @@ TEST(Inputs, JointInputIsTheJointForceElement) {
   EXPECT_GT(checked, 5);
 }
 
-// A torque input without reaction is a constant torque u a on the body, and a joint input on a
-// free body's w'_K i is the torque u e_i: the same bits.
-TEST(Inputs, TorqueInputIsTheConstantTorque) {
+// A torque input without reaction is a constant torque u a on the body, a force input at the
+// mass centre the constant force of the same vector, and a joint input on a free body's w'_K i
+// the torque u e_i: the same bits.
+TEST(Inputs, TorqueAndForceInputsAreConstantLoads) {
   std::mt19937 rng(12);
   for (int trial = 0; trial < 20; ++trial) {
     const Model m = random_jointed(rng, true);
@@ -125,6 +126,29 @@ TEST(Inputs, TorqueInputIsTheConstantTorque) {
     VectorX q, z;
     random_joint_state(m, rng, q, z);
     EXPECT_EQ(zdot_of(rebuilt(m, m.forces(), {in}), q, z, VectorX::Constant(1, value)),
+              zdot_of(rebuilt(m, forces, {}), q, z, VectorX()));
+  }
+  // A force input at the mass centre is, at one state, the constant force R_K^T (u d) at G_K:
+  // the same vector added to the same body's resultant, and a zero moment.
+  for (int trial = 0; trial < 20; ++trial) {
+    const Model m = random_jointed(rng, true);
+    Input in;
+    in.name = "u";
+    ASSERT_TRUE(random_input(m, rng, InputType::force, in));
+    in.point = m.body(in.body).com;
+    const Model with_input = rebuilt(m, m.forces(), {in});
+    VectorX q, z;
+    random_joint_state(m, rng, q, z);
+    State s(m);
+    joint_state(m, q, z, s);
+    Data data(m);
+    compute_kinematics(m, s, data);
+    const double value = uniform(rng, -5, 5);
+    const Vector3 d = with_input.inputs()[0].direction;
+    auto forces = m.forces();
+    forces.push_back(std::make_shared<ConstantForce>(
+        in.body, data.kinematics.R[static_cast<size_t>(in.body)].transpose() * (value * d)));
+    EXPECT_EQ(zdot_of(with_input, q, z, VectorX::Constant(1, value)),
               zdot_of(rebuilt(m, forces, {}), q, z, VectorX()));
   }
   // The free body of the all-free eight-body model. A model with inputs runs the staged O(N)
