@@ -4,6 +4,7 @@
 // control loop in Python pays little over the C++ step.
 #include <pybind11/stl.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -155,6 +156,24 @@ struct PySimulator {
   std::unique_ptr<Simulator> sim;
   double dt = std::numeric_limits<double>::quiet_NaN();  ///< step()'s default dt, if given
   VectorX u;  ///< u read through its strides, when not contiguous
+  /// Set while a call runs without the GIL (models of kReleaseGilBodies or more, _time_steps),
+  /// so that another thread's step() or set_state() is refused rather than racing it.
+  std::atomic<bool> busy{false};
+};
+
+/// Holds PySimulator::busy for a call; RuntimeError when another thread holds it.
+class Busy {
+ public:
+  explicit Busy(PySimulator& s) : s_(s) {
+    if (s_.busy.exchange(true))
+      throw std::runtime_error("Simulator: another thread is stepping this simulator");
+  }
+  ~Busy() { s_.busy = false; }
+  Busy(const Busy&) = delete;
+  Busy& operator=(const Busy&) = delete;
+
+ private:
+  PySimulator& s_;
 };
 
 [[noreturn]] void raise_simulation_error(const std::string& message) {
@@ -165,6 +184,7 @@ struct PySimulator {
 
 /// One step with u held; C++ errors as Python's (ValueError; SimulationError for a failure).
 void step_with(PySimulator& s, py::handle u_obj, double dt) {
+  const Busy busy(s);  // before s.u is touched
   const int count = s.model->model().num_inputs();
   const double* data = nullptr;
   py::ssize_t stride = 1;
@@ -308,6 +328,7 @@ double time_steps(PySimulator& s, py::handle u_obj, double dt, py::handle count_
       static_cast<long>(integer_argument(count_obj, "count", 1, std::numeric_limits<long>::max()));
   VectorX u;
   input_values(*s.model, u_obj, u);
+  const Busy busy(s);
   try {
     py::gil_scoped_release release;
     const auto start = std::chrono::steady_clock::now();
@@ -373,6 +394,7 @@ void register_simulator(py::module_& m) {
             VectorX q, z;
             model_state(*s.model, state, q, z);
             const double t = t_obj.is_none() ? s.sim->time() : t_obj.cast<double>();
+            const Busy busy(s);
             try {
               s.sim->set_state(q, z, t);
             } catch (const std::invalid_argument& e) {

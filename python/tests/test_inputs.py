@@ -358,3 +358,34 @@ def test_centre_of_mass_and_frame_acceleration(tmp_path) -> None:
     np.testing.assert_allclose(a["angular"], Jw @ zdot, rtol=0, atol=1e-14)
     with pytest.raises(KeyError, match="pole_com"):
         m.frame_acceleration("pole_cm", rest, zdot)
+
+
+def test_a_simulator_stepped_from_two_threads_refuses_the_overlap() -> None:
+    import threading
+
+    from conftest import EXAMPLES
+
+    # 64 bodies: steps run without the GIL, so the two threads can overlap; a step that would
+    # race the other's is refused, and every step taken counts once in the time reached.
+    m = kanedyn.load(EXAMPLES / "chain64.yaml")
+    sim = kanedyn.Simulator(m, dt=1.0 / 1024.0)
+    u = np.zeros(0)
+    done = threading.Event()
+    taken = [0]
+
+    def other() -> None:
+        sim._time_steps(u, 1.0 / 1024.0, 400)
+        done.set()
+
+    thread = threading.Thread(target=other)
+    thread.start()
+    refused = 0
+    while not done.is_set():
+        try:
+            sim.step(u)
+            taken[0] += 1
+        except RuntimeError as e:
+            assert "another thread" in str(e)
+            refused += 1
+    thread.join()
+    assert sim.t == (400 + taken[0]) / 1024.0
