@@ -20,6 +20,7 @@
 #include "kanedyn/partials.hpp"
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/simulate.hpp"
+#include "kanedyn/simulator.hpp"
 #include "kanedyn/state.hpp"
 #include "kanedyn/terms.hpp"
 #include "kanedyn/types.hpp"

@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Callable, Mapping, Optional, Union
+from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
 
 from ._kanedyn import (
     BodyInspection,
@@ -28,6 +30,7 @@ from ._kanedyn import (
     Model,
     ModelError,
     SimulationError,
+    Simulator,
     State,
     __version__,
     _load_file,
@@ -44,6 +47,7 @@ __all__ = [
     "ProgressBar",
     "Result",
     "SimulationError",
+    "Simulator",
     "State",
     "__version__",
     "load",
@@ -111,6 +115,10 @@ def _simulate(
     output: Union[str, bytes, os.PathLike, None] = None,
     store: bool = True,
     progress: Union[bool, Callable[[float, float], Any], None] = None,
+    inputs: Optional[Tuple[Sequence[float], Any]] = None,
+    inputs_hold: Optional[str] = None,
+    controller: Optional[Callable[[float, State], "np.ndarray"]] = None,
+    control_interval: float = 0.0,
 ) -> Result:
     """Integrates the model from its initial state (or `initial`, a State of this model) to
     t_end, with output rows every dt_out, and returns a Result: r.t (T,), r.x (T, 7N), r.y
@@ -127,6 +135,14 @@ def _simulate(
     returned). progress=True draws a bar on stderr; a callable is called as progress(t, t_end)
     about ten times a second. Ctrl-C raises KeyboardInterrupt, keeping the partial file; a
     failed run raises SimulationError, whose .result holds the rows before the failure.
+
+    The model's inputs (Model.inputs) are 0 unless driven: inputs=(t, U), a table of times t
+    (T,) and values U (T, m), held between rows (inputs_hold "zero-order") or interpolated
+    ("linear"), as `kanedyn simulate --inputs`; or controller(t, state) -> u (m values),
+    called at every evaluation (control_interval 0) or at t_start + i control_interval, its
+    values held in between. A controller that raises stops the run: SimulationError, chained
+    from the controller's exception, with the rows before. r.u (T, m) holds the values in
+    force at each row (the CSV's input.NAME columns).
     """
     if method is not None:
         if route is not None:
@@ -141,6 +157,10 @@ def _simulate(
         "step": step,
         "max_step": max_step,
         "route": route,
+        "inputs": inputs,
+        "inputs_hold": inputs_hold,
+        "controller": controller,
+        "control_interval": control_interval,
     }
     return self._simulate(settings, initial, output, store, progress)
 

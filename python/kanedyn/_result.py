@@ -24,7 +24,8 @@ class Result:
     trajectory CSV by name (r.columns lists them); r.to_csv(path) writes the CSV that
     `kanedyn simulate` writes. A jointed model's result also has q (T, nq) and z (T, nz), the
     joint coordinates and independent speeds of each row (model.joint_layout gives each
-    body's slices), and its columns NAME.j1.. and NAME.jd1.. (r["thigh.j1"]).
+    body's slices), and its columns NAME.j1.. and NAME.jd1.. (r["thigh.j1"]). A model with
+    inputs adds u (T, m), the inputs' values in force at each row, its columns input.NAME.
     """
 
     def __init__(
@@ -39,6 +40,7 @@ class Result:
         path: Optional[str] = None,
         q: Optional[np.ndarray] = None,
         z: Optional[np.ndarray] = None,
+        u: Optional[np.ndarray] = None,
     ) -> None:
         self.model = model
         self.t = t
@@ -50,6 +52,8 @@ class Result:
         self.path = path  #: the CSV streamed during the run, if any
         self.q = q  #: jointed models: the joint coordinates of each row, else None
         self.z = z  #: jointed models: the independent speeds of each row, else None
+        #: models with inputs: the inputs' values in force at each row (T, m), else None
+        self.u = u
 
     @property
     def columns(self) -> List[str]:
@@ -68,6 +72,11 @@ class Result:
             return self.t, (slice(None),)
         if name == "energy":
             return self.energy, (slice(None),)
+        inputs = list(self.model.inputs)
+        if name.startswith("input.") and name[len("input.") :] in inputs:
+            if self.u is None:
+                raise KeyError(f"column {name!r}: this result holds no input values")
+            return self.u, (slice(None), inputs.index(name[len("input.") :]))
         body, _, suffix = name.rpartition(".")
         n = self.model.N
         layout = self.model.joint_layout
@@ -114,7 +123,7 @@ class Result:
     def table(self) -> np.ndarray:
         """Every column of the CSV, (T, 2 + 16N) (more with joint columns), in the order of
         r.columns."""
-        if self.model.jointed:
+        if self.model.jointed or self.model.inputs:
             return np.column_stack([self[c] for c in self.columns])
         n = self.model.N
         T = len(self)
@@ -135,7 +144,7 @@ class Result:
         number that is not finite, Euler parameters not of unit norm (within 1e-6), times out
         of order or no rows at all raise ValueError naming the array, row and column, and no
         file is created (the tool's reader would refuse such a file)."""
-        self.model._write_csv(path, self.t, self.x, self.y, self.energy, self.q, self.z)
+        self.model._write_csv(path, self.t, self.x, self.y, self.energy, self.q, self.z, self.u)
 
     def view(self, path: Union[str, bytes, os.PathLike, None] = None) -> Union[str, bytes]:
         """Writes the web page of `kanedyn view` for this trajectory (docs/viewer.md): one
@@ -161,12 +170,13 @@ class Result:
         path = os.fsdecode(path)
         n = model.N
         rows = table.shape[0]
-        q = z = None
-        # energy, then a model's inputs (input.NAME columns).
-        energy = np.ascontiguousarray(table[:, list(model.columns).index("energy")])
+        q = z = u = None
+        index = {c: i for i, c in enumerate(model.columns)}
+        energy = np.ascontiguousarray(table[:, index["energy"]])
+        if model.inputs:
+            u = np.ascontiguousarray(table[:, [index[f"input.{name}"] for name in model.inputs]])
         if model.jointed:
             # Each body's 16 columns, then its joint columns: gather them by name.
-            index = {c: i for i, c in enumerate(model.columns)}
             body_cols = [index[f"{b}.{s}"] for b in model.body_names for s in _SUFFIXES]
             q = np.zeros((rows, len(model.initial_joint_coordinates)))
             z = np.zeros((rows, len(model.initial_joint_speeds)))
@@ -194,6 +204,7 @@ class Result:
             path,
             q,
             z,
+            u,
         )
 
 

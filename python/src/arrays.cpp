@@ -297,6 +297,38 @@ State notes_state(const PyModel& m, py::handle obj) {
   return checked_notes(m, given.notes);
 }
 
+void input_values(const PyModel& m, py::handle obj, VectorX& u, const char* name) {
+  const Model& model = m.model();
+  const int count = model.num_inputs();
+  u.setZero(count);
+  if (obj.is_none()) return;
+  std::string names;
+  for (const Input& in : model.inputs()) names += (names.empty() ? "" : ", ") + in.name;
+  const py::array a =
+      float64_array(obj, name, {count},
+                    "(m,) = (" + std::to_string(count) + ",), one value per input of the model" +
+                        (count > 0 ? " (" + names + ")" : " (it has none)"));
+  copy_vector(a, u);
+  for (int i = 0; i < count; ++i)
+    if (!std::isfinite(u[i]))
+      throw py::value_error(std::string(name) + "[" + std::to_string(i) + "] is " +
+                            (std::isnan(u[i]) ? "nan" : "inf") + " (input '" +
+                            model.inputs()[static_cast<size_t>(i)].name + "')");
+}
+
+void speed_vector(const PyModel& m, py::handle obj, VectorX& v, const char* name) {
+  const int n = m.model().num_speeds();
+  const py::array a =
+      float64_array(obj, name, {n}, "(n,) = (" + std::to_string(n) + ",), one per speed z");
+  v.resize(n);
+  copy_vector(a, v);
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i]))
+      throw py::value_error(
+          std::string(name) + "[" + std::to_string(i) + "] is not finite (" +
+          describe_joint_state_component(m.model(), m.model().num_coordinates() + i) + ")");
+}
+
 PyState make_state(const std::shared_ptr<const PyModel>& m, const VectorX& q, const VectorX& z) {
   PyState s;
   if (m->notes_layout()) {

@@ -15,6 +15,7 @@
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/state.hpp"
+#include "kanedyn/terms.hpp"
 
 namespace kanedyn::python {
 
@@ -39,8 +40,17 @@ class PyModel {
     explicit Workspace(const Model& model);
     Data data;
     State state;
-    std::unique_ptr<Dynamics> dynamics;  // models with joints
+    std::unique_ptr<Dynamics> dynamics;  // models with joints; others: made by any_dynamics()
+    std::unique_ptr<Terms> terms;        // made on first use by terms_of()
     VectorX v, dv;                       // the packed (q; z) and its rate
+    VectorX u;                           // the inputs' values of the call
+    /// The inputs' values every later evaluation in this workspace reads, from a Python
+    /// argument (None: zero; input_values()): set by each call, since a pooled workspace keeps
+    /// the values of its last one.
+    void use_inputs(const PyModel& owner, py::handle u_obj);
+    /// The workspace's Dynamics of any model (made on first use for an all-free model).
+    Dynamics& any_dynamics(const Model& model);
+    Terms& terms_of(const Model& model);
   };
   /// A workspace for the lifetime of the lease, returned to the pool after; safe without the
   /// GIL.
@@ -128,6 +138,14 @@ std::string model_state_problem(const PyModel& m, const VectorX& q, const Vector
 /// The notes' state of a Python argument for an all-free model (ValueError otherwise): None
 /// gives the initial state; checked as copy_coordinates and copy_speeds check.
 State notes_state(const PyModel& m, py::handle obj);
+/// The inputs' values u (docs/model-format.md, "inputs") of a Python argument, into u (resized
+/// to model.num_inputs()): None gives zeros; else m finite numbers (float64_array's rules;
+/// ValueError naming the argument `name`, the model's input names, or the entry not finite).
+void input_values(const PyModel& m, py::handle obj, VectorX& u, const char* name = "u");
+/// The generalized speeds' rates z dot (or any vector over z) of a Python argument, n finite
+/// numbers, into v (resized).
+void speed_vector(const PyModel& m, py::handle obj, VectorX& v, const char* name);
+
 /// A Python State of the model at (q, z), already checked: the notes' x, y for an all-free
 /// model, else the joint coordinates with the model.
 PyState make_state(const std::shared_ptr<const PyModel>& m, const VectorX& q, const VectorX& z);
@@ -160,6 +178,7 @@ void register_state(py::module_& m);
 void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_view(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
+void register_control(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 
 /// Raises kanedyn.ModelError for a model-file error (with its parts as attributes).
 [[noreturn]] void raise_model_error(const io::ModelFileError& e);

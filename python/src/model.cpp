@@ -25,6 +25,22 @@ PyModel::Workspace::Workspace(const Model& model)
   dv.resize(dynamics->size());
 }
 
+Dynamics& PyModel::Workspace::any_dynamics(const Model& model) {
+  if (!dynamics) dynamics = std::make_unique<Dynamics>(model, Route::recursive);
+  return *dynamics;
+}
+
+void PyModel::Workspace::use_inputs(const PyModel& owner, py::handle u_obj) {
+  input_values(owner, u_obj, u);
+  data.inputs = u;
+  if (dynamics) dynamics->set_inputs(u);
+}
+
+Terms& PyModel::Workspace::terms_of(const Model& model) {
+  if (!terms) terms = std::make_unique<Terms>(model);
+  return *terms;
+}
+
 PyModel::Lease::Lease(const PyModel& owner) : owner_(owner) {
   {
     const std::lock_guard<std::mutex> lock(owner_.pool_mutex_);
@@ -51,9 +67,10 @@ struct Equations {
   py::object n = py::none(), C = py::none(), A_z = py::none(), f_z = py::none(), zdot = py::none();
 };
 
-Equations equations_of_motion(const PyModel& m, py::object state_obj) {
-  VectorX q, z;
+Equations equations_of_motion(const PyModel& m, py::object state_obj, py::object u_obj) {
+  VectorX q, z, u;
   model_state(m, state_obj, q, z);
+  input_values(m, u_obj, u);
   if (m.N() > kMaxEomBodies)
     throw py::value_error("eom() forms the dense 6N x 6N [A], and N = " + std::to_string(m.N()) +
                           " is more than " + std::to_string(kMaxEomBodies) +
@@ -64,6 +81,7 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj) {
     State state(m.model());
     joint_state(m.model(), q, z, state);
     Data data(m.model(), DataOptions{.partials = false});  // [A] dense, as eom --json prints it
+    data.inputs = u;
     kane_equations(m.model(), state, data);
     py::gil_scoped_acquire acquire;
     e.N = m.N();
@@ -529,6 +547,26 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "velocity = Jv @ state.z and angular_velocity = Jw @ state.z. In the notes' terms "
           "[v_P,y][C] and [R_K]^T [w'_K,y][C] (docs/theory.md, \"Frames and Jacobians\").")
       .def(
+          "frame_acceleration",
+          [](const PyModel& p, const std::string& name, py::object state_obj, py::object zdot_obj) {
+            const int f = frame_argument(p, name);
+            VectorX q, z, zdot;
+            model_state(p, state_obj, q, z);
+            speed_vector(p, zdot_obj, zdot, "zdot");
+            PyModel::Lease work(p);
+            kinematics_at(p, q, z, *work);
+            const FrameAcceleration a =
+                frame_acceleration(p.model(), f, q, z, zdot, work->state, work->data.kinematics);
+            py::dict out;
+            out["linear"] = to_numpy(a.linear);
+            out["angular"] = to_numpy(a.angular);
+            return out;
+          },
+          py::arg("name"), py::arg("state"), py::arg("zdot"),
+          "The frame's acceleration at a state and the speeds' rates zdot (n; e.g. "
+          "forward(state, u)), inertial components: a dict of its origin's 'linear' "
+          "acceleration and its 'angular' acceleration.")
+      .def(
           "body_number",
           [](const PyModel& p, const std::string& name) {
             const int k = p.model().body_index(name);
@@ -555,28 +593,32 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
            "speeds) where the joints allow it (every body free, or welded; ValueError naming "
            "the body otherwise: an angle is not read back from x, where it loses its turns). "
            "Checked: finite, unit Euler parameters. With no argument, the zero state.")
-      .def("eom", &equations_of_motion, py::arg("state") = py::none(),
+      .def("eom", &equations_of_motion, py::arg("state") = py::none(), py::arg("u") = py::none(),
            "Kane's equations at a state (default: the initial state): [A] (Eq. 37), {f} (Eq. "
            "38), {y dot} (Eq. 36), {x dot} (Eqs. 39-40) and {F_y} (Eq. 31), and for a model "
-           "with joints the projected equations; the same numbers as `kanedyn eom --json`. At "
-           "most 300 bodies (the dense [A]).")
+           "with joints the projected equations; the same numbers as `kanedyn eom --json`. u: the "
+           "inputs' values (None: all 0), as eom's --input NAME=VALUE. At most 300 bodies (the "
+           "dense [A]).")
       .def(
           "inspect",
           [](const PyModel& p, py::object state_obj, double t, py::object bodies, py::object q_obj,
-             py::object z_obj) {
+             py::object z_obj, py::object u_obj) {
             const std::vector<int> selected = body_indices(p.model(), bodies);
-            VectorX q, z;
+            VectorX q, z, u;
             model_state(p, state_obj, q_obj, z_obj, q, z);
+            input_values(p, u_obj, u);
             try {
               py::gil_scoped_release release;
-              return inspect(p.model(), q, z, t, selected);
+              return inspect(p.model(), q, z, t, selected, u);
             } catch (const ModelError& e) {
               throw py::value_error(e.what());
             }
           },
           py::arg("state") = py::none(), py::arg("t") = 0.0, py::arg("bodies") = py::none(),
           py::kw_only(), py::arg("q") = py::none(), py::arg("z") = py::none(),
-          "Every quantity of the notes at a state (default: the initial state; or q= and z=), "
+          py::arg("u") = py::none(),
+          "Every quantity of the notes at a state (default: the initial state; or q= and z=; "
+          "u= the inputs' values, None: all 0), "
           "as `kanedyn inspect --json` gives them: bodies is None (all), a body number K, a "
           "name, or a list of them; t is only reported. For a model with joints the result's "
           "joints holds [C] and the projected equations.")

@@ -250,4 +250,5 @@ PYBIND11_MODULE(_kanedyn, m) {
   register_model(m, model);
   register_run(m, model);
   register_view(model);
+  register_control(m, model);
 }

@@ -18,6 +18,7 @@
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
+#include "kanedyn/inputs.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/trajectory.hpp"
 #include "kanedyn/joints.hpp"
@@ -39,8 +40,9 @@ constexpr int kReleaseGilBodies = 32;
 
 /// The rates of a model with joints at its checked state (q, z): what simulate() integrates
 /// (Dynamics::derivative), by the recursive route.
-py::tuple joint_rates(const PyModel& m, const VectorX& q, const VectorX& z) {
+py::tuple joint_rates(const PyModel& m, const VectorX& q, const VectorX& z, py::handle u) {
   PyModel::Lease work(m);
+  work->use_inputs(m, u);
   Dynamics& dynamics = *work->dynamics;
   dynamics.pack(q, z, work->v);
   if (m.N() >= kReleaseGilBodies) {
@@ -54,24 +56,25 @@ py::tuple joint_rates(const PyModel& m, const VectorX& q, const VectorX& z) {
                         to_numpy(VectorX(work->dv.tail(m.model().num_speeds()))));
 }
 
-py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
+py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t, py::handle u) {
   if (!std::isfinite(t)) throw py::value_error("t must be finite");
   if (y.ptr() == nullptr) {  // derivatives(state)
     if (m.notes_layout()) {
       const State state = notes_state(m, x);
       PyModel::Lease work(m);
+      work->use_inputs(m, u);
       work->state = state;
       forward_dynamics(m.model(), work->state, work->data, Route::recursive);
       return py::make_tuple(to_numpy(work->data.xdot), to_numpy(work->data.ydot));
     }
     VectorX q, z;
     model_state(m, x, q, z);
-    return joint_rates(m, q, z);
+    return joint_rates(m, q, z, u);
   }
   if (!m.notes_layout()) {
     VectorX q, z;
     model_state(m, py::none(), x, y, q, z);
-    return joint_rates(m, q, z);
+    return joint_rates(m, q, z, u);
   }
   const int n = m.N();
   const double *x_data = nullptr, *y_data = nullptr;
@@ -88,6 +91,7 @@ py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
     y_stride = stride(ya, 0);
   }
   PyModel::Lease work(m);
+  work->use_inputs(m, u);
   std::string problem = copy_coordinates(m.model(), x_data, x_stride, work->state.x, "x");
   if (problem.empty()) problem = copy_speeds(m.model(), y_data, y_stride, work->state.y, "y");
   if (!problem.empty()) throw py::value_error(problem);
@@ -106,16 +110,16 @@ py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t) {
 PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t nargs,
                                PyObject* kwnames) {
   try {
-    PyObject* given[3] = {nullptr, nullptr, nullptr};
-    static const char* const names[3] = {"x", "y", "t"};
-    if (nargs > 3) throw py::type_error("derivatives() takes x, y and t, got more arguments");
+    PyObject* given[4] = {nullptr, nullptr, nullptr, nullptr};
+    static const char* const names[4] = {"x", "y", "t", "u"};
+    if (nargs > 4) throw py::type_error("derivatives() takes x, y, t and u, got more arguments");
     for (Py_ssize_t i = 0; i < nargs; ++i) given[i] = args[i];
     const Py_ssize_t keywords = kwnames ? PyTuple_GET_SIZE(kwnames) : 0;
     for (Py_ssize_t i = 0; i < keywords; ++i) {
       const char* key = PyUnicode_AsUTF8(PyTuple_GET_ITEM(kwnames, i));
       if (!key) throw py::error_already_set();
       int slot = -1;
-      for (int j = 0; j < 3; ++j)
+      for (int j = 0; j < 4; ++j)
         if (std::strcmp(key, names[j]) == 0) slot = j;
       if (slot < 0)
         throw py::type_error("derivatives() got an unexpected keyword argument '" +
@@ -130,7 +134,7 @@ PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t
                          given[0], reinterpret_cast<PyTypeObject*>(py::type::of<PyState>().ptr())))
       throw py::type_error("derivatives() needs x and y (q and z), or a kanedyn.State");
     double t = 0.0;
-    if (given[2]) {
+    if (given[2] && given[2] != Py_None) {
       t = PyFloat_AsDouble(given[2]);
       if (t == -1.0 && PyErr_Occurred()) {
         // An int too large for a double is a number, just not a finite time.
@@ -143,7 +147,10 @@ PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t
     auto* model =
         reinterpret_cast<py::detail::instance*>(self)->get_value_and_holder().value_ptr<PyModel>();
     if (!model) throw py::type_error("derivatives() called on an uninitialized Model");
-    return derivatives(*model, py::handle(given[0]), py::handle(given[1]), t).release().ptr();
+    return derivatives(*model, py::handle(given[0]), py::handle(given[1]), t,
+                       given[3] ? py::handle(given[3]) : py::handle(Py_None))
+        .release()
+        .ptr();
   } catch (py::error_already_set& e) {
     e.restore();
   } catch (const py::builtin_exception& e) {
@@ -158,13 +165,14 @@ PyMethodDef derivatives_method = {
     "derivatives",
     reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(derivatives_fastcall)),
     METH_FASTCALL | METH_KEYWORDS,
-    "derivatives($self, x, y=None, t=0.0)\n--\n\n"
+    "derivatives($self, x, y=None, t=0.0, u=None)\n--\n\n"
     "The rates of the state the model integrates, by the O(N) recursive route. An all-free "
     "model: (xdot, ydot) at (x, y), {x dot} (Eqs. 39-40, 7N) and {y dot} (Eq. 36, 6N). A model "
     "with joints: (qdot, zdot) at its joint coordinates q and speeds z (Model.joint_layout), "
     "the derivative simulate() integrates. Either as two float64 arrays (or sequences of "
     "numbers), finite, with unit Euler parameters, or as one kanedyn.State. t is the time, for "
-    "the signature f(t, x, y) of ODE solvers: the model's force laws do not depend on it."};
+    "the signature f(t, x, y) of ODE solvers: the model's force laws do not depend on it. u: "
+    "the values of the model's inputs (Model.inputs; None: all 0)."};
 
 /// An output array of derivatives_batch(out=...): float64, C-contiguous, writeable, of the
 /// shape given, sharing no memory with the inputs.
@@ -252,6 +260,8 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::ob
   std::atomic<bool> abandoned{false};
   const auto work = [&](py::ssize_t w) {
     PyModel::Lease lease(m);
+    lease->data.inputs.setZero();  // a pooled workspace keeps its last call's inputs
+    if (lease->dynamics) lease->dynamics->set_inputs(lease->data.inputs);
     const py::ssize_t first = rows * w / workers, last = rows * (w + 1) / workers;
     VectorX q(notes ? 0 : nx), z(notes ? 0 : ny);
     for (py::ssize_t r = first; r < last; ++r) {
@@ -347,6 +357,48 @@ double positive_setting(py::handle value, const char* name) {
   return v;
 }
 
+/// The input table of simulate(inputs=(t, U), inputs_hold=...): t (T,) increasing, U (T, m)
+/// (or (T,) for a model of one input).
+InputTable input_table(const PyModel& m, py::handle table, py::handle hold_obj) {
+  const int count = m.model().num_inputs();
+  if (count == 0) throw py::value_error("inputs: the model has no inputs");
+  if (!py::isinstance<py::tuple>(table) && !py::isinstance<py::list>(table))
+    throw py::type_error("inputs must be a pair (t, U) of arrays: t (T,), U (T, m)");
+  const auto pair = py::reinterpret_borrow<py::sequence>(table);
+  if (pair.size() != 2)
+    throw py::type_error("inputs must be a pair (t, U) of arrays: t (T,), U (T, m)");
+  const py::array t = float64_array(pair[0], "inputs t", {-1}, "(T,)");
+  const py::ssize_t rows = t.shape(0);
+  const std::string shape = "(T, m) = (" + std::to_string(rows) + ", " + std::to_string(count) +
+                            "), one column per input (Model.inputs)";
+  py::object values_obj = pair[1];
+  if (count == 1 && py::isinstance<py::array>(values_obj) &&
+      py::reinterpret_borrow<py::array>(values_obj).ndim() == 1)
+    values_obj = values_obj.attr("reshape")(-1, 1);
+  const py::array U = float64_array(values_obj, "inputs U", {rows, count}, shape);
+  std::vector<double> times(static_cast<size_t>(rows));
+  MatrixX values(rows, count);
+  for (py::ssize_t r = 0; r < rows; ++r) {
+    times[static_cast<size_t>(r)] = doubles(t)[r * stride(t, 0)];
+    for (int c = 0; c < count; ++c) values(r, c) = doubles(U)[r * stride(U, 0) + c * stride(U, 1)];
+  }
+  InputHold hold = InputHold::zero_order;
+  if (!hold_obj.is_none()) {
+    if (!py::isinstance<py::str>(hold_obj))
+      throw py::type_error("inputs_hold must be 'zero-order' or 'linear'");
+    try {
+      hold = parse_input_hold(hold_obj.cast<std::string>());
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(std::string("inputs_hold: ") + e.what());
+    }
+  }
+  try {
+    return InputTable(std::move(times), std::move(values), hold);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(std::string("inputs: ") + e.what());
+  }
+}
+
 SimulationSettings settings_from(const PyModel& m, const py::dict& given) {
   SimulationSettings s = io::simulation_settings(m.file().simulation);
   const auto set = [&](const char* key, double& field) {
@@ -362,6 +414,28 @@ SimulationSettings settings_from(const PyModel& m, const py::dict& given) {
     s.integrator = parse_integrator(given["integrator"].cast<std::string>());
   if (given.contains("route") && !given["route"].is_none())
     s.route = parse_route(given["route"].cast<std::string>());
+  const auto given_object = [&](const char* key) {
+    return given.contains(key) ? py::object(given[key]) : py::object(py::none());
+  };
+  const py::object table = given_object("inputs"), hold = given_object("inputs_hold");
+  const py::object controller = given_object("controller");
+  if (!hold.is_none() && table.is_none())
+    throw py::value_error("inputs_hold applies to an input table: give inputs=(t, U) too");
+  if (!table.is_none()) {
+    if (!controller.is_none())
+      throw py::value_error("give an input table (inputs=) or a controller, not both");
+    s.inputs = std::make_shared<const InputTable>(input_table(m, table, hold));
+  }
+  if (!controller.is_none() && !PyCallable_Check(controller.ptr()))
+    throw py::type_error("controller must be a callable(t, state) -> u");
+  const py::object interval = given_object("control_interval");
+  if (!interval.is_none()) {
+    // 0 is allowed: the controller is then called at every evaluation.
+    const bool zero = !py::isinstance<py::bool_>(interval) && interval.equal(py::int_(0));
+    s.control_interval = zero ? 0.0 : positive_setting(interval, "control_interval");
+    if (s.control_interval > 0.0 && controller.is_none())
+      throw py::value_error("control_interval applies to a controller: give controller= too");
+  }
   validate_settings(m.model(), s);
   return s;
 }
@@ -392,7 +466,7 @@ namespace {
 /// (q dot, z dot) of any model at (q, z) (or a State; default: the initial state), by the
 /// route.
 py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
-                            const std::string& route_name) {
+                            const std::string& route_name, py::object u_obj) {
   Route route = Route::recursive;
   try {
     route = parse_route(route_name);
@@ -405,10 +479,13 @@ py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj
   else
     model_state(m, py::none(), q_obj, z_obj, q, z);
   const Model& model = m.model();
+  VectorX u;
+  input_values(m, u_obj, u);
   VectorX qdot(model.num_coordinates()), zdot(model.num_speeds());
   {
     py::gil_scoped_release release;
     Dynamics dynamics(model, route);
+    dynamics.set_inputs(u);
     dynamics.evaluate(q, z, zdot, qdot);
   }
   return py::make_tuple(to_numpy(qdot), to_numpy(zdot));
@@ -417,7 +494,54 @@ py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj
 /// The rows simulate() keeps: t, x, y, the mass centres and the energy of each output state
 /// (and q, z of a jointed model).
 struct Rows {
-  std::vector<double> t, x, y, p_G, energy, q, z;
+  std::vector<double> t, x, y, p_G, energy, q, z, u;
+};
+
+/// simulate(controller=f): f(t, state) -> u called from the run, which holds no GIL. Its
+/// exception (or a value that is not m finite numbers) is kept, to be raised (chained) when
+/// simulate() returns, and stops the run as the library's controller_error.
+class PythonController {
+ public:
+  PythonController(std::shared_ptr<PyModel> model, py::object f)
+      : model_(std::move(model)), f_(std::move(f)) {}
+  ~PythonController() {
+    if (error_) {
+      py::gil_scoped_acquire acquire;
+      error_.reset();
+    }
+  }
+  PythonController(const PythonController&) = delete;
+  PythonController& operator=(const PythonController&) = delete;
+
+  void operator()(double t, const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> u) {
+    py::gil_scoped_acquire acquire;
+    try {
+      const py::object value = f_(t, py::cast(make_state(model_, q, z)));
+      input_values(*model_, value, u_, "the controller's value");
+      u = u_;
+      return;
+    } catch (py::error_already_set& e) {
+      keep(std::move(e));
+    } catch (const py::builtin_exception& e) {  // input_values' TypeError or ValueError
+      e.set_error();
+      keep(py::error_already_set());
+    }
+    throw std::runtime_error(message_);
+  }
+  /// The exception that stopped the run, or null.
+  const std::unique_ptr<py::error_already_set>& error() const { return error_; }
+
+ private:
+  void keep(py::error_already_set&& e) {
+    message_ =
+        std::string(py::str(e.type().attr("__name__"))) + ": " + std::string(py::str(e.value()));
+    if (!error_) error_ = std::make_unique<py::error_already_set>(std::move(e));
+  }
+  std::shared_ptr<PyModel> model_;
+  py::object f_;
+  VectorX u_;
+  std::string message_;
+  std::unique_ptr<py::error_already_set> error_;
 };
 
 /// What on_step does while the GIL is released: about every 50 ms it takes the GIL to let
@@ -506,6 +630,13 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   SimulationSettings settings = base;
   settings.observer_kinematics = store;
   settings.on_step = [&hook](double t) { return hook(t); };
+  std::unique_ptr<PythonController> controller;
+  if (given.contains("controller") && !given["controller"].is_none()) {
+    controller = std::make_unique<PythonController>(self, given["controller"]);
+    settings.controller = [c = controller.get()](double t, const VectorX& q, const VectorX& z,
+                                                 Eigen::Ref<VectorX> u) { (*c)(t, q, z, u); };
+  }
+  const int m_inputs = model.num_inputs();
   SimulationStats stats;
   // The rows of a model with joints also keep q and z (the CSV's joint columns).
   const bool keep_joints = !m.notes_layout();
@@ -524,10 +655,12 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   };
   const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
                                 Data& data) {
-    if (!out.empty()) open_writer().write_row(t, state, q, z);
+    if (!out.empty())
+      open_writer().write_row(t, state, q, z, m_inputs > 0 ? &data.inputs : nullptr);
     if (!store) return;
     keep(t, state, data);
     rows.energy.push_back(total_energy_of_kinematics(model, state, q, data));
+    rows.u.insert(rows.u.end(), data.inputs.begin(), data.inputs.end());
     if (!keep_joints) return;
     rows.q.insert(rows.q.end(), q.begin(), q.end());
     rows.z.insert(rows.z.end(), z.begin(), z.end());
@@ -564,17 +697,18 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   const py::dict stats_out = stats_dict(model, stats);
   py::object result = py::none();
   if (store) {
-    py::object q = py::none(), z = py::none();
+    py::object q = py::none(), z = py::none(), u = py::none();
     if (keep_joints) {
       q = adopt(std::move(rows.q), {T, model.num_coordinates()});
       z = adopt(std::move(rows.z), {T, model.num_speeds()});
     }
+    if (m_inputs > 0) u = adopt(std::move(rows.u), {T, m_inputs});
     result = py::module_::import("kanedyn._result")
                  .attr("Result")(
                      self, adopt(std::move(rows.t), {T}), adopt(std::move(rows.x), {T, 7 * n}),
                      adopt(std::move(rows.y), {T, 6 * n}), adopt(std::move(rows.p_G), {T, n, 3}),
                      adopt(std::move(rows.energy), {T}), stats_out,
-                     out.empty() ? py::object(py::none()) : py::object(path_str(out)), q, z);
+                     out.empty() ? py::object(py::none()) : py::object(path_str(out)), q, z, u);
   }
   if (!stats.ok()) {
     const std::string message =
@@ -583,6 +717,16 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
     py::object error = type(message);
     error.attr("result") = result;
     error.attr("stats") = stats_out;
+    if (controller && controller->error()) {
+      const py::object cause = controller->error()->value();
+      // Not an Exception (KeyboardInterrupt, SystemExit): raised itself, as a signal would be.
+      if (!PyObject_IsInstance(cause.ptr(), PyExc_Exception)) {
+        if (writer && py::hasattr(cause, "add_note")) cause.attr("add_note")(kept_note(*writer));
+        controller->error()->restore();
+        throw py::error_already_set();
+      }
+      error.attr("__cause__") = cause;  // raise SimulationError(...) from the controller's
+    }
     PyErr_SetObject(type.ptr(), error.ptr());
     throw py::error_already_set();
   }
@@ -695,7 +839,8 @@ void check_rows(const PyModel& m, const py::array& t, const py::array& x, const 
 /// (compute_kinematics gives the same bits as at run time), the energy is the stored one.
 /// The rows are checked first (check_rows): the file is written whole or not at all.
 void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::handle x_obj,
-               py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj) {
+               py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj,
+               py::handle u_obj) {
   const Model& model = m.model();
   const int n = m.N();
   const std::string path = path_argument(path_obj, "path");
@@ -713,6 +858,16 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
     za = float64_array(z_obj, "z", {rows, nz}, "(T, " + std::to_string(nz) + ")");
   }
   check_rows(m, t, x, y, energy, qa, za);
+  // A model with inputs has input columns: the values in force at each row (None: zero).
+  const int nu = model.num_inputs();
+  py::array ua;
+  if (nu > 0 && !u_obj.is_none()) {
+    ua = float64_array(u_obj, "u", {rows, nu}, "(T, " + std::to_string(nu) + ")");
+    const std::string problem = first_non_finite(ua, "u", rows, nu, [&](py::ssize_t c) {
+      return "input '" + model.inputs()[static_cast<size_t>(c)].name + "'";
+    });
+    if (!problem.empty()) throw py::value_error("to_csv: " + problem + "; nothing was written");
+  }
   io::check_output_path(path, {m.file().path});
   io::TrajectoryWriter writer(model, path);
   Data data(model, DataOptions::recursive_only());
@@ -724,6 +879,10 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
     compute_kinematics(model, state, data);
     for (int i = 0; i < nq; ++i) q[i] = doubles(qa)[r * stride(qa, 0) + i * stride(qa, 1)];
     for (int i = 0; i < nz; ++i) z[i] = doubles(za)[r * stride(za, 0) + i * stride(za, 1)];
+    if (ua) {
+      for (int i = 0; i < nu; ++i)
+        data.inputs[i] = doubles(ua)[r * stride(ua, 0) + i * stride(ua, 1)];
+    }
     writer.write_row(doubles(t)[r * stride(t, 0)], state, data,
                      doubles(energy)[r * stride(energy, 0)], tree ? &q : nullptr,
                      tree ? &z : nullptr);
@@ -754,6 +913,7 @@ double time_derivatives(const PyModel& m, py::object state_obj, py::handle calls
       static_cast<long>(integer_argument(calls_obj, "calls", 1, std::numeric_limits<long>::max()));
   const State state = notes_state(m, state_obj);
   PyModel::Lease work(m);
+  work->use_inputs(m, py::none());
   work->state = state;
   py::gil_scoped_release release;
   const auto start = std::chrono::steady_clock::now();
@@ -781,13 +941,14 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
            py::arg("store"), py::arg("progress"))
       .def("_read_csv", &read_csv, py::arg("path"))
       .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),
-           py::arg("energy"), py::arg("q") = py::none(), py::arg("z") = py::none())
+           py::arg("energy"), py::arg("q") = py::none(), py::arg("z") = py::none(),
+           py::arg("u") = py::none())
       .def("joint_derivatives", &joint_derivatives, py::arg("q") = py::none(),
-           py::arg("z") = py::none(), py::arg("route") = "recursive",
+           py::arg("z") = py::none(), py::arg("route") = "recursive", py::arg("u") = py::none(),
            "(q dot, z dot) of a jointed model at its joint coordinates q and independent speeds "
            "z (default: the initial ones; model.joint_layout gives each body's slices): the "
            "kinematic equations and the projected equations, by route 'recursive' (O(N)) or "
-           "'assembled'. ValueError for a model without joints.")
+           "'assembled'; u: the inputs' values (None: all 0).")
       .def("_time_derivatives", &time_derivatives, py::arg("state"), py::arg("calls"));
   (void)m;
 }

@@ -70,7 +70,7 @@ def test_docstrings_describe_the_api() -> None:
     for name in ("derivatives", "derivatives_batch", "eom", "inspect", "simulate", "initial_state", "total_mass"):
         assert name in text, name
     assert "Eq. 36" in kanedyn.Model.derivatives.__doc__
-    assert str(inspect.signature(kanedyn.Model.derivatives)) == "(self, /, x, y=None, t=0.0)"
+    assert str(inspect.signature(kanedyn.Model.derivatives)) == "(self, /, x, y=None, t=0.0, u=None)"
     assert "kanedyn simulate" in kanedyn.Model.simulate.__doc__
     assert "e4" in kanedyn.State.__doc__
     assert kanedyn.load.__doc__ and kanedyn.Result.__doc__ and kanedyn.ModelError.__doc__

@@ -111,8 +111,10 @@ def test_derivatives_arguments(eight) -> None:
         eight.derivatives(x, y, z=1)
     with pytest.raises(TypeError, match="multiple values for argument 'x'"):
         eight.derivatives(x, y, x=x)
-    with pytest.raises(TypeError, match="takes x, y and t"):
-        eight.derivatives(x, y, 0.0, 1)
+    with pytest.raises(TypeError, match="takes x, y, t and u"):
+        eight.derivatives(x, y, 0.0, None, 1)
+    with pytest.raises(ValueError, match=r"u must have shape \(m,\) = \(0,\)"):
+        eight.derivatives(x, y, 0.0, 1)  # the model has no inputs
     with pytest.raises(TypeError, match="t must be a number"):
         eight.derivatives(x, y, t="now")
     with pytest.raises(TypeError, match="doesn't apply"):
