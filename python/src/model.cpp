@@ -105,14 +105,20 @@ Equations equations_of_motion(const PyModel& m, py::object state_obj, py::object
   return e;
 }
 
-/// The index of the frame named `name`; KeyError with the closest name otherwise.
-int frame_argument(const PyModel& p, const std::string& name) {
-  const int f = p.model().frame_index(name);
-  if (f >= 0) return f;
+/// A frame or a body's own frame (origin O_K, body-K axes), named as either.
+struct Target {
+  int frame = -1, body = -1;
+};
+
+/// The frame or body named `name`; KeyError with the closest name otherwise.
+Target frame_argument(const PyModel& p, const std::string& name) {
+  if (const int f = p.model().frame_index(name); f >= 0) return {f, -1};
+  if (const int k = p.model().body_index(name); k >= 0) return {-1, k};
   std::vector<std::string> names;
   for (const Frame& frame : p.model().frames()) names.push_back(frame.name);
+  for (const BodySpec& b : p.model().bodies()) names.push_back(b.name);
   const std::string near = io::closest_word(name, names);
-  throw py::key_error("no frame named '" + io::printable(name, 60) + "'" +
+  throw py::key_error("no frame or body named '" + io::printable(name, 60) + "'" +
                       (near.empty() ? "" : " (did you mean '" + near + "'?)"));
 }
 
@@ -509,12 +515,15 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def(
           "frame",
           [](const PyModel& p, const std::string& name, py::object state_obj) {
-            const int f = frame_argument(p, name);
+            const Target f = frame_argument(p, name);
             VectorX q, z;
             model_state(p, state_obj, q, z);
             PyModel::Lease work(p);
             kinematics_at(p, q, z, *work);
-            const FrameState s = frame_state(p.model(), f, work->state, work->data.kinematics);
+            const FrameState s =
+                f.frame >= 0
+                    ? frame_state(p.model(), f.frame, work->state, work->data.kinematics)
+                    : body_frame_state(p.model(), f.body, work->state, work->data.kinematics);
             py::dict out;
             out["position"] = to_numpy(s.position);
             out["R"] = to_numpy(s.R);
@@ -523,13 +532,14 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
             return out;
           },
           py::arg("name"), py::arg("state") = py::none(),
-          "The frame at a state (default: the initial state), inertial components: a dict of "
+          "The frame (or a body's own frame: O_K and its axes, by the body's name) at a state "
+          "(default: the initial state), inertial components: a dict of "
           "its origin's 'position' and 'velocity', its 'angular_velocity', and 'R' (inertial "
           "to frame components, as a body's [R_K]).")
       .def(
           "jacobian",
           [](const PyModel& p, const std::string& name, py::object state_obj) {
-            const int f = frame_argument(p, name);
+            const Target f = frame_argument(p, name);
             VectorX q, z;
             model_state(p, state_obj, q, z);
             const int n = p.model().num_speeds();
@@ -537,7 +547,10 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
             {
               PyModel::Lease work(p);
               kinematics_at(p, q, z, *work);
-              frame_jacobian(p.model(), f, q, work->data.kinematics, Jv, Jw);
+              if (f.frame >= 0)
+                frame_jacobian(p.model(), f.frame, q, work->data.kinematics, Jv, Jw);
+              else
+                body_jacobian(p.model(), f.body, q, work->data.kinematics, Jv, Jw);
             }
             return py::make_tuple(to_numpy(Jv), to_numpy(Jw));
           },
@@ -549,14 +562,17 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       .def(
           "frame_acceleration",
           [](const PyModel& p, const std::string& name, py::object state_obj, py::object zdot_obj) {
-            const int f = frame_argument(p, name);
+            const Target f = frame_argument(p, name);
             VectorX q, z, zdot;
             model_state(p, state_obj, q, z);
             speed_vector(p, zdot_obj, zdot, "zdot");
             PyModel::Lease work(p);
             kinematics_at(p, q, z, *work);
-            const FrameAcceleration a =
-                frame_acceleration(p.model(), f, q, z, zdot, work->state, work->data.kinematics);
+            const FrameAcceleration a = f.frame >= 0
+                                            ? frame_acceleration(p.model(), f.frame, q, z, zdot,
+                                                                 work->state, work->data.kinematics)
+                                            : body_acceleration(p.model(), f.body, q, z, zdot,
+                                                                work->state, work->data.kinematics);
             py::dict out;
             out["linear"] = to_numpy(a.linear);
             out["angular"] = to_numpy(a.angular);

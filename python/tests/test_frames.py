@@ -55,3 +55,26 @@ def test_a_model_files_frames() -> None:
     assert np.array_equal(m.frame("mark")["position"], [1.0, 2.0, 3.0])
     assert not m.jacobian("mark")[0].any()
     assert kanedyn.load(EXAMPLES / "eight_body.yaml").frames == []
+
+
+def test_a_body_by_its_name_is_its_own_frame() -> None:
+    # A body's name gives its own frame (origin O_K, body-K axes): its Jacobian gives its
+    # velocities (sums of a few products: 1e-14), and its velocity's central difference along
+    # the motion its acceleration (h = 1e-6: truncation ~1e-12, round-off ~1e-10; 1e-7).
+    m = kanedyn.load(EXAMPLES / "urdf" / "arm.urdf")
+    q, z = np.array(Q), np.linspace(-1, 1, 6)
+    s = m.state(q=q, z=z)
+    body = m.frame("forearm", s)
+    Jv, Jw = m.jacobian("forearm", s)
+    assert np.allclose(Jv @ z, body["velocity"], rtol=0, atol=1e-14)
+    assert np.allclose(Jw @ z, body["angular_velocity"], rtol=0, atol=1e-14)
+    zdot = m.forward(s)
+    a = m.frame_acceleration("forearm", s, zdot)
+    h = 1e-6
+    ahead = m.frame("forearm", m.state(q=q + h * z, z=z + h * zdot))
+    behind = m.frame("forearm", m.state(q=q - h * z, z=z - h * zdot))
+    assert np.allclose((ahead["velocity"] - behind["velocity"]) / (2 * h), a["linear"], rtol=0, atol=1e-7)
+    assert np.allclose((ahead["angular_velocity"] - behind["angular_velocity"]) / (2 * h), a["angular"],
+                       rtol=0, atol=1e-7)
+    with pytest.raises(KeyError, match="did you mean 'forearm'"):
+        m.frame("forarm", s)
