@@ -46,3 +46,24 @@ def test_partial_velocities(tmp_path) -> None:
     assert diffs and max(diffs) <= 1e-15  # the two forms of {v_G8}: round-off of a 3 x 48 product
     assert "matches {F_y} to" in out
     assert float(out.split("matches {F_y} to ")[1].split()[0]) <= 1e-9
+
+
+def test_arm_pd_holds_the_pose(tmp_path) -> None:
+    # Critically damped at 4 Hz per joint (w = 25 rad/s) from errors of ~1 rad: after 3 s the
+    # error is of order 1e-8 (the sampled law adds a little); asserted below 1e-6 rad.
+    out = run("arm_pd.py", tmp_path)
+    final = float(out.split("final error ")[1].split()[0])
+    assert final < 1e-6
+    first = float(out.splitlines()[0].split("error ")[1].split()[0])
+    assert first > 1.0  # it starts far from the pose
+
+
+def test_arm_computed_torque_tracks_the_sines(tmp_path) -> None:
+    # e(t) = (e0 + (e0' + w e0) t) exp(-w t) with w = 10, e0 = 0.2 rad and e0' up to ~5 rad/s:
+    # below 1e-7 from t = 2 s (the analytic bound is 3e-8 there), and at the integrator's
+    # tolerance (rtol 1e-10) by t = 4 s: below 1e-9 rad.
+    out = run("arm_computed_torque.py", tmp_path)
+    late = float(out.split("last 2 s: ")[1].split()[0])
+    assert late < 1e-7
+    end = [line for line in out.splitlines() if line.startswith("t = 4.0")][0]
+    assert float(end.split("error ")[1].split()[0]) < 1e-9
