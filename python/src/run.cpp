@@ -215,7 +215,7 @@ py::ssize_t thread_count(py::handle obj, unsigned cores) {
 }
 
 py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::object threads_obj,
-                            py::object out) {
+                            py::object out, py::object U) {
   const int n = m.N();
   const bool notes = m.notes_layout();
   // The widths of the two arrays: 7N and 6N of the notes' layout, or the model's q and z.
@@ -230,6 +230,20 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::ob
       float64_array(Y, "Y", {rows, ny},
                     "(M, " + std::string(notes ? "6N" : "n") + ") = (" + std::to_string(rows) +
                         ", " + std::to_string(ny) + ") (M from X)");
+  const int nu = m.model().num_inputs();
+  py::array ua;
+  const bool has_u = !U.is_none();
+  if (has_u) {
+    ua = float64_array(U, "U", {rows, nu},
+                       "(M, m) = (" + std::to_string(rows) + ", " + std::to_string(nu) +
+                           "), the inputs' values of each state");
+    const double* p = doubles(ua);
+    for (py::ssize_t r = 0; r < rows; ++r)
+      for (int i = 0; i < nu; ++i)
+        if (!std::isfinite(p[r * stride(ua, 0) + i * stride(ua, 1)]))
+          throw py::value_error("U[" + std::to_string(r) + "][" + std::to_string(i) +
+                                "] is not finite");
+  }
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const py::ssize_t threads = thread_count(threads_obj, cores);
   py::array xd, yd;
@@ -281,6 +295,12 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::ob
         bad_row[static_cast<size_t>(w)] = r;
         bad[static_cast<size_t>(w)] = problem;
         return;
+      }
+      if (has_u) {
+        const double* u_in = doubles(ua);
+        for (int i = 0; i < nu; ++i)
+          lease->data.inputs[i] = u_in[r * stride(ua, 0) + i * stride(ua, 1)];
+        if (lease->dynamics) lease->dynamics->set_inputs(lease->data.inputs);
       }
       if (notes) {
         forward_dynamics(m.model(), lease->state, lease->data, Route::recursive);
@@ -930,9 +950,10 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
   cls.attr("derivatives") = py::reinterpret_steal<py::object>(
       PyDescr_NewMethod(reinterpret_cast<PyTypeObject*>(cls.ptr()), &derivatives_method));
   cls.def("derivatives_batch", &derivatives_batch, py::arg("X"), py::arg("Y"),
-          py::arg("threads") = 0, py::arg("out") = py::none(),
+          py::arg("threads") = 0, py::arg("out") = py::none(), py::arg("U") = py::none(),
           "(Xd, Yd) for M states at once: X (M, 7N), Y (M, 6N) -> Xd (M, 7N), Yd (M, 6N), row "
-          "i equal to derivatives(X[i], Y[i]). Runs on `threads` threads (0, or more than the "
+          "i equal to derivatives(X[i], Y[i], u=U[i]) (U (M, m): the inputs' values; None: "
+          "0). Runs on `threads` threads (0, or more than the "
           "hardware has: one per core) with the GIL released; RuntimeError if a thread cannot "
           "be started. out=(Xd, Yd): write into these float64 C-contiguous arrays instead of "
           "new ones (and return them); a loop that reuses them saves the first touch of new "

@@ -135,6 +135,26 @@ def test_pooled_workspaces_forget_the_inputs_of_earlier_calls(model_file) -> Non
     assert same_bits(m.forward(s), before if m.jointed else m.joint_derivatives(s)[1])
 
 
+def test_derivatives_batch_takes_the_inputs_of_each_state(model_file) -> None:
+    # Row i of a batch with U equals one call with u=U[i], bit for bit, on every thread count.
+    m = kanedyn.load(model_file)
+    s = m.initial_state()
+    rng = np.random.default_rng(5)
+    rows, mu = 6, len(m.inputs)
+    x, y = (s.q, s.z) if m.jointed else (s.x, s.y)
+    X = np.tile(x, (rows, 1))
+    Y = np.tile(y, (rows, 1)) + rng.uniform(-1, 1, (rows, len(y)))
+    U = rng.uniform(-3, 3, (rows, mu))
+    for threads in (1, 3):
+        Xd, Yd = m.derivatives_batch(X, Y, threads=threads, U=U)
+        for i in range(rows):
+            xd, yd = m.derivatives(X[i], Y[i], u=U[i])
+            assert same_bits(Xd[i], xd) and same_bits(Yd[i], yd), (threads, i)
+    assert not same_bits(m.derivatives_batch(X, Y)[1], Yd)  # the inputs act
+    with pytest.raises(ValueError, match="U"):
+        m.derivatives_batch(X, Y, U=U[:, :-1])
+
+
 @pytest.mark.parametrize("hold", ["zero-order", "linear"])
 def test_simulate_with_an_input_table_equals_the_tools_csv(model_file, tmp_path, hold) -> None:
     m = kanedyn.load(model_file)
