@@ -8,6 +8,12 @@ namespace kanedyn {
 
 namespace {
 size_t at(int i) { return static_cast<size_t>(i); }
+
+// Whether a joint of this type has a nonzero [T_K] (joint_translation_block).
+bool slides(JointType type) {
+  return type == JointType::free || type == JointType::prismatic ||
+         type == JointType::cylindrical || type == JointType::planar;
+}
 }  // namespace
 
 FrameState frame_state(const Model& model, int f, const State& state, const Kinematics& kin) {
@@ -37,29 +43,39 @@ void point_jacobian(const Model& model, int body, const Vector3& at_b, const Vec
   Jw.setZero();
   if (body == kGround) return;
   const Vector3 p = kin.p_O[at(body)] + kin.R[at(body)].transpose() * at_b;
-  detail::JointMotion motion;
   // Each joint c on the chain moves P by its speeds z_c: its rotation, w = [R_c]^T [G_c] z_c,
   // turns everything above it about O_c, and its slide moves O_c by [R_J]^T [T_c] z_c (J =
   // L(c)). A free body's w'_c is its own speed (absolute, Eq. 1): the joints below it do not
-  // turn it, they only move O_c, so below it the point moved is O_c and w gains nothing.
+  // turn it, they only move O_c, so below it the point moved is O_c and w gains nothing. Only
+  // [G_c] of the joint's table is needed (no sine or cosine but a universal joint's), and
+  // [T_c] only where the joint slides.
   Vector3 point = p;
   bool turns = true;
+  Matrix36 G;
   for (const int c : model.chain(body)) {
     const JointType type = model.joint(c).type;
     const int m = speed_count(type);
     if (m > 0) {
-      detail::joint_motion(model, c, q, nullptr, motion);
-      const Matrix36 T = joint_translation_block(model, c);
-      const int j = model.lower_body(c);
       const Matrix3& Rc = kin.R[at(c)];
       const Vector3 r = point - kin.p_O[at(c)];
       const int first = model.speed_offset(c);
-      for (int i = 0; i < m; ++i) {
-        const Vector3 w = Rc.transpose() * motion.G.col(i);
-        const Vector3 slide =
-            j == kGround ? Vector3(T.col(i)) : Vector3(kin.R[at(j)].transpose() * T.col(i));
-        if (turns) Jw.col(first + i) = w;
-        Jv.col(first + i) = slide + w.cross(r);
+      if (type != JointType::prismatic) {
+        detail::joint_rotation_columns(model, c, q, G);
+        for (int i = 0; i < m; ++i) {
+          if (G.col(i).isZero(0.0)) continue;
+          const Vector3 w = Rc.transpose() * G.col(i);
+          if (turns) Jw.col(first + i) = w;
+          Jv.col(first + i) = w.cross(r);
+        }
+      }
+      if (slides(type)) {
+        const Matrix36 T = joint_translation_block(model, c);
+        const int j = model.lower_body(c);
+        for (int i = 0; i < m; ++i) {
+          if (T.col(i).isZero(0.0)) continue;
+          Jv.col(first + i) +=
+              j == kGround ? Vector3(T.col(i)) : Vector3(kin.R[at(j)].transpose() * T.col(i));
+        }
       }
     }
     if (type == JointType::free) {

@@ -146,8 +146,9 @@ struct JointDynamics::Impl {
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
   BodyMap body_map(int k) const { return {links[at(k)].r, joint_type[at(k)] != JointType::free}; }
-  // A'_K = [P_K] A_J + c_K, A_J the ground's for a root.
-  Vector6 carried_acceleration(int k) const {
+  // A'_K = [P_K] A_J + c_K, A_J the ground's for a root. Inlined by force into the outward
+  // pass (the compiler stopped inlining it when [P_K] moved to src/spatial.hpp).
+  [[gnu::always_inline]] Vector6 carried_acceleration(int k) const {
     const Link& l = links[at(k)];
     const int j = model.lower_body(k);
     return l.c + map_velocity(body_map(k), j == kGround ? ground : links[at(j)].A);

@@ -21,6 +21,10 @@ JointMotion joint_motion(const Model& model, int k, const VectorX& q, const doub
 /// The same into m (every field written).
 void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k, JointMotion& m);
 
+/// [G_K] alone (JointMotion::G, every column written), without the rest of the table: no sine
+/// or cosine except for a universal joint, whose a1 turns with q2.
+void joint_rotation_columns(const Model& model, int k, const VectorX& q, Matrix36& G);
+
 /// joint_state, also storing each body's JointMotion in motion (N entries) when not null.
 void joint_state(const Model& model, const VectorX& q, const VectorX& z, State& state,
                  std::vector<JointMotion>* motion);

@@ -130,11 +130,50 @@ Vector4 compose_euler_parameters(const Vector4& eps_j, const Vector4& rel) {
 
 namespace detail {
 
+namespace {
+
+// [G_K] (3 x speeds, body-K components): w_rel = [G_K] z_K. Only a universal joint's depends on
+// q: a1, fixed in F and in the intermediate frame, is [R(a2, q2)] a1 in K components, and a2 is
+// fixed in K; its second turn's Euler parameters go to `second` for the joint's rotation.
+inline void rotation_columns(const Joint& jt, const VectorX& q, int o, Matrix36& G,
+                             Vector4& second) {
+  G.setZero();
+  switch (jt.type) {
+    case JointType::free:  // the notes' own: w'_K = z_K
+    case JointType::spherical:
+      G.leftCols<3>().setIdentity();
+      break;
+    case JointType::revolute:  // n is fixed by the turn about n
+    case JointType::cylindrical:
+      G.col(0) = jt.axis;
+      break;
+    case JointType::universal:
+      second = turn_about_unit_axis(jt.axes[1], q[o + 1]);
+      G.col(0) = rotation_matrix(second) * jt.axes[0];
+      G.col(1) = jt.axes[1];
+      break;
+    case JointType::planar:  // e_z has the same components in F and K
+      G.col(2) = Vector3::UnitZ();
+      break;
+    case JointType::prismatic:
+    case JointType::weld:
+      break;
+  }
+}
+
+}  // namespace
+
+void joint_rotation_columns(const Model& model, int k, const VectorX& q, Matrix36& G) {
+  Vector4 second;
+  rotation_columns(model.joint(k), q, model.coordinate_offset(k), G, second);
+}
+
 void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k, JointMotion& m) {
   const Joint& jt = model.joint(k);
   const int o = model.coordinate_offset(k);
   const auto rate = [z_k](int c) { return z_k ? z_k[c] : 0.0; };
-  m.G.setZero();
+  Vector4 second;  // a universal joint's second turn
+  rotation_columns(jt, q, o, m.G, second);
   m.w_rel.setZero();
   m.slide.setZero();
   m.slide_rate.setZero();
@@ -143,7 +182,6 @@ void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k
   switch (jt.type) {
     case JointType::free:  // the notes' own: w'_K = z_K, s'_K dot = the next three
       m.rel = jt.frame;
-      m.G.leftCols<3>().setIdentity();
       m.w_rel = Vector3(rate(0), rate(1), rate(2));
       m.slide = q.segment<3>(o + 4);
       m.slide_rate = Vector3(rate(3), rate(4), rate(5));
@@ -151,9 +189,8 @@ void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k
     case JointType::weld:
       m.slide = jt.translation;
       break;
-    case JointType::revolute:  // n is fixed by the turn about n
+    case JointType::revolute:
       joint_rel = turn_about_unit_axis(jt.axis, q[o]);
-      m.G.col(0) = jt.axis;
       m.w_rel = rate(0) * jt.axis;
       break;
     case JointType::prismatic:
@@ -162,34 +199,27 @@ void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k
       break;
     case JointType::cylindrical:
       joint_rel = turn_about_unit_axis(jt.axis, q[o]);
-      m.G.col(0) = jt.axis;
       m.w_rel = rate(0) * jt.axis;
       m.slide = q[o + 1] * model.axis_in_j(k);
       m.slide_rate = rate(1) * model.axis_in_j(k);
       break;
     case JointType::universal: {
-      // a1 first, then a2 as the first turn carried it: a1 (fixed in F and in the intermediate
-      // frame) in K components is [R(a2, q2)] a1, and a2 is fixed in K; d/dt [R(a2, q2)] a1 =
+      // a1 first, then a2 as the first turn carried it (rotation_columns); d/dt [R(a2, q2)] a1 =
       // -(q2 dot a2) x [R(a2, q2)] a1.
-      const Vector4 second = turn_about_unit_axis(jt.axes[1], q[o + 1]);
       joint_rel = compose(turn_about_unit_axis(jt.axes[0], q[o]), second);
-      const Vector3 a1_k = rotation_matrix(second) * jt.axes[0];
-      m.G.col(0) = a1_k;
-      m.G.col(1) = jt.axes[1];
+      const Vector3 a1_k = m.G.col(0);
       m.w_rel = rate(0) * a1_k + rate(1) * jt.axes[1];
       m.g_dot_z = -rate(0) * rate(1) * jt.axes[1].cross(a1_k);
       break;
     }
     case JointType::spherical:
       joint_rel = q.segment<4>(o);
-      m.G.leftCols<3>().setIdentity();
       m.w_rel = Vector3(rate(0), rate(1), rate(2));
       break;
     case JointType::planar: {
       // q = (x, y, angle): K is F turned by angle about F's z, which is also K's z; the slide
       // x, y along F's x and y axes, constant in J, so [T_K] = [x_F y_F 0] (J components).
       joint_rel = turn_about_unit_axis(Vector3::UnitZ(), q[o + 2]);
-      m.G.col(2) = Vector3::UnitZ();
       m.w_rel = Vector3(0.0, 0.0, rate(2));
       const Eigen::Matrix<double, 3, 2> t = plane_axes_in_j(jt.frame);
       m.slide = q[o] * t.col(0) + q[o + 1] * t.col(1);
@@ -242,7 +272,9 @@ Vector3 joint_translation(const Model& model, int k, const VectorX& q) {
 }
 
 Matrix36 joint_rotation_block(const Model& model, int k, const VectorX& q) {
-  return detail::joint_motion(model, k, q, nullptr).G;
+  Matrix36 G;
+  detail::joint_rotation_columns(model, k, q, G);
+  return G;
 }
 
 Matrix36 joint_translation_block(const Model& model, int k) {

@@ -118,8 +118,11 @@ inline void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& tar
 // [S_K] = ([R_K]^T [G_K]; [R_J]^T [T_K]) into the m columns at s (6 doubles a column): the
 // angular rows from [G_K] (none for a prismatic joint), the linear rows from the columns of
 // [T_K] set in the mask `slides` ([T] = [0 I] for a free body: [R_J]^T, not read from T).
-inline void motion_subspace(JointType type, int m, const Matrix3& rk, const Matrix3& rj,
-                            const Matrix36& G, const Matrix36& T, unsigned slides, double* s) {
+// Inlined by force: called once per body in the forward route's outward pass, where a call
+// (the compiler's choice once the function left that file) cost about 1% of an evaluation.
+[[gnu::always_inline]] inline void motion_subspace(JointType type, int m, const Matrix3& rk,
+                                                   const Matrix3& rj, const Matrix36& G,
+                                                   const Matrix36& T, unsigned slides, double* s) {
   Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> out(s, 6, m);
   if (type == JointType::prismatic) {
     out.topRows<3>().setZero();

@@ -44,6 +44,17 @@ struct Link {
   double mass;  // centre of mass: the mass of K's subtree
 };
 
+// Body K's terms of the inverse dynamics, in body-K axes about O_K: the recursion needs only
+// [R(rel)] = [R_K][R_J]^T between neighbours, not [R_K].
+struct LocalLink {
+  Matrix3 E;  // [R_K][R_J]^T: body-J components to body-K components
+  Vector3 r;  // q'_K + s'_K, body-J components
+  Vector3 w;  // w'_K
+  Vector6 A;  // (alpha'_K, a_O_K), body-K components
+  Vector6 f;  // the force (moment about O_K; force) K needs, then its subtree's, body-K axes
+  Matrix3 R;  // [R_K], kept only where a free body below another body needs it
+};
+
 }  // namespace
 
 struct Terms::Impl {
@@ -54,6 +65,7 @@ struct Terms::Impl {
         S0(S) {
     const int n = m.num_bodies();
     links.resize(at(n));
+    local.resize(at(n));
     composite.resize(at(n));
     for (int k = 0; k < n; ++k) {
       const JointType type = m.joint(k).type;
@@ -61,14 +73,15 @@ struct Terms::Impl {
       types.push_back(type);
       speeds.push_back(speed_count(type));
       offset.push_back(m.speed_offset(k));
-      translation.push_back(type == JointType::free ? Matrix36::Zero()
-                                                    : joint_translation_block(m, k));
+      translation.push_back(joint_translation_block(m, k));  // [0 I] for a free body
       slides.push_back(detail::slide_columns(translation.back(), speeds.back()));
+      absolute_rotations =
+          absolute_rotations || (type == JointType::free && m.lower_body(k) != kGround);
     }
+    motions.resize(at(n));
     if (m.has_body_force_elements() || m.has_body_inputs()) {
       data.emplace(m, DataOptions::recursive_only());
       state.emplace(m);
-      motions.resize(at(n));
       for (const auto& element : m.forces())
         loads_read_positions = loads_read_positions || element->reads_positions();
     }
@@ -84,12 +97,17 @@ struct Terms::Impl {
   VectorX joint_force;             // Q of the force elements on joint coordinates
   // [S_K] about O_K, and about the inertial origin (mass matrix): 6 doubles a speed.
   std::vector<double> S, S0;
+  std::vector<LocalLink> local;
+  // A free body below another body: [R(rel)] = [R(eps_K)][R_J]^T needs [R_J], so [R_K] is
+  // carried outward (without body loads, which bring it with the notes' kinematics).
+  bool absolute_rotations = false;
   detail::JointMotion motion;
   // The notes' state, its kinematics and loads: only for a model with loads on bodies, whose
   // force elements read them.
   std::optional<Data> data;
   std::optional<State> state;
-  std::vector<detail::JointMotion> motions;  // the joint tables joint_state computed with it
+  // The joint tables at (q, z): joint_state's with the notes' state, else newton_euler's.
+  std::vector<detail::JointMotion> motions;
   bool loads_read_positions = false;
   bool body_loads = false;  // whether the last own_loads() filled data->loads
   Vector6 ground = Vector6::Zero();
@@ -163,91 +181,136 @@ void Terms::Impl::own_loads(const VectorX& q, const VectorX& z, const VectorX* u
   if (!body_loads) ground.tail<3>() = -model.gravity();
 }
 
-// Newton-Euler over the joints, after own_loads() (or with body_loads false and ground set):
-// outward, body K's [R_K], r_K, w_K, [S_K] and c_K as in outward() (from the joint tables and
-// [R_K] of the notes' state when the loads computed it), A_K = [P_K] A_J + [S_K] z dot_K + c_K
-// (A_J = ground for a root; z dot = 0 when null; w = 0 and c = 0 when z is null) and the force
-// K needs about O_K, f_K = [I_O,K] A_K + b_K - F_ext,K; inward, f_J += [P_K]^T f_K and
-// tau_K = [S_K]^T f_K: the generalized inertia forces minus the active forces of z_K (Eqs.
-// 31-35 projected), the joint reactions absent ([C]^T {F_c} = 0).
+// Newton-Euler over the joints, after own_loads() (or with body_loads false and ground set), in
+// body-K axes about O_K: the same equations as in inertial axes (docs/theory.md), but each body
+// needs only E = [R(rel)] = [R_K][R_J]^T, where inertial axes need [R_K] = E [R_J] and [R_K]^T
+// on every vector. With r = q'_K + s'_K and sd = s'_K dot (body-J components), w_rel = [G_K] z_K
+// (body-K components) and a = 0 for a free body (its w'_K is its own speed), else 1, outward:
+//   w'_K     = a E w'_J + w_rel
+//   alpha'_K = a E alpha'_J + w'_K x w_rel + [G_K dot] z_K + [G_K] z dot_K
+//   a_O_K    = E (a_O_J + alpha'_J x r + 2 w'_J x sd + w'_J x (w'_J x r) + [T_K] z dot_K)
+// (Eqs. 28 and 30; A_J = the ground's acceleration for a root, z dot = 0 when null, w' = 0
+// when z is null), and the force K needs about O_K, F = m a_G - F_K with a_G = a_O + alpha' x r'
+// + w' x (w' x r') (Eq. 17 differentiated), n = [I'_G] alpha' + w' x [I'_G] w' - M'_K + r' x F
+// (Euler's equation about G_K, moved to O_K). Inward, K = N..1: tau_K = [S_K]^T f_K, its
+// angular half [G_K]^T n and its linear half [T_K]^T (E^T F) in body-J components, and f_J +=
+// [P_K]^T f_K, (a E^T n + r x E^T F; E^T F) about O_J in body-J axes: the generalized inertia
+// forces minus the active forces of z_K (Eqs. 31-35 projected), the joint reactions absent
+// ([C]^T {F_c} = 0).
 void Terms::Impl::newton_euler(const VectorX& q, const VectorX* z, const VectorX* zdot,
                                Eigen::Ref<VectorX> tau) {
   const int n = model.num_bodies();
+  const bool carry_r = absolute_rotations && !body_loads;
   for (int k = 0; k < n; ++k) {
     const auto i = at(k);
     const int j = lower[i];
     const bool root = j == kGround;
     const JointType type = types[i];
+    const bool is_free = type == JointType::free;
     const int off = offset[i];
     const int m = speeds[i];
-    if (!body_loads) detail::joint_motion(model, k, q, z ? z->data() + off : nullptr, motion);
-    const detail::JointMotion& jm = body_loads ? motions[i] : motion;
-    Link& l = links[i];
-    const Link* lj = root ? nullptr : &links[at(j)];
-    const Matrix3& rj = root ? kIdentity3 : lj->R;
-    if (body_loads)
-      l.R = data->kinematics.R[i];
-    else if (type == JointType::free)
-      l.R = rotation_matrix(q.segment<4>(model.coordinate_offset(k)));
-    else if (root)
-      l.R = rotation_matrix(jm.rel);
-    else
-      l.R.noalias() = rotation_matrix(jm.rel) * rj;
-    const Matrix3& rk = l.R;
-    l.r.noalias() = rj.transpose() * (model.body(k).joint + jm.slide);
-    double* s = S.data() + 6 * off;
-    if (m > 0) detail::motion_subspace(type, m, rk, rj, jm.G, translation[i], slides[i], s);
-    // A_K = [P_K] A_J + c_K + [S_K] z dot_K.
-    const Vector6& a_j = root ? ground : lj->A;
-    l.A.head<3>() = type == JointType::free ? Vector3::Zero() : Vector3(a_j.head<3>());
-    l.A.tail<3>() = a_j.tail<3>() + a_j.head<3>().cross(l.r);
-    if (z) {
-      const Vector3 w_j = root ? Vector3::Zero() : lj->w;
-      l.w.noalias() = rk.transpose() * jm.w_rel;
-      if (type != JointType::free) l.w += w_j;
-      detail::velocity_product_acceleration(type, root, l.w, w_j, rk, rj, jm, l.r, l.c);
-      l.A += l.c;
+    detail::JointMotion& jm = motions[i];
+    if (!body_loads) detail::joint_motion(model, k, q, z ? z->data() + off : nullptr, jm);
+    LocalLink& l = local[i];
+    const LocalLink* lj = root ? nullptr : &local[at(j)];
+    // E: a free body's joint table holds its frame, not its rotation relative to J.
+    if (!is_free) {
+      l.E = eq::eigen(eq::rotation_matrix(eq::euler(jm.rel)));  // Eqs. (3)-(4)
+    } else if (body_loads) {
+      l.E = data->kinematics.R[i];
+      if (!root) l.E *= data->kinematics.R[at(j)].transpose();
+    } else {
+      l.E = rotation_matrix(q.segment<4>(model.coordinate_offset(k)));
+      if (!root) l.E *= lj->R.transpose();
     }
-    if (zdot)
+    if (carry_r) {
+      if (root)
+        l.R = l.E;
+      else
+        l.R.noalias() = l.E * lj->R;
+    }
+    l.r = model.body(k).joint + jm.slide;
+    // w'_K: the notes' state has it when the loads computed it.
+    if (body_loads) {
+      l.w = state->angular_velocity(k);
+    } else if (z) {
+      l.w = jm.w_rel;
+      if (!is_free && !root) l.w.noalias() += l.E * lj->w;
+    } else {
+      l.w.setZero();
+    }
+    // J's terms in body-J components, turned into K's axes by one product with E: alpha'_J and
+    // the acceleration of O_K (as a point of J, and its slide).
+    const Vector6& a_j = root ? ground : lj->A;
+    Eigen::Matrix<double, 3, 2> from_j;
+    from_j.col(0) = a_j.head<3>();
+    from_j.col(1) = a_j.tail<3>() + a_j.head<3>().cross(l.r);
+    if (z && !root) {
+      const Vector3& w_j = lj->w;
+      if (slides[i] != 0)
+        from_j.col(1) += eq::eigen(
+            eq::transport_acceleration(eq::vec(w_j), eq::vec(jm.slide_rate), eq::vec(l.r)));
+      else  // sd = 0
+        from_j.col(1) += eq::eigen(eq::centripetal_acceleration(eq::vec(w_j), eq::vec(l.r)));
+    }
+    Vector3 alpha = Vector3::Zero();
+    if (zdot)  // [G_K] z dot_K, and [T_K] z dot_K (a free body's [T_K] = [0 I])
       for (int col = 0; col < m; ++col) {
         const double rate = (*zdot)[off + col];
-        for (int e = 0; e < 6; ++e) l.A[e] += rate * s[6 * col + e];
+        alpha += rate * jm.G.col(col);
+        if (slides[i] & (1u << col)) from_j.col(1) += rate * translation[i].col(col);
       }
-    // [I_O] A + b written out, with c = G_K - O_K: F = m a_G, a_G = a_O + alpha x c +
-    // w x (w x c) (Eq. 17 differentiated), and the moment about O_K [I_G] alpha + w x [I_G] w
-    // + c x F, its first two terms Euler's in body-K axes, where [I'_G] is given.
-    const BodySpec& body = model.body(k);
-    const Vector3 cg = rk.transpose() * body.com;
-    const Vector3 alpha = l.A.head<3>();
-    Vector3 a_g = l.A.tail<3>() + alpha.cross(cg);
-    Vector3 euler = body.inertia * (rk * alpha);
-    if (z) {
-      a_g += eq::eigen(eq::centripetal_acceleration(eq::vec(l.w), eq::vec(cg)));
-      const Vector3 w_b = rk * l.w;
-      euler += w_b.cross(body.inertia * w_b);
+    Eigen::Matrix<double, 3, 2> in_k;
+    in_k.noalias() = l.E * from_j;
+    l.A.tail<3>() = in_k.col(1);
+    if (!is_free) {
+      alpha += in_k.col(0);
+      if (z) {
+        alpha += l.w.cross(jm.w_rel);
+        if (type == JointType::universal) alpha += jm.g_dot_z;
+      }
     }
-    if (body_loads) euler -= data->loads.moment_b[i];
-    Vector3 moment = rk.transpose() * euler;
+    l.A.head<3>() = alpha;
+    const BodySpec& body = model.body(k);
+    Vector3 a_g = l.A.tail<3>() + alpha.cross(body.com);
+    Eigen::Matrix<double, 3, 2> aw;  // alpha' and w', then [I'_G] times them
+    aw.col(0) = alpha;
+    aw.col(1) = l.w;
+    const Eigen::Matrix<double, 3, 2> i_aw = body.inertia * aw;
+    Vector3 moment = i_aw.col(0);
+    if (z) {
+      a_g += eq::eigen(eq::centripetal_acceleration(eq::vec(l.w), eq::vec(body.com)));
+      moment += l.w.cross(i_aw.col(1));
+    }
     Vector3 force = body.mass * a_g;
-    if (body_loads) force -= data->loads.force[i];
-    moment += cg.cross(force);
+    if (body_loads) {
+      force.noalias() -= data->kinematics.R[i] * data->loads.force[i];
+      moment -= data->loads.moment_b[i];
+    }
+    moment += body.com.cross(force);
     l.f.head<3>() = moment;
     l.f.tail<3>() = force;
   }
   for (int k = n - 1; k >= 0; --k) {
     const auto i = at(k);
-    const Link& l = links[i];
-    const double* s = S.data() + 6 * offset[i];
+    const LocalLink& l = local[i];
+    // (F, n) turned into J's axes by one product with E^T.
+    const Eigen::Map<const Eigen::Matrix<double, 3, 2>> nf(l.f.data());
+    Eigen::Matrix<double, 3, 2> in_j;
+    in_j.noalias() = l.E.transpose() * nf;
+    const auto moment_j = in_j.col(0);
+    const auto force_j = in_j.col(1);
+    const detail::JointMotion& jm = motions[i];
     for (int col = 0; col < speeds[i]; ++col) {
-      double sum = 0.0;
-      for (int e = 0; e < 6; ++e) sum += s[6 * col + e] * l.f[e];
+      double sum = jm.G.col(col).dot(l.f.head<3>());
+      if (slides[i] & (1u << col)) sum += translation[i].col(col).dot(force_j);
       tau[offset[i] + col] = sum;
     }
     if (lower[i] != kGround) {
-      Vector6& f = links[at(lower[i])].f;
-      f.head<3>() += l.r.cross(l.f.tail<3>());
-      if (types[i] != JointType::free) f.head<3>() += l.f.head<3>();
-      f.tail<3>() += l.f.tail<3>();
+      Vector6& f = local[at(lower[i])].f;
+      f.head<3>() += l.r.cross(force_j);
+      if (types[i] != JointType::free) f.head<3>() += moment_j;
+      f.tail<3>() += force_j;
     }
   }
 }

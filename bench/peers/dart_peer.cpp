@@ -511,7 +511,7 @@ class DartJointedEngine final : public JointedEngine {
   }
 
   void evaluate() override {
-    skeleton_->setPositions(positions_);
+    skeleton_->setPositions(next_positions());
     skeleton_->setVelocities(velocities_);
     accelerations();
   }
@@ -584,6 +584,80 @@ class DartJointedEngine final : public JointedEngine {
 
   long steps() const override { return steps_; }
 
+  bool has_terms() const override { return true; }
+
+  // DART's accelerations from kanedyn's z dot: u = T z (speed_map) and, for a free root, the
+  // turning of K's axes: v = R^T s' dot gives v dot = R^T s'' - w x v (the inverse of zdot()).
+  void set_zdot(const std::vector<double>& zdot) override {
+    // From here on every call alternates between the state and one whose first coordinate is
+    // one ulp away: DART's setPositions returns early on unchanged positions, keeping the
+    // kinematics (and the mass matrix) of the previous call, which kanedyn's calls recompute.
+    positions_apart_ = positions_;
+    positions_apart_[0] = std::nextafter(positions_[0], 1e300);
+    alternate_ = true;
+    alternated_ = true;  // the next call takes positions_
+    skeleton_->setPositions(positions_);
+    skeleton_->setVelocities(velocities_);
+    map_ = speed_map();
+    accelerations_ = map_ * Eigen::Map<const Eigen::VectorXd>(
+                                zdot.data(), static_cast<Eigen::Index>(zdot.size()));
+    for (size_t k = 0; k < joints_.size(); ++k) {
+      if (system_.joints[k].type != JointKind::free) continue;
+      const Eigen::Vector6d v = joints_[k]->getVelocities();
+      accelerations_.segment<3>(static_cast<Eigen::Index>(joints_[k]->getIndexInSkeleton(3))) -=
+          v.head<3>().cross(v.tail<3>());
+    }
+  }
+
+  // Skeleton::computeInverseDynamics with the bushings as external forces (as in evaluate());
+  // the joint loads are subtracted afterwards (generalized_forces), being the model's own.
+  void inverse_dynamics() override {
+    skeleton_->setPositions(next_positions());
+    skeleton_->setVelocities(velocities_);
+    skeleton_->setAccelerations(accelerations_);
+    skeleton_->clearExternalForces();
+    for (size_t k = 0; k < joints_.size(); ++k)
+      if (system_.joints[k].type == JointKind::free) apply_bushing(k);
+    skeleton_->computeInverseDynamics(true, false, false);
+  }
+
+  std::vector<double> generalized_forces() override {
+    const Eigen::VectorXd q = map_.transpose() * skeleton_->getForces();
+    std::vector<double> out(q.data(), q.data() + q.size());
+    for (size_t k = 0; k < joints_.size(); ++k) {
+      const JointSpec& j = system_.joints[k];
+      double* z = out.data() + system_.z_offset[k];
+      switch (j.type) {
+        case JointKind::revolute:
+        case JointKind::prismatic:
+        case JointKind::universal:
+        case JointKind::planar:
+          for (size_t i = 0; i < joints_[k]->getNumDofs(); ++i) z[i] -= load(j, i, joints_[k], i);
+          break;
+        case JointKind::cylindrical:
+          z[0] -= load(j, 0, joints_[k], 0);
+          z[1] -= load(j, 1, joints_extra_[k], 0);
+          break;
+        default:
+          break;
+      }
+    }
+    return out;
+  }
+
+  // Skeleton::getMassMatrix after setPositions (which marks it out of date).
+  void mass_matrix() override {
+    skeleton_->setPositions(next_positions());
+    mass_sink_ = skeleton_->getMassMatrix()(0, 0);
+  }
+
+  std::vector<double> mass_matrix_in_z() override {
+    skeleton_->setPositions(positions_);
+    alternated_ = false;
+    const Eigen::MatrixXd m = map_.transpose() * skeleton_->getMassMatrix() * map_;
+    return std::vector<double>(m.data(), m.data() + m.size());
+  }
+
   // The skeleton's accelerations at its current positions and velocities, loads included.
   void accelerations() {
     skeleton_->clearExternalForces();
@@ -632,12 +706,59 @@ class DartJointedEngine final : public JointedEngine {
     K->addExtTorque(m, false);
   }
 
+  // positions_, or after set_zdot() positions_ and positions_apart_ in turn.
+  const Eigen::VectorXd& next_positions() {
+    if (!alternate_) return positions_;
+    alternated_ = !alternated_;
+    return alternated_ ? positions_apart_ : positions_;
+  }
+
+  // u = T z at the skeleton's state: per body, DART's dofs of kanedyn's speeds (a cylindrical
+  // joint's slide on its extra joint) and, for a free root, v = R^T s' dot (K components).
+  Eigen::MatrixXd speed_map() const {
+    const auto n = static_cast<Eigen::Index>(system_.z.size());
+    Eigen::MatrixXd t = Eigen::MatrixXd::Zero(n, n);
+    const auto dof = [](const dart::dynamics::Joint* joint, size_t i) {
+      return static_cast<Eigen::Index>(joint->getIndexInSkeleton(i));
+    };
+    for (size_t k = 0; k < joints_.size(); ++k) {
+      const Eigen::Index off = system_.z_offset[k];
+      const dart::dynamics::Joint* joint = joints_[k];
+      switch (system_.joints[k].type) {
+        case JointKind::free: {
+          const Eigen::Matrix3d R = bodies_[k]->getWorldTransform().linear();
+          for (int a = 0; a < 3; ++a) {
+            t(dof(joint, static_cast<size_t>(a)), off + a) = 1;
+            for (int b = 0; b < 3; ++b)
+              t(dof(joint, static_cast<size_t>(3 + a)), off + 3 + b) = R(b, a);
+          }
+          break;
+        }
+        case JointKind::cylindrical:
+          t(dof(joint, 0), off) = 1;
+          t(dof(joints_extra_.at(k), 0), off + 1) = 1;
+          break;
+        case JointKind::weld:
+          break;
+        default:
+          for (size_t i = 0; i < joint->getNumDofs(); ++i)
+            t(dof(joint, i), off + static_cast<Eigen::Index>(i)) = 1;
+      }
+    }
+    return t;
+  }
+
   JointedSystem system_;
   dart::dynamics::SkeletonPtr skeleton_;
   std::vector<BodyNode*> bodies_;
   std::vector<dart::dynamics::Joint*> joints_;
   std::map<size_t, dart::dynamics::Joint*> joints_extra_;  // a cylindrical joint's slide
   Eigen::VectorXd positions_, velocities_;
+  Eigen::MatrixXd map_;            // speed_map() at set_zdot()
+  Eigen::VectorXd accelerations_;  // set_zdot()'s, DART's
+  volatile double mass_sink_ = 0;  // keeps the timed mass matrix
+  Eigen::VectorXd positions_apart_;
+  bool alternate_ = false, alternated_ = false;
   Rk4 rk4_integrator_;
   Eigen::VectorXd q_int_, v_int_;
   double step_ = 0, time_ = 0;

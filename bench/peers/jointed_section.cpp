@@ -3,6 +3,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -18,6 +19,7 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/joints.hpp"
+#include "kanedyn/terms.hpp"
 
 namespace peers {
 namespace {
@@ -346,11 +348,189 @@ void scaling_section(const JointedOptions& opt) {
   }
 }
 
+// kanedyn's inverse dynamics and mass matrix (Terms) beside the peers' own calls on the same
+// models at the same state (the first random state of compare_section), with the forward
+// dynamics of each as the reference of its ratios: first the results compared in kanedyn's z
+// order and convention (at random joint accelerations in [-1, 1]), then every call timed in
+// interleaved rounds.
+bool terms_section(const JointedOptions& opt) {
+  struct Engine {
+    std::string title;
+    std::optional<JointedEngineInfo> info;  // empty for kanedyn
+  };
+  std::vector<Engine> engines{{"kanedyn", std::nullopt}};
+  for (const std::string& e : opt.engines) {
+    std::optional<JointedEngineInfo> info;
+    if (e == "simbody") info = simbody_jointed_engine();
+#ifdef KANEDYN_PEERS_HAVE_DART
+    if (e == "dart") info = dart_jointed_engine();
+#endif
+    if (info) engines.push_back({info->name + " " + info->version, info});
+  }
+  const std::vector<std::unique_ptr<JointedCase>> cases = make_cases(opt);
+  if (cases.empty()) return true;
+  std::cout << "\n## Inverse dynamics and mass matrix\n"
+            << "# kanedyn Terms::inverse_dynamics and Terms::mass_matrix beside Simbody's "
+               "calcResidualForceIgnoringConstraints (after realizing Dynamics for the applied "
+               "forces) and calcM, and DART's Skeleton::computeInverseDynamics (bushings as "
+               "external forces) and getMassMatrix; each engine's forward dynamics (as in the "
+               "jointed section) in the same rounds. Results compared in kanedyn's z order "
+               "and convention, relative to the largest |Q| and |M_ij|\n"
+            << std::flush;
+  constexpr int kCalls = 3;  // forward, inverse dynamics, mass matrix
+  const char* call_names[kCalls] = {"forward", "inverse dynamics", "mass matrix"};
+  // timing[case][engine][call]; difference[case][engine][0: Q, 1: M]
+  std::vector<std::vector<std::array<std::optional<Timing>, kCalls>>> timing(
+      cases.size(), std::vector<std::array<std::optional<Timing>, kCalls>>(engines.size()));
+  std::vector<std::vector<std::array<double, 2>>> difference(
+      cases.size(), std::vector<std::array<double, 2>>(engines.size(), {-1.0, -1.0}));
+  bool all_agree = true;
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    JointedCase& c = *cases[ci];
+    std::mt19937 rng(opt.seed);
+    random_joint_state(c, rng);
+    const int n = c.model.num_speeds();
+    std::uniform_real_distribution<double> rate(-1.0, 1.0);
+    const VectorX zdot = VectorX::NullaryExpr(n, [&] { return rate(rng); });
+    kanedyn::Dynamics dyn(c.model, kanedyn::Route::recursive);
+    kanedyn::Terms terms(c.model);
+    VectorX Q(n), forward_zdot(n);
+    kanedyn::MatrixX M(n, n);
+    terms.inverse_dynamics(c.q, c.z, zdot, Q);
+    terms.mass_matrix(c.q, M);
+    const JointedSystem sys = describe_jointed(c);
+    std::vector<std::unique_ptr<JointedEngine>> made(engines.size());
+    std::vector<std::array<Runner, kCalls>> runners(engines.size());
+    std::vector<Runner*> active;
+    const std::vector<double> zdot_list(zdot.data(), zdot.data() + n);
+    for (size_t ei = 0; ei < engines.size(); ++ei) {
+      std::array<Runner, kCalls>& r = runners[ei];
+      if (ei == 0) {
+        r[0].run_batch = [&](long count) {
+          for (long b = 0; b < count; ++b) dyn.evaluate(c.q, c.z, forward_zdot);
+        };
+        r[1].run_batch = [&](long count) {
+          for (long b = 0; b < count; ++b) terms.inverse_dynamics(c.q, c.z, zdot, Q);
+        };
+        r[2].run_batch = [&](long count) {
+          for (long b = 0; b < count; ++b) terms.mass_matrix(c.q, M);
+        };
+      } else {
+        try {
+          if (const std::string why = engines[ei].info->unsupported(sys); !why.empty())
+            throw std::runtime_error(why);
+          made[ei] = engines[ei].info->make(sys);
+          JointedEngine& e = *made[ei];
+          if (!e.has_terms()) throw std::runtime_error("no inverse dynamics here");
+          e.set_zdot(zdot_list);
+          e.inverse_dynamics();
+          const std::vector<double> q = e.generalized_forces();
+          difference[ci][ei][0] = relative_difference(q, Q);
+          e.mass_matrix();
+          const std::vector<double> m = e.mass_matrix_in_z();
+          const Eigen::Map<const kanedyn::MatrixX> mm(m.data(), n, n);
+          difference[ci][ei][1] = (mm - M).cwiseAbs().maxCoeff() / M.cwiseAbs().maxCoeff();
+          all_agree = all_agree && difference[ci][ei][0] <= opt.tolerance &&
+                      difference[ci][ei][1] <= opt.tolerance;
+          r[0].run_batch = [&e](long count) {
+            for (long b = 0; b < count; ++b) e.evaluate();
+          };
+          r[1].run_batch = [&e](long count) {
+            for (long b = 0; b < count; ++b) e.inverse_dynamics();
+          };
+          r[2].run_batch = [&e](long count) {
+            for (long b = 0; b < count; ++b) e.mass_matrix();
+          };
+        } catch (const std::exception& ex) {
+          std::cout << "# " << c.name << " " << engines[ei].title << ": not run: " << ex.what()
+                    << "\n";
+          made[ei].reset();
+          continue;
+        }
+      }
+      for (Runner& one : r) {
+        const auto t0 = Clock::now();
+        one.run_batch(1);
+        one.first = seconds_since(t0);
+        active.push_back(&one);
+      }
+    }
+    time_interleaved(active, opt.budget);
+    for (size_t ei = 0; ei < engines.size(); ++ei) {
+      if (ei > 0 && !made[ei]) continue;
+      std::cout << "# " << c.name << " " << engines[ei].title << ":";
+      for (int k = 0; k < kCalls; ++k) {
+        timing[ci][ei][static_cast<size_t>(k)] = statistics(runners[ei][static_cast<size_t>(k)]);
+        std::cout << " " << call_names[k] << " median "
+                  << format_ns(timing[ci][ei][static_cast<size_t>(k)]->median_ns) << " ns, min "
+                  << format_ns(timing[ci][ei][static_cast<size_t>(k)]->min_ns) << " ns;";
+      }
+      if (ei > 0)
+        std::cout << " rel. diff. of Q " << format_sci(difference[ci][ei][0]) << ", of M "
+                  << format_sci(difference[ci][ei][1]);
+      std::cout << "\n" << std::flush;
+    }
+  }
+
+  // One row per model: per engine, median ns of inverse dynamics and mass matrix and their
+  // ratios to the engine's own forward dynamics.
+  std::cout << "\nInverse dynamics (ID) and mass matrix (M), median ns per call, and per engine "
+               "the ratio to its own forward dynamics (FD):\n\n| model | n |";
+  for (const Engine& e : engines) std::cout << ' ' << e.title << " ID | M | ID/FD | M/FD |";
+  std::cout << "\n|---|---:|";
+  for (size_t i = 0; i < engines.size(); ++i) std::cout << "---:|---:|---:|---:|";
+  std::cout << "\n";
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    std::cout << "| " << cases[ci]->name << " | " << cases[ci]->model.num_speeds() << " |";
+    for (size_t ei = 0; ei < engines.size(); ++ei) {
+      const auto& t = timing[ci][ei];
+      if (!t[0]) {
+        std::cout << " - | - | - | - |";
+        continue;
+      }
+      std::cout << ' ' << format_ns(t[1]->median_ns) << " | " << format_ns(t[2]->median_ns) << " | "
+                << ratio_text(t[1]->median_ns / t[0]->median_ns) << " | "
+                << ratio_text(t[2]->median_ns / t[0]->median_ns) << " |";
+    }
+    std::cout << "\n";
+  }
+  std::cout << "\nInverse dynamics and mass matrix, median time relative to kanedyn's (x "
+               "slower), and the largest relative difference of Q and of M from kanedyn's:\n\n"
+               "| model | n |";
+  for (size_t ei = 1; ei < engines.size(); ++ei)
+    std::cout << ' ' << engines[ei].title << " ID | M | diff. Q | diff. M |";
+  std::cout << "\n|---|---:|";
+  for (size_t ei = 1; ei < engines.size(); ++ei) std::cout << "---:|---:|---:|---:|";
+  std::cout << "\n";
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    std::cout << "| " << cases[ci]->name << " | " << cases[ci]->model.num_speeds() << " |";
+    const auto& base = timing[ci][0];
+    for (size_t ei = 1; ei < engines.size(); ++ei) {
+      const auto& t = timing[ci][ei];
+      if (!t[0]) {
+        std::cout << " - | - | - | - |";
+        continue;
+      }
+      std::cout << ' ' << ratio_text(t[1]->median_ns / base[1]->median_ns) << " | "
+                << ratio_text(t[2]->median_ns / base[2]->median_ns) << " | "
+                << format_sci(difference[ci][ei][0]) << " | " << format_sci(difference[ci][ei][1])
+                << " |";
+    }
+    std::cout << "\n";
+  }
+  std::cout << std::flush;
+  if (!all_agree)
+    std::cout << "\nSome engine's Q or M differs from kanedyn's by more than "
+              << format_sci(opt.tolerance) << ".\n";
+  return all_agree;
+}
+
 }  // namespace
 
 bool run_jointed_sections(const JointedOptions& opt) {
   bool ok = true;
   if (opt.compare) ok = compare_section(opt);
+  if (opt.terms) ok = terms_section(opt) && ok;
   if (opt.scaling) scaling_section(opt);
   return ok;
 }

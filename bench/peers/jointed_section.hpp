@@ -26,6 +26,7 @@ struct JointedOptions {
   double tolerance = 1e-10;
   bool compare = true;  ///< the jointed models: accelerations and timing
   bool scaling = true;  ///< kanedyn's time per body
+  bool terms = false;   ///< inverse dynamics and mass matrix beside the peers' own
 };
 
 /// Runs the selected jointed sections, printing as the free-body section does. Returns false

@@ -193,6 +193,20 @@ class JointedEngine {
   virtual void advance_to(double t) { (void)t; }
   virtual std::vector<BodyPose> pose() { return {}; }
   virtual long steps() const { return 0; }
+
+  /// Whether the engine has the calls below (kanedyn's Terms beside the engine's own).
+  virtual bool has_terms() const { return false; }
+  /// The joint accelerations of the next inverse_dynamics(), as kanedyn's z dot (untimed).
+  virtual void set_zdot(const std::vector<double>& zdot) { (void)zdot; }
+  /// The engine's inverse dynamics at the state and set_zdot()'s accelerations (the timed call).
+  virtual void inverse_dynamics() {}
+  /// Its result in kanedyn's z order and convention: the generalized forces to add to the
+  /// model's own loads (gravity, bushings, joint loads) for the motion (Terms::inverse_dynamics).
+  virtual std::vector<double> generalized_forces() { return {}; }
+  /// The engine's joint-space mass matrix at the state (the timed call).
+  virtual void mass_matrix() {}
+  /// Its result in kanedyn's z order and convention, n x n by columns (Terms::mass_matrix).
+  virtual std::vector<double> mass_matrix_in_z() { return {}; }
 };
 
 struct JointedEngineInfo {

@@ -62,9 +62,9 @@ struct Options {
   double tolerance = 1e-8;
   double backward_tolerance = 1e-10;
 #ifdef KANEDYN_PEERS_HAVE_DART_URDF
-  std::vector<std::string> sections{"free", "jointed", "scaling", "urdf"};
+  std::vector<std::string> sections{"free", "jointed", "terms", "scaling", "urdf"};
 #else
-  std::vector<std::string> sections{"free", "jointed", "scaling"};
+  std::vector<std::string> sections{"free", "jointed", "terms", "scaling"};
 #endif
   int jointed_chain = 512;
   int jointed_states = 4;
@@ -470,11 +470,13 @@ int main(int argc, char** argv) {
                  "Accept a larger difference when kanedyn's accelerations satisfy the engine's "
                  "own M qacc = f to this componentwise backward error (ill-conditioned M)")
       ->capture_default_str();
-  app.add_option("--sections", opt.sections,
-                 "free (the free-body tables), jointed (jointed models: accelerations and "
-                 "timing), scaling (kanedyn's time per body on revolute chains), urdf "
-                 "(kanedyn's URDF import against DART's URDF loader; needs "
-                 "libdart-utils-urdf-dev)")
+  app.add_option(
+         "--sections", opt.sections,
+         "free (the free-body tables), jointed (jointed models: accelerations and "
+         "timing), terms (the jointed models' inverse dynamics and mass matrix against "
+         "Simbody's and DART's), scaling (kanedyn's time per body on revolute chains), urdf "
+         "(kanedyn's URDF import against DART's URDF loader; needs "
+         "libdart-utils-urdf-dev)")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--jointed-chain", opt.jointed_chain,
@@ -503,9 +505,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   for (const std::string& section : opt.sections)
-    if (section != "free" && section != "jointed" && section != "scaling" && section != "urdf") {
+    if (section != "free" && section != "jointed" && section != "scaling" && section != "urdf" &&
+        section != "terms") {
       std::cerr << "kanedyn_peers: unknown section '" << section
-                << "' (free, jointed, scaling, urdf)\n";
+                << "' (free, jointed, scaling, urdf, terms)\n";
       return 1;
     }
   if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
@@ -552,7 +555,7 @@ int main(int argc, char** argv) {
     return std::find(opt.sections.begin(), opt.sections.end(), section) != opt.sections.end();
   };
   int rc = selected("free") ? free_bodies(opt, columns, have_recursive) : 0;
-  if (selected("jointed") || selected("scaling")) {
+  if (selected("jointed") || selected("scaling") || selected("terms")) {
     peers::JointedOptions j;
     j.models = opt.models;
     j.engines = opt.engines;
@@ -566,6 +569,7 @@ int main(int argc, char** argv) {
     j.tolerance = opt.joint_tolerance;
     j.compare = selected("jointed");
     j.scaling = selected("scaling");
+    j.terms = selected("terms");
     if (!peers::run_jointed_sections(j) && rc == 0) rc = 2;
   }
   if (selected("urdf")) {

@@ -12,11 +12,14 @@
 
 #include <Simbody.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "peer.hpp"
 
@@ -447,7 +450,113 @@ class SimbodyJointedEngine final : public JointedEngine {
   }
   long steps() const override { return integrator_ ? integrator_->getNumStepsTaken() : 0; }
 
+  bool has_terms() const override { return true; }
+
+  // Simbody's u dot from kanedyn's z dot: u = T z (speed_map), with T constant along the
+  // motion in the sense of zdot(): u dot = T z dot.
+  void set_zdot(const std::vector<double>& zdot) override {
+    state_.updQ() = q_;
+    state_.updU() = u_;
+    mb_system_.realize(state_, SimTK::Stage::Position);
+    map_ = speed_map();
+    const std::vector<double> udot = times(map_, zdot, false);
+    udot_.resize(static_cast<int>(udot.size()));
+    for (size_t i = 0; i < udot.size(); ++i) udot_[static_cast<int>(i)] = udot[i];
+  }
+
+  // The applied forces of every force element (gravity, bushings, joint loads) at the state,
+  // then SimbodyMatterSubsystem::calcResidualForceIgnoringConstraints: M u dot + C - applied,
+  // the forces to add to the model's own for u dot.
+  void inverse_dynamics() override {
+    state_.updQ() = q_;
+    state_.updU() = u_;
+    mb_system_.realize(state_, SimTK::Stage::Dynamics);
+    matter_.calcResidualForceIgnoringConstraints(
+        state_, mb_system_.getMobilityForces(state_, SimTK::Stage::Dynamics),
+        mb_system_.getRigidBodyForces(state_, SimTK::Stage::Dynamics), udot_, residual_);
+  }
+
+  std::vector<double> generalized_forces() override {
+    std::vector<double> r(static_cast<size_t>(residual_.size()));
+    for (size_t i = 0; i < r.size(); ++i) r[i] = residual_[static_cast<int>(i)];
+    return times(map_, r, true);
+  }
+
+  // SimbodyMatterSubsystem::calcM after setting Q (which invalidates the Position stage).
+  void mass_matrix() override {
+    state_.updQ() = q_;
+    mb_system_.realize(state_, SimTK::Stage::Position);
+    matter_.calcM(state_, mass_);
+  }
+
+  std::vector<double> mass_matrix_in_z() override {
+    const size_t n = system_.z.size();
+    std::vector<double> out(n * n), column(n);
+    for (size_t c = 0; c < n; ++c) {  // T^T M T, a column at a time
+      std::vector<double> e(n, 0.0);
+      e[c] = 1;
+      const std::vector<double> tc = times(map_, e, false);
+      for (size_t i = 0; i < n; ++i) {
+        double sum = 0;
+        for (size_t j = 0; j < n; ++j)
+          sum += mass_(static_cast<int>(i), static_cast<int>(j)) * tc[j];
+        column[i] = sum;
+      }
+      const std::vector<double> col = times(map_, column, true);
+      std::copy(col.begin(), col.end(), out.begin() + static_cast<std::ptrdiff_t>(c * n));
+    }
+    return out;
+  }
+
  private:
+  // u = T z at the realized state, n x n by columns: per body, Simbody's u of kanedyn's
+  // speeds (planar_index), a free root's w in ground components (R_K w'_K) and a ball's
+  // in F components (R_FK z).
+  std::vector<double> speed_map() const {
+    const size_t n = system_.z.size();
+    std::vector<double> t(n * n, 0.0);
+    const auto at = [&t, n](int row, int col) -> double& {
+      return t[static_cast<size_t>(col) * n + static_cast<size_t>(row)];
+    };
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const SimTK::MobilizedBody& mb = bodies_[k];
+      const int iu = mb.getFirstUIndex(state_);
+      const int off = system_.z_offset[k];
+      const JointKind type = system_.joints[k].type;
+      if (type == JointKind::free || type == JointKind::spherical) {
+        const Rotation R = type == JointKind::free ? mb.getBodyRotation(state_)
+                                                   : mb.getMobilizerTransform(state_).R();
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) at(iu + a, off + b) = R[a][b];
+        if (type == JointKind::free)
+          for (int a = 3; a < 6; ++a) at(iu + a, off + a) = 1;
+        continue;
+      }
+      for (int i = 0; i < mb.getNumU(state_); ++i) at(iu + simbody_index(type, i), off + i) = 1;
+    }
+    return t;
+  }
+
+  // T x or T^T x for T of speed_map().
+  static std::vector<double> times(const std::vector<double>& t, const std::vector<double>& x,
+                                   bool transposed) {
+    const size_t n = x.size();
+    std::vector<double> out(n, 0.0);
+    for (size_t c = 0; c < n; ++c)
+      for (size_t r = 0; r < n; ++r) {
+        const double v = t[c * n + r];
+        if (v == 0) continue;
+        if (transposed)
+          out[c] += v * x[r];
+        else
+          out[r] += v * x[c];
+      }
+    return out;
+  }
+
+  std::vector<double> map_;
+  SimTK::Vector udot_, residual_;
+  SimTK::Matrix mass_;
   JointedSystem system_;
   SimTK::MultibodySystem mb_system_;
   SimTK::SimbodyMatterSubsystem matter_;
