@@ -311,7 +311,8 @@ TEST(Inputs, ModelRefusesBadInputs) {
   EXPECT_THROW(Model(m.bodies(), m.gravity(), m.forces(), "", joints, {},
                      {Input{"a", InputType::joint, 0, 0}, Input{"a", InputType::joint, 0, 1}}),
                ModelError);
-  Dynamics d(make(Input{"a", InputType::joint, 0, 0}));
+  const Model one = make(Input{"a", InputType::joint, 0, 0});  // Dynamics keeps a reference
+  Dynamics d(one);
   EXPECT_THROW(d.set_inputs(VectorX::Zero(2)), std::invalid_argument);
 }
 
