@@ -301,7 +301,7 @@ class Run {
         s_.inputs->value(t, segment_, u_);
       } else {
         joint_coordinates_of(v);
-        control(t, cq_, cz_);
+        control(t, cq_, cz_, u_);
       }
       dynamics_.set_inputs(u_);
       dynamics_.derivative(v, dv);
@@ -323,20 +323,21 @@ class Run {
       cz_.segment<3>(6 * k + 3) = v.segment<3>(10 * n + 3 * k);
     }
   }
-  /// The controller's u_ at (t, q, z); its exception becomes a ControllerFailure.
-  void control(double t, const VectorX& q, const VectorX& z) {
+  /// The controller's values at (t, q, z) into u (holding its last values); its exception, or a
+  /// value that is not finite, becomes a ControllerFailure.
+  void control(double t, const VectorX& q, const VectorX& z, VectorX& u) {
     try {
-      s_.controller(t, q, z, u_);
+      s_.controller(t, q, z, u);
     } catch (const std::exception& e) {
       throw ControllerFailure{t, e.what()};
     } catch (...) {
       throw ControllerFailure{t, "an exception that is not a std::exception"};
     }
-    if (!u_.allFinite()) throw ControllerFailure{t, "it set a value that is not finite"};
+    if (!u.allFinite()) throw ControllerFailure{t, "it set a value that is not finite"};
   }
-  /// The end of the segment from t: the next row time of the table or control instant after t,
-  /// or t_end. Integrators never step across it.
-  double segment_end(double t) const {
+  /// The end of the segment being integrated: the next row time of the table or control
+  /// instant, or t_end. Integrators never step across it.
+  double segment_end() const {
     double end = s_.t_end;
     if (drive_ == Drive::table) {
       const auto& times = s_.inputs->times();
@@ -345,7 +346,6 @@ class Run {
     } else if (drive_ == Drive::interval) {
       end = std::min(end, control_time(control_index_ + 1));
     }
-    (void)t;
     return end;
   }
   double control_time(long i) const {
@@ -360,7 +360,7 @@ class Run {
     } else if (drive_ == Drive::interval) {
       while (control_time(control_index_ + 1) <= t) ++control_index_;
       joint_coordinates_of(v);
-      control(t, cq_, cz_);
+      control(t, cq_, cz_, u_);
     }
     dynamics_.set_inputs(u_);
   }
@@ -370,13 +370,7 @@ class Run {
       s_.inputs->value(t, u_out_);
     } else if (drive_ == Drive::every_evaluation) {
       u_out_ = u_;
-      try {
-        s_.controller(t, q_, z_state_, u_out_);
-      } catch (const std::exception& e) {
-        throw ControllerFailure{t, e.what()};
-      } catch (...) {
-        throw ControllerFailure{t, "an exception that is not a std::exception"};
-      }
+      control(t, q_, z_state_, u_out_);
     } else {
       u_out_ = u_;
     }
@@ -389,7 +383,7 @@ class Run {
     try {
       if (drive_ == Drive::interval) {
         joint_coordinates_of(z_);
-        control(s_.t_start, cq_, cz_);
+        control(s_.t_start, cq_, cz_, u_);
         dynamics_.set_inputs(u_);
       }
       if (s_.integrator == Integrator::rk4)
@@ -482,7 +476,7 @@ class Run {
       // Each output interval, split at the segments' ends (a table's rows, control
       // instants), in equal steps no longer than s_.step.
       while (t < t_next) {
-        const double end = segment_end(t);
+        const double end = segment_end();
         const double stop = std::min(t_next, end);
         const double span = stop - t;
         const long substeps = rk4_substeps(span, s_.step);
@@ -532,7 +526,7 @@ class Run {
     opt.atol = s_.atol;
     opt.max_step = s_.max_step;
     Dopri5 dp(size_, ode(), opt);
-    double end = segment_end(s_.t_start);
+    double end = segment_end();
     const StepStatus started = dp.start(s_.t_start, z_, end);
     stats_.evaluations = dp.evaluations();
     long evaluations = 0, rejected = 0;  // of the segments before the current one
@@ -580,7 +574,7 @@ class Run {
         cross(t, z_);
         evaluations += dp.evaluations();
         rejected += dp.steps_rejected();
-        end = segment_end(t);
+        end = segment_end();
         if (dp.start(t, z_, end) != StepStatus::ok) {
           fail(SimulationStatus::non_finite, dp.failed_component(),
                "non-finite derivative at t = " + format_time(t) + " after the inputs changed",
