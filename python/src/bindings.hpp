@@ -106,6 +106,20 @@ bool is_float64(const py::array& a);
 void copy_vector(const py::array& a, VectorX& v);
 
 /// The first double of a float64_array and its strides in doubles.
+/// Inside a catch block of a METH_FASTCALL function (no pybind11 dispatcher): sets the Python
+/// error of the exception being handled as pybind11 would, for the caller to return nullptr.
+inline void set_python_error() {
+  try {
+    throw;
+  } catch (py::error_already_set& e) {
+    e.restore();
+  } catch (const py::builtin_exception& e) {
+    e.set_error();
+  } catch (const std::exception& e) {
+    PyErr_SetString(PyExc_RuntimeError, e.what());
+  }
+}
+
 inline const double* doubles(const py::array& a) { return static_cast<const double*>(a.data()); }
 inline py::ssize_t stride(const py::array& a, int dim) {
   return a.strides(dim) / static_cast<py::ssize_t>(sizeof(double));

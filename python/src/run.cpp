@@ -151,12 +151,8 @@ PyObject* derivatives_fastcall(PyObject* self, PyObject* const* args, Py_ssize_t
                        given[3] ? py::handle(given[3]) : py::handle(Py_None))
         .release()
         .ptr();
-  } catch (py::error_already_set& e) {
-    e.restore();
-  } catch (const py::builtin_exception& e) {
-    e.set_error();
-  } catch (const std::exception& e) {
-    PyErr_SetString(PyExc_RuntimeError, e.what());
+  } catch (...) {
+    set_python_error();
   }
   return nullptr;
 }
