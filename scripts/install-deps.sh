@@ -8,7 +8,7 @@
 #   --fuzz   also clang 14 and libFuzzer, for the fuzz target (scripts/fuzz.sh).
 set -euo pipefail
 pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev liburdfdom-dev libcli11-dev
-      nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
+      nlohmann-json3-dev liblapack-dev libopenblas-dev libgtest-dev libgmock-dev libbenchmark-dev
       python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib)
 for arg in "$@"; do
   case "$arg" in

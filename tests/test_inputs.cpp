@@ -22,55 +22,15 @@
 namespace kanedyn {
 namespace {
 
+using test::joints_of;
+using test::random_input;
 using test::random_joint;
 using test::random_joint_state;
+using test::random_jointed;
 using test::random_tree;
+using test::rebuilt;
 using test::uniform;
 using test::uniform_int;
-
-std::vector<Joint> joints_of(const Model& m) {
-  std::vector<Joint> joints;
-  for (int k = 0; k < m.num_bodies(); ++k) joints.push_back(m.joint(k));
-  return joints;
-}
-
-Model rebuilt(const Model& m, std::vector<std::shared_ptr<const ForceElement>> forces,
-              std::vector<Input> inputs, std::vector<Frame> frames = {}) {
-  return Model(m.bodies(), m.gravity(), std::move(forces), m.name(), joints_of(m),
-               std::move(frames), std::move(inputs));
-}
-
-// A random tree with random joints (every type), gravity and, unless conservative, damped
-// bushings; no constant loads (they would not be conservative).
-Model random_jointed(std::mt19937& rng, bool damping) {
-  test::RandomTreeOptions opt;
-  opt.min_bodies = 2;
-  opt.max_bodies = 7;
-  opt.gravity = Vector3(0.3, -0.2, -9.81);
-  opt.damping = damping;
-  const Model tree = random_tree(rng, opt);
-  std::vector<Joint> joints;
-  for (int k = 0; k < tree.num_bodies(); ++k)
-    joints.push_back(random_joint(rng, test::random_joint_type(rng)));
-  return with_joints(tree, joints);
-}
-
-// One input of the given type on a body of the model that can take it (a body with speeds for
-// a joint input), with random parameters; false when there is none.
-bool random_input(const Model& m, std::mt19937& rng, InputType type, Input& in) {
-  std::vector<int> candidates;
-  for (int k = 0; k < m.num_bodies(); ++k)
-    if (type != InputType::joint || speed_count(m.joint(k).type) > 0) candidates.push_back(k);
-  if (candidates.empty()) return false;
-  in.type = type;
-  in.body = candidates[static_cast<size_t>(uniform_int(rng, 0, int(candidates.size()) - 1))];
-  in.speed = uniform_int(rng, 0, std::max(0, speed_count(m.joint(in.body).type) - 1));
-  in.direction = test::random_vector(rng, -1, 1);
-  in.point = test::random_vector(rng, -0.5, 0.5);
-  in.axis = test::random_vector(rng, -1, 1);
-  in.reaction = uniform(rng, 0, 1) < 0.5;
-  return true;
-}
 
 VectorX zdot_of(const Model& m, const VectorX& q, const VectorX& z, const VectorX& u) {
   Dynamics d(m);

@@ -1,6 +1,7 @@
 // Everything of kanedyn's public API in one include.
 #pragma once
 
+#include "kanedyn/analysis.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"

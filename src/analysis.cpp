@@ -1,0 +1,940 @@
+// Derivatives of forward dynamics, linearization, eigenvalues and static equilibrium
+// (docs/analysis.md; docs/theory.md, "Derivatives").
+#include "kanedyn/analysis.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/forces.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/rotation.hpp"
+#include "kanedyn/terms.hpp"
+
+#include "dual.hpp"
+#include "equations.hpp"
+#include "generic_dynamics.hpp"
+
+namespace kanedyn {
+
+namespace eq {
+template <int N>
+struct Lanes<Dual<N>> {
+  static Dual<N> sqrt(const Dual<N>& v) { return kanedyn::sqrt(v); }
+  static bool all(bool b) { return b; }
+};
+}  // namespace eq
+
+namespace {
+
+size_t at(int i) { return static_cast<size_t>(i); }
+
+// The width of one dual pass: 8 directions, two AVX2 registers a number.
+constexpr int kChunk = 8;
+using D8 = Dual<kChunk>;
+
+template <typename S>
+using V3 = eq::Vec3<S>;
+template <typename S>
+using M3 = eq::Mat3<S>;
+template <typename S>
+using Eu = eq::Euler<S>;
+
+template <typename S>
+V3<S> constant(const Vector3& v) {
+  return {S(v.x()), S(v.y()), S(v.z())};
+}
+template <typename S>
+V3<S> times(const Matrix3& m, const V3<S>& v) {
+  return {m(0, 0) * v.x + m(0, 1) * v.y + m(0, 2) * v.z,
+          m(1, 0) * v.x + m(1, 1) * v.y + m(1, 2) * v.z,
+          m(2, 0) * v.x + m(2, 1) * v.y + m(2, 2) * v.z};
+}
+template <typename S>
+S dot_constant(const Vector3& a, const V3<S>& b) {
+  return a.x() * b.x + a.y() * b.y + a.z() * b.z;
+}
+// a b and a b^T.
+template <typename S>
+M3<S> product(const M3<S>& a, const M3<S>& b) {
+  M3<S> r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      r.a[3 * i + j] =
+          a.a[3 * i] * b.a[j] + a.a[3 * i + 1] * b.a[3 + j] + a.a[3 * i + 2] * b.a[6 + j];
+  return r;
+}
+template <typename S>
+M3<S> product_transposed(const M3<S>& a, const M3<S>& b) {
+  M3<S> r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      r.a[3 * i + j] = a.a[3 * i] * b.a[3 * j] + a.a[3 * i + 1] * b.a[3 * j + 1] +
+                       a.a[3 * i + 2] * b.a[3 * j + 2];
+  return r;
+}
+// The Euler parameters of K from J's and K's relative to J ([R] = [R(rel)][R_J]): J rel in
+// Hamilton algebra, relative_euler_parameters of conj(J).
+template <typename S>
+Eu<S> compose(const Eu<S>& j, const Eu<S>& rel) {
+  const Eu<S> conj{{-j.e[0], -j.e[1], -j.e[2], j.e[3]}};
+  return eq::relative_euler_parameters(conj, rel);
+}
+template <typename S>
+Eu<S> constant_euler(const Vector4& e) {
+  return {{S(e[0]), S(e[1]), S(e[2]), S(e[3])}};
+}
+// The turn by `angle` about a unit axis (the joints' table, src/joints.cpp).
+template <typename S>
+Eu<S> turn(const Vector3& axis, const S& angle) {
+  using std::cos;
+  using std::sin;
+  const S half = 0.5 * angle;
+  const S s = sin(half);
+  return {{s * axis.x(), s * axis.y(), s * axis.z(), cos(half)}};
+}
+
+bool is_identity(const Vector4& e) {
+  return e[0] == 0.0 && e[1] == 0.0 && e[2] == 0.0 && e[3] == 1.0;
+}
+
+// Body K's terms in one evaluation, body-K components unless said.
+template <typename S>
+struct Body {
+  Eu<S> eps;                      // eps_K, absolute
+  M3<S> R;                        // [R_K]
+  M3<S> E;                        // [R_K][R_J]^T
+  V3<S> r;                        // q'_K + s'_K, body-J components
+  V3<S> sd;                       // s'_K dot, body-J components
+  V3<S> slide;                    // s'_K, body-J components
+  V3<S> w, w_rel;                 // w'_K; [G_K] z_K
+  V3<S> G[3];                     // [G_K]'s columns
+  V3<S> alpha, a;                 // alpha'_K; the acceleration of O_K
+  V3<S> moment, force;            // what K (then its subtree) needs, about O_K
+  V3<S> load_force, load_moment;  // the resultants on K: a force at G_K, a moment
+};
+
+// The constant per-body tables of a model.
+struct Tables {
+  std::vector<Matrix36> translation;  // [T_K], body-J components
+  std::vector<unsigned> slides;       // its nonzero columns
+  std::vector<const Bushing*> bushings;
+  std::vector<const ConstantForce*> forces;
+  std::vector<const ConstantTorque*> torques;
+  std::vector<const JointLoad*> joint_loads;
+  bool supported = true;
+
+  explicit Tables(const Model& model) {
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      translation.push_back(joint_translation_block(model, k));
+      unsigned mask = 0;
+      for (int c = 0; c < speed_count(model.joint(k).type); ++c)
+        if (!translation.back().col(c).isZero(0.0)) mask |= 1u << c;
+      slides.push_back(mask);
+    }
+    for (const auto& element : model.forces()) {
+      if (const auto* b = dynamic_cast<const Bushing*>(element.get()))
+        bushings.push_back(b);
+      else if (const auto* f = dynamic_cast<const ConstantForce*>(element.get()))
+        forces.push_back(f);
+      else if (const auto* t = dynamic_cast<const ConstantTorque*>(element.get()))
+        torques.push_back(t);
+      else if (const auto* l = dynamic_cast<const JointLoad*>(element.get()))
+        joint_loads.push_back(l);
+      else
+        supported = false;
+    }
+  }
+};
+
+// The joint table of body K over S (the table of detail::joint_motion, docs/theory.md,
+// "Joints"): eps, R, E, slide, sd, w_rel and the columns G into b, [G dot] z_K into g_dot_z;
+// J's terms in lower (null for a root).
+template <typename S>
+void joint_terms(const Model& model, const Tables& tables, int k, const S* q, const S* z,
+                 const Body<S>* lower, Body<S>& b, V3<S>& g_dot_z) {
+  const Joint& jt = model.joint(k);
+  const int o = model.coordinate_offset(k);
+  const int p = model.speed_offset(k);
+  const S zero{};
+  const S one = zero + 1.0;
+  const V3<S> none{zero, zero, zero};
+  for (auto& g : b.G) g = none;
+  b.w_rel = none;
+  b.slide = none;
+  b.sd = none;
+  g_dot_z = none;
+  if (jt.type == JointType::free) {  // the notes' own: eps_K and s'_K in q, w'_K and s'_K dot in z
+    b.eps = {{q[o], q[o + 1], q[o + 2], q[o + 3]}};
+    b.R = eq::rotation_matrix(b.eps);
+    b.E = lower ? product_transposed(b.R, lower->R) : b.R;
+    b.w_rel = {z[p], z[p + 1], z[p + 2]};
+    b.slide = {q[o + 4], q[o + 5], q[o + 6]};
+    b.sd = {z[p + 3], z[p + 4], z[p + 5]};
+    b.G[0] = {one, zero, zero};
+    b.G[1] = {zero, one, zero};
+    b.G[2] = {zero, zero, one};
+    return;
+  }
+  Eu<S> rel{{zero, zero, zero, one}};  // K relative to F
+  switch (jt.type) {
+    case JointType::free:
+      break;
+    case JointType::weld:
+      b.slide = constant<S>(jt.translation);
+      break;
+    case JointType::revolute:
+    case JointType::cylindrical:
+      rel = turn(jt.axis, q[o]);
+      b.G[0] = constant<S>(jt.axis);
+      b.w_rel = z[p] * b.G[0];
+      break;
+    case JointType::prismatic:
+      break;
+    case JointType::universal: {
+      // a1 first, then a2 as the first turn carried it: a1 in K components is [R(a2, q2)] a1,
+      // and d/dt [R(a2, q2)] a1 = -(q2 dot a2) x [R(a2, q2)] a1.
+      const Eu<S> second = turn(jt.axes[1], q[o + 1]);
+      b.G[0] = eq::rotation_matrix(second) * constant<S>(jt.axes[0]);
+      b.G[1] = constant<S>(jt.axes[1]);
+      rel = compose(turn(jt.axes[0], q[o]), second);
+      b.w_rel = z[p] * b.G[0] + z[p + 1] * b.G[1];
+      g_dot_z = -(z[p] * z[p + 1]) * eq::cross(b.G[1], b.G[0]);
+      break;
+    }
+    case JointType::spherical:
+      rel = {{q[o], q[o + 1], q[o + 2], q[o + 3]}};
+      b.G[0] = {one, zero, zero};
+      b.G[1] = {zero, one, zero};
+      b.G[2] = {zero, zero, one};
+      b.w_rel = {z[p], z[p + 1], z[p + 2]};
+      break;
+    case JointType::planar:  // K's z is F's z
+      rel = turn(Vector3(Vector3::UnitZ()), q[o + 2]);
+      b.G[2] = {zero, zero, one};
+      b.w_rel = z[p + 2] * b.G[2];
+      break;
+  }
+  // The slides: z_K = dq_K/dt on every joint type with one (prismatic, cylindrical, planar).
+  const unsigned mask = tables.slides[at(k)];
+  for (int c = 0; c < 3; ++c)
+    if (mask & (1u << c)) {
+      const V3<S> t = constant<S>(tables.translation[at(k)].col(c));
+      b.slide = b.slide + q[o + c] * t;
+      b.sd = b.sd + z[p + c] * t;
+    }
+  if (!is_identity(jt.frame)) rel = compose(constant_euler<S>(jt.frame), rel);
+  b.E = eq::rotation_matrix(rel);
+  b.eps = lower ? compose(lower->eps, rel) : rel;
+  b.R = lower ? product(b.E, lower->R) : b.E;
+}
+
+// The loads on the bodies of the built-in force elements and of the inputs at u, into
+// load_force (at G_K) and load_moment, body-K components; gravity is not among them (the
+// ground's acceleration -g carries it). The laws of forces.cpp (docs/model-format.md, "Force
+// laws, exactly"), each from src/equations.inc.
+template <typename S>
+void body_loads(const Model& model, const Tables& tables, const S* u,
+                std::vector<Body<S>>& bodies) {
+  const S zero{};
+  for (auto& b : bodies) {
+    b.load_force = {zero, zero, zero};
+    b.load_moment = {zero, zero, zero};
+  }
+  for (const Bushing* bushing : tables.bushings) {
+    const int k = bushing->body();
+    const int j = model.lower_body(k);
+    Body<S>& bk = bodies[at(k)];
+    // K relative to J from the absolute parameters, as the notes' state gives them.
+    const Eu<S> rel =
+        j == kGround ? bk.eps : eq::relative_euler_parameters(bodies[at(j)].eps, bk.eps);
+    const M3<S> R = eq::rotation_matrix(rel);
+    const V3<S> f = eq::bushing_force(constant<S>(bushing->stiffness),
+                                      constant<S>(bushing->damping), bk.slide, bk.sd);  // body J
+    V3<S> w_rel = bk.w;
+    if (j != kGround) w_rel = w_rel - R * bodies[at(j)].w;
+    const V3<S> m =
+        eq::bushing_moment(S(bushing->rotational_stiffness), S(bushing->rotational_damping),
+                           eq::rotation_vector(rel), w_rel);
+    const eq::ForceAndMoment<S> on_k = eq::bushing_load_on_k(R, f, constant<S>(model.body(k).com));
+    bk.load_force = bk.load_force + on_k.force;
+    bk.load_moment = bk.load_moment + on_k.moment + m;
+    if (j == kGround) continue;
+    Body<S>& bj = bodies[at(j)];
+    bj.load_force = bj.load_force - f;
+    const V3<S> arm = constant<S>(model.body(k).joint) + bk.slide - constant<S>(model.body(j).com);
+    bj.load_moment = bj.load_moment + eq::bushing_moment_on_j(R, f, m, arm);
+  }
+  for (const ConstantForce* force : tables.forces) {  // inertial components
+    Body<S>& b = bodies[at(force->body())];
+    b.load_force = b.load_force + b.R * constant<S>(force->value);
+  }
+  for (const ConstantTorque* torque : tables.torques) {
+    Body<S>& b = bodies[at(torque->body())];
+    b.load_moment = b.load_moment + constant<S>(torque->value);
+  }
+  // The inputs (add_input_loads): force and torque inputs, and joint inputs on free bodies.
+  const auto& inputs = model.inputs();
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const Input& in = inputs[i];
+    const S& value = u[i];
+    const int k = in.body;
+    const int j = model.lower_body(k);
+    Body<S>& bk = bodies[at(k)];
+    switch (in.type) {
+      case InputType::force: {
+        const V3<S> f = value * constant<S>(in.direction);
+        bk.load_force = bk.load_force + f;
+        bk.load_moment = bk.load_moment + eq::cross(constant<S>(in.point - model.body(k).com), f);
+        break;
+      }
+      case InputType::torque: {
+        const V3<S> m = value * constant<S>(in.axis);
+        bk.load_moment = bk.load_moment + m;
+        if (in.reaction && j != kGround)
+          bodies[at(j)].load_moment = bodies[at(j)].load_moment - eq::transpose_times(bk.E, m);
+        break;
+      }
+      case InputType::joint: {
+        if (model.joint(k).type != JointType::free) break;  // a generalized force, below
+        if (in.speed < 3) {
+          V3<S> m{zero, zero, zero};
+          (in.speed == 0 ? m.x : in.speed == 1 ? m.y : m.z) = value;
+          bk.load_moment = bk.load_moment + m;
+          break;
+        }
+        V3<S> f_j{zero, zero, zero};  // body J
+        (in.speed == 3 ? f_j.x : in.speed == 4 ? f_j.y : f_j.z) = value;
+        const V3<S> f_k = bk.E * f_j;
+        bk.load_force = bk.load_force + f_k;
+        bk.load_moment = bk.load_moment - eq::cross(constant<S>(model.body(k).com), f_k);
+        if (j == kGround) break;
+        Body<S>& bj = bodies[at(j)];
+        bj.load_force = bj.load_force - f_j;
+        const V3<S> arm =
+            constant<S>(model.body(k).joint) + bk.slide - constant<S>(model.body(j).com);
+        bj.load_moment = bj.load_moment - eq::cross(arm, f_j);
+        break;
+      }
+    }
+  }
+}
+
+// Q = the generalized inertia forces minus the active forces at (q, z, zdot, u), over S
+// (src/terms.cpp's Newton-Euler in body axes; generic_dynamics.hpp).
+template <typename S>
+void inverse_dynamics(const Model& model, const Tables& tables, const S* q, const S* z,
+                      const double* zdot, const S* u, S* Q, std::vector<Body<S>>& bodies) {
+  const int n = model.num_bodies();
+  const S zero{};
+  const V3<S> none{zero, zero, zero};
+  // A uniform -g on every body's acceleration stands for gravity (docs/theory.md).
+  const V3<S> ground_a = constant<S>(-model.gravity());
+  for (int k = 0; k < n; ++k) {
+    const int j = model.lower_body(k);
+    Body<S>* lower = j == kGround ? nullptr : &bodies[at(j)];
+    Body<S>& b = bodies[at(k)];
+    const bool free = model.joint(k).type == JointType::free;
+    V3<S> g_dot_z;
+    joint_terms(model, tables, k, q, z, lower, b, g_dot_z);
+    b.r = constant<S>(model.body(k).joint) + b.slide;
+    b.w = free || !lower ? b.w_rel : b.w_rel + b.E * lower->w;
+    const int p = model.speed_offset(k);
+    const int m = speed_count(model.joint(k).type);
+    // The acceleration of O_K in body-J components (Eqs. 28 and 30), then in K's.
+    V3<S> a_j = lower ? lower->a : ground_a;
+    if (lower) {
+      a_j = a_j + eq::cross(lower->alpha, b.r) + eq::transport_acceleration(lower->w, b.sd, b.r);
+    }
+    V3<S> alpha = none;
+    for (int c = 0; c < m; ++c) {
+      const double rate = zdot[p + c];
+      if (free) {
+        if (c < 3) alpha = alpha + rate * b.G[c];
+      } else {
+        alpha = alpha + rate * b.G[c];
+      }
+      if (tables.slides[at(k)] & (1u << c))
+        a_j = a_j + rate * constant<S>(tables.translation[at(k)].col(c));
+    }
+    b.a = b.E * a_j;
+    if (!free) {
+      if (lower) alpha = alpha + b.E * lower->alpha;
+      alpha = alpha + eq::cross(b.w, b.w_rel) + g_dot_z;
+    }
+    b.alpha = alpha;
+    const BodySpec& body = model.body(k);
+    const V3<S> com = constant<S>(body.com);
+    const V3<S> a_g = b.a + eq::cross(alpha, com) + eq::centripetal_acceleration(b.w, com);
+    b.force = body.mass * a_g;
+    b.moment = times(body.inertia, alpha) + eq::cross(b.w, times(body.inertia, b.w));
+  }
+  body_loads(model, tables, u, bodies);
+  for (auto& b : bodies) {
+    b.force = b.force - b.load_force;
+    b.moment = b.moment - b.load_moment;
+  }
+  for (int k = 0; k < n; ++k) {
+    Body<S>& b = bodies[at(k)];
+    b.moment = b.moment + eq::cross(constant<S>(model.body(k).com), b.force);
+  }
+  for (int k = n - 1; k >= 0; --k) {
+    const Body<S>& b = bodies[at(k)];
+    const V3<S> moment_j = eq::transpose_times(b.E, b.moment);
+    const V3<S> force_j = eq::transpose_times(b.E, b.force);
+    const int p = model.speed_offset(k);
+    for (int c = 0; c < speed_count(model.joint(k).type); ++c) {
+      S sum = zero;
+      if (model.joint(k).type != JointType::free || c < 3) sum = eq::dot(b.G[c], b.moment);
+      if (tables.slides[at(k)] & (1u << c))
+        sum = sum + dot_constant(Vector3(tables.translation[at(k)].col(c)), force_j);
+      Q[p + c] = sum;
+    }
+    const int j = model.lower_body(k);
+    if (j == kGround) continue;
+    Body<S>& bj = bodies[at(j)];
+    bj.moment = bj.moment + eq::cross(b.r, force_j);
+    if (model.joint(k).type != JointType::free) bj.moment = bj.moment + moment_j;
+    bj.force = bj.force + force_j;
+  }
+  // The loads on joint coordinates: joint_spring and joint_force (z = dq/dt there), and the
+  // joint inputs on joints other than free.
+  for (const JointLoad* l : tables.joint_loads) {
+    const int o = model.coordinate_offset(l->body());
+    const int p = model.speed_offset(l->body());
+    for (Eigen::Index c = 0; c < l->value.size(); ++c)
+      Q[p + c] = Q[p + c] - (l->value[c] - l->stiffness[c] * (q[o + c] - l->rest[c]) -
+                             l->damping[c] * z[p + c]);
+  }
+  const auto& inputs = model.inputs();
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const Input& in = inputs[i];
+    if (in.type != InputType::joint || model.joint(in.body).type == JointType::free) continue;
+    const int idx = model.speed_offset(in.body) + in.speed;
+    Q[idx] = Q[idx] - u[i];
+  }
+}
+
+// Whether tangent entry c of body k is a rotation-vector entry (a free body's first three, a
+// spherical joint's three).
+bool is_rotation_entry(JointType type, int c) {
+  return type == JointType::spherical || (type == JointType::free && c < 3);
+}
+
+// The coordinate a non-rotation tangent entry c of body k moves: a free body's s'_K entries
+// follow its four Euler parameters; every other joint's coordinates are its speeds' own.
+int coordinate_of_entry(const Model& model, int k, int c) {
+  const int o = model.coordinate_offset(k);
+  return model.joint(k).type == JointType::free ? o + 4 + (c - 3) : o + c;
+}
+
+}  // namespace
+
+namespace detail {
+
+bool generic_dynamics_supported(const Model& model) { return Tables(model).supported; }
+
+VectorX generic_inverse_dynamics(const Model& model, const VectorX& q, const VectorX& z,
+                                 const VectorX& zdot, const VectorX& u) {
+  const Tables tables(model);
+  if (!tables.supported)
+    throw std::invalid_argument("generic_inverse_dynamics: a force element of an unknown type");
+  std::vector<Body<double>> bodies(at(model.num_bodies()));
+  VectorX Q(model.num_speeds());
+  const VectorX u0 = u.size() == model.num_inputs() ? u : VectorX::Zero(model.num_inputs());
+  inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u0.data(), Q.data(), bodies);
+  return Q;
+}
+
+}  // namespace detail
+
+// ---- Tangent coordinates ----
+
+namespace {
+
+// The exponential map: the Euler parameters of exp(-[r~]), the turn by |r| about r.
+Vector4 small_rotation(const Vector3& r) {
+  const double angle = r.norm();
+  if (angle == 0.0) return {0.0, 0.0, 0.0, 1.0};
+  const double s = std::sin(0.5 * angle) / angle;
+  return {s * r.x(), s * r.y(), s * r.z(), std::cos(0.5 * angle)};
+}
+
+void check_size(const char* what, Eigen::Index size, Eigen::Index expected) {
+  if (size != expected)
+    throw std::invalid_argument(std::string(what) + ": " + std::to_string(size) +
+                                " values where the model has " + std::to_string(expected));
+}
+
+}  // namespace
+
+VectorX retract(const Model& model, const VectorX& q0, const VectorX& dx) {
+  check_size("retract: q", q0.size(), model.num_coordinates());
+  check_size("retract: dx", dx.size(), model.num_speeds());
+  VectorX q = q0;
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    const int o = model.coordinate_offset(k);
+    const int p = model.speed_offset(k);
+    const int m = speed_count(type);
+    int c = 0;
+    if (type == JointType::free || type == JointType::spherical) {
+      // [R] = exp(-[r~]) [R_0]: the parameters of R_0 composed with the small turn.
+      q.segment<4>(o) =
+          compose_euler_parameters(q0.segment<4>(o), small_rotation(dx.segment<3>(p)));
+      c = 3;
+    }
+    for (; c < m; ++c) q[coordinate_of_entry(model, k, c)] += dx[p + c];
+  }
+  return q;
+}
+
+VectorX tangent_difference(const Model& model, const VectorX& q0, const VectorX& q) {
+  check_size("tangent_difference: q0", q0.size(), model.num_coordinates());
+  check_size("tangent_difference: q", q.size(), model.num_coordinates());
+  VectorX dx(model.num_speeds());
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    const int o = model.coordinate_offset(k);
+    const int p = model.speed_offset(k);
+    const int m = speed_count(type);
+    int c = 0;
+    if (type == JointType::free || type == JointType::spherical) {
+      // The turn from R_0 to R: [R][R_0]^T, whose rotation vector r has [R(r)] = exp(-[r~]).
+      dx.segment<3>(p) =
+          rotation_vector(relative_euler_parameters(q0.segment<4>(o), q.segment<4>(o)));
+      c = 3;
+    }
+    for (; c < m; ++c) {
+      const int i = coordinate_of_entry(model, k, c);
+      dx[p + c] = q[i] - q0[i];
+    }
+  }
+  return dx;
+}
+
+std::vector<std::string> tangent_state_names(const Model& model) {
+  std::vector<std::string> coordinates, speeds;
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const std::string& name = model.body(k).name;
+    const JointType type = model.joint(k).type;
+    const int m = speed_count(type);
+    for (int c = 0; c < m; ++c) {
+      if (type == JointType::free) {
+        const std::string i = std::to_string(c % 3 + 1);
+        coordinates.push_back(name + (c < 3 ? ".r" : ".s") + i);
+        speeds.push_back(name + (c < 3 ? ".w" : ".sd") + i);
+      } else if (type == JointType::spherical) {
+        coordinates.push_back(name + ".r" + std::to_string(c + 1));
+        speeds.push_back(name + ".w" + std::to_string(c + 1));
+      } else {
+        coordinates.push_back(name + ".j" + std::to_string(c + 1));
+        speeds.push_back(name + ".jd" + std::to_string(c + 1));
+      }
+    }
+  }
+  coordinates.insert(coordinates.end(), speeds.begin(), speeds.end());
+  return coordinates;
+}
+
+// ---- Derivatives ----
+
+struct Derivatives::Impl {
+  explicit Impl(const Model& m)
+      : model(m), tables(m), dynamics(m), terms(m), bodies(at(m.num_bodies())) {
+    const int n = m.num_speeds();
+    q.resize(at(m.num_coordinates()));
+    z.resize(at(n));
+    u.resize(at(m.num_inputs()));
+    Q.resize(at(n));
+    M.resize(n, n);
+    zdot0.resize(n);
+  }
+
+  const Model& model;
+  Tables tables;
+  Dynamics dynamics;
+  Terms terms;
+  std::vector<Body<D8>> bodies;
+  std::vector<D8> q, z, u, Q;
+  MatrixX M;
+  VectorX zdot0;
+
+  // dQ along every direction: directions 0..n-1 the tangent of q, n..2n-1 z, 2n..2n+m-1 u,
+  // into out (n x (2n + m)).
+  void inverse_directions(const VectorX& q0, const VectorX& z0, const VectorX& zdot,
+                          const VectorX& u0, Eigen::Ref<MatrixX> out);
+  // Central differences of F in tangent coordinates (a model with an element of another type).
+  void forward_differences(const VectorX& q0, const VectorX& z0, const VectorX& u0,
+                           Eigen::Ref<MatrixX> out);
+};
+
+void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
+                                           const VectorX& zdot, const VectorX& u0,
+                                           Eigen::Ref<MatrixX> out) {
+  const int n = model.num_speeds();
+  const int m = model.num_inputs();
+  const int total = 2 * n + m;
+  for (int first = 0; first < total; first += kChunk) {
+    // Seed this chunk's directions: slot s is direction first + s.
+    for (size_t i = 0; i < q.size(); ++i) q[i] = D8(q0[static_cast<Eigen::Index>(i)]);
+    for (size_t i = 0; i < z.size(); ++i) z[i] = D8(z0[static_cast<Eigen::Index>(i)]);
+    for (size_t i = 0; i < u.size(); ++i) u[i] = D8(u0[static_cast<Eigen::Index>(i)]);
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      const JointType type = model.joint(k).type;
+      const int p = model.speed_offset(k);
+      const int count = speed_count(type);
+      bool turned = false;
+      Eu<D8> half{{D8(0.0), D8(0.0), D8(0.0), D8(1.0)}};  // (r/2, 1): exp(-[r~]) to first order
+      for (int c = 0; c < count; ++c) {
+        const int dir = p + c;
+        if (dir < first || dir >= first + kChunk) continue;
+        const int slot = dir - first;
+        if (is_rotation_entry(type, c)) {
+          half.e[c].d[at(slot)] = 0.5;
+          turned = true;
+        } else {
+          q[at(coordinate_of_entry(model, k, c))].d[at(slot)] = 1.0;
+        }
+      }
+      if (turned) {
+        const int o = model.coordinate_offset(k);
+        const Eu<D8> e = compose(constant_euler<D8>(q0.segment<4>(o)), half);
+        for (int i = 0; i < 4; ++i) q[at(o + i)] = e.e[i];
+      }
+    }
+    for (int s = 0; s < kChunk && first + s < total; ++s) {
+      const int dir = first + s;
+      if (dir >= 2 * n)
+        u[at(dir - 2 * n)].d[at(s)] = 1.0;
+      else if (dir >= n)
+        z[at(dir - n)].d[at(s)] = 1.0;
+    }
+    inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u.data(), Q.data(), bodies);
+    for (int s = 0; s < kChunk && first + s < total; ++s)
+      for (int row = 0; row < n; ++row) out(row, first + s) = Q[at(row)].d[at(s)];
+  }
+}
+
+// Step rule: h = 2^-17 (about the cube root of the unit round-off, which balances the O(h^2)
+// truncation against the O(eps/h) round-off of a central difference) times max(1, |x|).
+void Derivatives::Impl::forward_differences(const VectorX& q0, const VectorX& z0, const VectorX& u0,
+                                            Eigen::Ref<MatrixX> out) {
+  const int n = model.num_speeds();
+  const int m = model.num_inputs();
+  const double base = std::ldexp(1.0, -17);
+  VectorX plus(n), minus(n);
+  dynamics.set_inputs(u0);
+  for (int i = 0; i < n; ++i) {  // q, in tangent coordinates
+    VectorX dx = VectorX::Zero(n);
+    const double h = base;
+    dx[i] = h;
+    dynamics.evaluate(retract(model, q0, dx), z0, plus);
+    dx[i] = -h;
+    dynamics.evaluate(retract(model, q0, dx), z0, minus);
+    out.col(i) = (plus - minus) / (2.0 * h);
+  }
+  for (int i = 0; i < n; ++i) {
+    VectorX z = z0;
+    const double h = base * std::max(1.0, std::abs(z0[i]));
+    z[i] = z0[i] + h;
+    dynamics.evaluate(q0, z, plus);
+    z[i] = z0[i] - h;
+    dynamics.evaluate(q0, z, minus);
+    out.col(n + i) = (plus - minus) / (2.0 * h);
+  }
+  for (int i = 0; i < m; ++i) {
+    VectorX u = u0;
+    const double h = base * std::max(1.0, std::abs(u0[i]));
+    u[i] = u0[i] + h;
+    dynamics.set_inputs(u);
+    dynamics.evaluate(q0, z0, plus);
+    u[i] = u0[i] - h;
+    dynamics.set_inputs(u);
+    dynamics.evaluate(q0, z0, minus);
+    out.col(2 * n + i) = (plus - minus) / (2.0 * h);
+  }
+  dynamics.set_inputs(u0);
+}
+
+Derivatives::Derivatives(const Model& model) : impl_(std::make_unique<Impl>(model)) {}
+Derivatives::~Derivatives() = default;
+const Model& Derivatives::model() const { return impl_->model; }
+bool Derivatives::analytic() const { return impl_->tables.supported; }
+std::string Derivatives::method() const {
+  return analytic() ? "forward-mode dual numbers through the inverse dynamics, 8 directions a pass"
+                    : "central differences in tangent coordinates (a force element of a type "
+                      "the library does not define)";
+}
+
+void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
+                          Eigen::Ref<MatrixX> dq, Eigen::Ref<MatrixX> dz, Eigen::Ref<MatrixX> du,
+                          VectorX* zdot) {
+  Impl& s = *impl_;
+  const Model& model = s.model;
+  const int n = model.num_speeds();
+  const int m = model.num_inputs();
+  check_size("Derivatives: q", q.size(), model.num_coordinates());
+  check_size("Derivatives: z", z.size(), n);
+  check_size("Derivatives: u", u.size(), m);
+  MatrixX all(n, 2 * n + m);
+  s.dynamics.forward(q, z, u, s.zdot0);
+  if (s.tables.supported) {
+    s.inverse_directions(q, z, s.zdot0, u, all);
+    // [M] d(z dot) + dQ = 0 at z dot = F(q, z, u), where Q vanishes.
+    s.terms.mass_matrix(q, s.M);
+    const Eigen::LLT<MatrixX> llt(s.M);
+    all = -llt.solve(all);
+  } else {
+    s.forward_differences(q, z, u, all);
+  }
+  check_size("Derivatives: dq rows", dq.rows(), n);
+  dq = all.leftCols(n);
+  dz = all.middleCols(n, n);
+  du = all.rightCols(m);
+  if (zdot) *zdot = s.zdot0;
+}
+
+void Derivatives::inverse(const VectorX& q, const VectorX& z, const VectorX& zdot, const VectorX& u,
+                          Eigen::Ref<MatrixX> dq, Eigen::Ref<MatrixX> dz, Eigen::Ref<MatrixX> du) {
+  Impl& s = *impl_;
+  if (!s.tables.supported)
+    throw std::logic_error(
+        "Derivatives::inverse: a force element of a type the library does not define");
+  const int n = s.model.num_speeds();
+  const int m = s.model.num_inputs();
+  check_size("Derivatives: q", q.size(), s.model.num_coordinates());
+  check_size("Derivatives: z", z.size(), n);
+  check_size("Derivatives: zdot", zdot.size(), n);
+  check_size("Derivatives: u", u.size(), m);
+  MatrixX all(n, 2 * n + m);
+  s.inverse_directions(q, z, zdot, u, all);
+  dq = all.leftCols(n);
+  dz = all.middleCols(n, n);
+  du = all.rightCols(m);
+}
+
+// ---- Linearization and eigenvalues ----
+
+extern "C" void dgeev_(const char* jobvl, const char* jobvr, const int* n, double* a,
+                       const int* lda, double* wr, double* wi, double* vl, const int* ldvl,
+                       double* vr, const int* ldvr, double* work, const int* lwork, int* info);
+
+Eigen::VectorXcd sorted_eigenvalues(const MatrixX& a, Eigen::MatrixXcd* vectors) {
+  if (a.rows() != a.cols()) throw std::invalid_argument("sorted_eigenvalues: a square matrix");
+  const int n = static_cast<int>(a.rows());
+  Eigen::VectorXcd values(n);
+  if (vectors) vectors->resize(n, n);
+  if (n == 0) return values;
+  if (!a.allFinite()) throw std::invalid_argument("sorted_eigenvalues: a matrix with NaN or inf");
+  // LAPACK's dgeev (Hessenberg reduction and the multishift QR, blocked): a general matrix of
+  // 1,000 rows in about a second where Eigen's EigenSolver takes twenty.
+  MatrixX work_a = a;
+  VectorX wr(n), wi(n);
+  MatrixX vr(vectors ? n : 1, vectors ? n : 1);
+  const char jobvl = 'N', jobvr = vectors ? 'V' : 'N';
+  const int ldvr = vectors ? n : 1, one = 1;
+  int info = 0, lwork = -1;
+  double query = 0.0;
+  double dummy = 0.0;
+  dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
+         &ldvr, &query, &lwork, &info);
+  lwork = std::max(1, static_cast<int>(query));
+  std::vector<double> work(at(lwork));
+  dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
+         &ldvr, work.data(), &lwork, &info);
+  if (info != 0)
+    throw std::runtime_error("eigenvalues: LAPACK dgeev did not converge (info " +
+                             std::to_string(info) + ")");
+  std::vector<int> order(at(n));
+  for (int i = 0; i < n; ++i) order[at(i)] = i;
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) {
+    if (wr[x] != wr[y]) return wr[x] > wr[y];
+    return wi[x] > wi[y];
+  });
+  for (int i = 0; i < n; ++i) values[i] = {wr[order[at(i)]], wi[order[at(i)]]};
+  if (vectors) {
+    // dgeev stores a complex pair's vector as two real columns j, j+1: v = vr_j +- i vr_j+1.
+    Eigen::MatrixXcd raw(n, n);
+    for (int j = 0; j < n; ++j) {
+      if (wi[j] == 0.0) {
+        raw.col(j) = vr.col(j).cast<std::complex<double>>();
+      } else if (wi[j] > 0.0 && j + 1 < n) {
+        for (int r = 0; r < n; ++r) {
+          raw(r, j) = {vr(r, j), vr(r, j + 1)};
+          raw(r, j + 1) = {vr(r, j), -vr(r, j + 1)};
+        }
+        ++j;
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      Eigen::VectorXcd v = raw.col(order[at(i)]);
+      Eigen::Index big = 0;
+      v.cwiseAbs().maxCoeff(&big);
+      if (std::abs(v[big]) > 0.0) v /= v[big];  // the largest entry 1, real and positive
+      vectors->col(i) = v;
+    }
+  }
+  return values;
+}
+
+ModeReading read_eigenvalue(std::complex<double> lambda, double tolerance) {
+  ModeReading r;
+  const double re = lambda.real(), im = lambda.imag();
+  const double size = std::abs(lambda);
+  r.frequency_hz = std::abs(im) / (2.0 * std::numbers::pi);
+  r.damping_ratio = size > 0.0 ? -re / size : 0.0;
+  r.time_constant = re != 0.0 ? 1.0 / std::abs(re) : std::numeric_limits<double>::infinity();
+  r.stable = re < -tolerance;
+  r.unstable = re > tolerance;
+  return r;
+}
+
+Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, const VectorX& u,
+                        bool modes) {
+  const int n = model.num_speeds();
+  const int m = model.num_inputs();
+  check_size("linearize: q", q.size(), model.num_coordinates());
+  check_size("linearize: z", z.size(), n);
+  check_size("linearize: u", u.size(), m);
+  Linearization lin;
+  lin.n = n;
+  lin.m = m;
+  lin.state = tangent_state_names(model);
+  for (const Input& in : model.inputs()) lin.inputs.push_back(in.name);
+  lin.q = q;
+  lin.z = z;
+  lin.u = u;
+  lin.A = MatrixX::Zero(2 * n, 2 * n);
+  lin.B = MatrixX::Zero(2 * n, m);
+  Derivatives derivatives(model);
+  derivatives.forward(q, z, u, lin.A.bottomLeftCorner(n, n), lin.A.bottomRightCorner(n, n),
+                      lin.B.bottomRows(n), &lin.zdot);
+  // The coordinates' rates: d(r)/dt = (w - w0) - w0 x r for a rotation vector (the spec's
+  // "Linearization output"), d(deviation)/dt = the speed's deviation for every other entry.
+  lin.A.topRightCorner(n, n).setIdentity();
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    if (type != JointType::free && type != JointType::spherical) continue;
+    const int p = model.speed_offset(k);
+    const Vector3 w0 = z.segment<3>(p);
+    lin.A.block<3, 3>(p, p) = -skew(w0);
+    if (type == JointType::free && !w0.isZero(0.0)) lin.periodic = true;
+  }
+  lin.eigenvalues = sorted_eigenvalues(lin.A, modes ? &lin.modes : nullptr);
+  return lin;
+}
+
+// ---- Static equilibrium ----
+
+EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
+                              const EquilibriumOptions& options) {
+  const int n = model.num_speeds();
+  check_size("equilibrium: q", q0.size(), model.num_coordinates());
+  check_size("equilibrium: u", u.size(), model.num_inputs());
+  std::vector<int> free = options.free;
+  if (free.empty())
+    for (int i = 0; i < n; ++i) free.push_back(i);
+  for (const int i : free)
+    if (i < 0 || i >= n)
+      throw std::invalid_argument("equilibrium: free coordinate " + std::to_string(i) +
+                                  " outside 0.." + std::to_string(n - 1));
+  const int f = static_cast<int>(free.size());
+  Derivatives derivatives(model);
+  if (!derivatives.analytic())
+    throw std::invalid_argument(
+        "equilibrium: the model has a force element of a type the library does not define");
+  const VectorX zero = VectorX::Zero(n);
+  MatrixX dq(n, n), dz(n, n), du(n, model.num_inputs());
+  const auto forces = [&](const VectorX& q) {  // Q on the free coordinates at z = 0, z dot = 0
+    const VectorX all = detail::generic_inverse_dynamics(model, q, zero, zero, u);
+    VectorX out(f);
+    for (int i = 0; i < f; ++i) out[i] = all[free[at(i)]];
+    return out;
+  };
+  EquilibriumResult result;
+  result.q = q0;
+  VectorX residual = forces(q0);
+  // The force scale: the largest generalized force of gravity, the elements and the inputs at
+  // the start, or 1 where they all vanish there.
+  result.scale = std::max(1.0, residual.cwiseAbs().maxCoeff());
+  const double target = options.tolerance * result.scale;
+  double size = f > 0 ? residual.cwiseAbs().maxCoeff() : 0.0;
+  MatrixX J(f, f);
+  for (int iteration = 0; iteration <= options.max_iterations; ++iteration) {
+    result.iterations = iteration;
+    if (!(size > target)) {
+      result.converged = std::isfinite(size);
+      break;
+    }
+    if (iteration == options.max_iterations) break;
+    derivatives.inverse(result.q, zero, zero, u, dq, dz, du);
+    for (int r = 0; r < f; ++r)
+      for (int c = 0; c < f; ++c) J(r, c) = dq(free[at(r)], free[at(c)]);
+    const Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(J);
+    const VectorX step = -cod.solve(residual);
+    // A damped step: halve it until the residual shrinks.
+    double t = 1.0;
+    bool improved = false;
+    for (int halving = 0; halving < 40; ++halving, t *= 0.5) {
+      VectorX dx = VectorX::Zero(n);
+      for (int i = 0; i < f; ++i) dx[free[at(i)]] = t * step[i];
+      const VectorX q_try = retract(model, result.q, dx);
+      const VectorX r_try = forces(q_try);
+      const double s_try = r_try.cwiseAbs().maxCoeff();
+      if (s_try < size) {
+        result.q = q_try;
+        residual = r_try;
+        size = s_try;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) break;
+  }
+  result.residual = residual;
+  result.residual_norm = size;
+  // Which free coordinates nothing restrains at the end: the null space of dQ/dq.
+  derivatives.inverse(result.q, zero, zero, u, dq, dz, du);
+  for (int r = 0; r < f; ++r)
+    for (int c = 0; c < f; ++c) J(r, c) = dq(free[at(r)], free[at(c)]);
+  if (f > 0) {
+    Eigen::ColPivHouseholderQR<MatrixX> qr(J);
+    qr.setThreshold(1e-10);
+    if (qr.rank() < f) {
+      Eigen::FullPivLU<MatrixX> lu(J);
+      lu.setThreshold(1e-10);
+      const MatrixX kernel = lu.kernel();
+      std::vector<bool> flagged(at(f), false);
+      for (Eigen::Index c = 0; c < kernel.cols(); ++c)
+        for (int i = 0; i < f; ++i)
+          if (std::abs(kernel(i, c)) > 1e-6 * kernel.col(c).cwiseAbs().maxCoeff())
+            flagged[at(i)] = true;
+      for (int i = 0; i < f; ++i)
+        if (flagged[at(i)]) result.unrestrained.push_back(free[at(i)]);
+    }
+  }
+  std::ostringstream msg;
+  msg.precision(3);
+  if (result.converged) {
+    msg << "converged in " << result.iterations << " Newton iterations: largest generalized force "
+        << result.residual_norm << " (tolerance " << target << ")";
+  } else {
+    msg << "Newton did not converge after " << result.iterations
+        << " iterations: largest generalized force " << result.residual_norm << " (tolerance "
+        << target << ")";
+  }
+  result.message = msg.str();
+  return result;
+}
+
+}  // namespace kanedyn
