@@ -1,19 +1,25 @@
 // `kanedyn view MODEL [TRAJ.csv] [-o FILE.html]`: one self-contained web page (docs/viewer.md)
-// that animates the model along the trajectory and plots its columns. The page is the viewer
-// bundle (viewer/, built by esbuild and compiled into the tool) with the model and the
+// that animates the model along the trajectory and plots its columns. With --mode K, the motion
+// is mode K of the linearization about the operating point (docs/analysis.md, "Modes"). The page is
+// the viewer bundle (viewer/, built by esbuild and compiled into the tool) with the model and the
 // trajectory inlined as JSON and base64 arrays: it opens from disk, offline.
+#include <cmath>
+#include <complex>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "kanedyn/analysis.hpp"
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/io/trajectory.hpp"
+#include "options.hpp"
 #include "page.hpp"
 
 namespace kanedyn::cli {
@@ -21,7 +27,61 @@ namespace {
 
 struct Options {
   std::string model, trajectory, out;
+  int mode = 0;  // 1-based; 0: none
+  double amplitude = 0.2;
+  std::string state_file;
+  StateChoice state;
 };
+
+// Mode K about the operating point as a trajectory: x(t) = a Re(v e^(i w t)) over two periods
+// (w the eigenvalue's imaginary part; a real eigenvalue's shape swings as a sin(pi t) over 2 s),
+// the coordinates by retract() and the speeds z0 + x's speed part. The decay or growth is left
+// out, so that the shape stays in view; the label says so.
+io::Trajectory mode_trajectory(const io::ModelFile& file, const Options& o, std::string& label) {
+  const Model& model = file.model;
+  const OperatingPoint op = operating_point(file, o.state, o.state_file);
+  const Linearization lin = linearize(model, op.q, op.z, op.u, true);
+  const int count = static_cast<int>(lin.eigenvalues.size());
+  if (o.mode < 1 || o.mode > count)
+    throw std::runtime_error("--mode " + std::to_string(o.mode) + ": the linearization has " +
+                             std::to_string(count) + " modes (1.." + std::to_string(count) +
+                             "; kanedyn linearize lists them)");
+  const int n = lin.n;
+  const std::complex<double> lambda = lin.eigenvalues[o.mode - 1];
+  const Eigen::VectorXcd v = lin.modes.col(o.mode - 1);
+  const double shape = v.head(n).cwiseAbs().maxCoeff();
+  if (!(shape > 0.0))
+    throw std::runtime_error("--mode " + std::to_string(o.mode) +
+                             ": it moves only speeds, not coordinates: there is no shape to show");
+  const double a = o.amplitude / shape;
+  const double w = std::abs(lambda.imag());
+  const bool oscillates = w > 1e-9 * std::max(1.0, std::abs(lambda));
+  const double duration = oscillates ? 2.0 * (2.0 * std::numbers::pi / w) : 2.0;
+  const int rows = 241;
+  io::Trajectory out;
+  for (int r = 0; r < rows; ++r) {
+    const double t = duration * r / (rows - 1);
+    const std::complex<double> phase =
+        oscillates ? std::exp(std::complex<double>(0.0, w * t))
+                   : std::complex<double>(std::sin(std::numbers::pi * t), 0.0);
+    const VectorX x = a * (v * phase).real();
+    const VectorX q = retract(model, op.q, x.head(n));
+    const VectorX z = op.z + x.tail(n);
+    io::Trajectory row = view::initial_trajectory(model, q, z);
+    if (out.columns.empty()) out.columns = row.columns;
+    row.values[0] = t;
+    out.values.insert(out.values.end(), row.values.begin(), row.values.end());
+  }
+  const ModeReading reading = read_eigenvalue(lambda, 0.0);
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "mode %d of %d about %s: eigenvalue %.4g %+.4gi, %.4g Hz, damping %.3f "
+                "(the shape; growth or decay not shown)",
+                o.mode, count, op.where.c_str(), lambda.real(), lambda.imag(), reading.frequency_hz,
+                reading.damping_ratio);
+  label = text;
+  return out;
+}
 
 void run(const Options& o) {
   // Before reading anything: a tool without the viewer says so whatever the files.
@@ -36,11 +96,14 @@ void run(const Options& o) {
   // Checked before the trajectory, which may be long, is read.
   const std::vector<std::string> inputs{o.model, o.trajectory};
   if (!to_stdout) io::check_output_path(out, inputs);
-  const io::Trajectory traj = have_traj ? io::read_trajectory(file.model, o.trajectory)
-                                        : view::initial_trajectory(file.model, file.q, file.z);
-  const std::string text = view::page(
-      file.model, file.path, traj,
-      have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state");
+  if (have_traj && o.mode > 0)
+    throw std::runtime_error("--mode animates a mode, not a trajectory: give one of the two");
+  std::string source =
+      have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state";
+  const io::Trajectory traj = have_traj    ? io::read_trajectory(file.model, o.trajectory)
+                              : o.mode > 0 ? mode_trajectory(file, o, source)
+                                           : view::initial_trajectory(file.model, file.q, file.z);
+  const std::string text = view::page(file.model, file.path, traj, source);
   if (to_stdout) {
     io::write_to_stdout(text);
     return;
@@ -49,6 +112,8 @@ void run(const Options& o) {
   std::printf("wrote %s (%.1f kB; ", io::printable(out).c_str(), text.size() / 1000.0);
   if (have_traj)
     std::printf("%zu rows", traj.rows());
+  else if (o.mode > 0)
+    std::printf("%s", source.c_str());
   else
     std::printf("the initial state");
   if (view::stride(traj.rows()) > 1)
@@ -71,6 +136,17 @@ void add_view(CLI::App& app) {
   cmd->add_option("--out,-o", o->out,
                   "web page (default: the trajectory's, else the model's, name with .html, in "
                   "the current folder; - for standard output)");
+  cmd->add_option("--mode", o->mode,
+                  "animate mode K (1-based, in the order kanedyn linearize lists them) of the "
+                  "linearization about the initial state (or --state, --trajectory/--t)")
+      ->check(CLI::Range(1, 1 << 30));
+  cmd->add_option("--amplitude", o->amplitude,
+                  "with --mode: the largest coordinate's swing (radians or model units; "
+                  "default 0.2)")
+      ->check(positive_number());
+  cmd->add_option("--state", o->state_file,
+                  "with --mode: the operating point is this model file's initial state");
+  add_state_options(cmd, o->state);
   cmd->callback([o] { run(*o); });
 }
 

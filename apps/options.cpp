@@ -127,4 +127,40 @@ State chosen_state(const io::ModelFile& file, const StateChoice& choice, double&
   return row.state;
 }
 
+OperatingPoint operating_point(const io::ModelFile& file, const StateChoice& choice,
+                               const std::string& state_file) {
+  const Model& model = file.model;
+  OperatingPoint op;
+  double t = 0.0;
+  const State state = chosen_state(file, choice, t, op.where, op.q, op.z, op.u);
+  if (op.q.size() != model.num_coordinates()) {  // a free tree's row: (eps_K, s'_K; w'_K, s'_K dot)
+    op.q.resize(model.num_coordinates());
+    op.z.resize(model.num_speeds());
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      op.q.segment<4>(model.coordinate_offset(k)) = state.euler_parameters(k);
+      op.q.segment<3>(model.coordinate_offset(k) + 4) = state.translation(k);
+      op.z.segment<3>(model.speed_offset(k)) = state.angular_velocity(k);
+      op.z.segment<3>(model.speed_offset(k) + 3) = state.translation_rate(k);
+    }
+  }
+  if (state_file.empty()) return op;
+  if (!choice.trajectory.empty())
+    throw std::runtime_error("--state and --trajectory both choose the state: give one");
+  const io::ModelFile other = io::load_model_file(state_file);
+  const Model& m = other.model;
+  bool same = m.num_bodies() == model.num_bodies();
+  for (int k = 0; same && k < model.num_bodies(); ++k)
+    same = m.body(k).name == model.body(k).name && m.joint(k).type == model.joint(k).type;
+  if (!same)
+    throw std::runtime_error("--state " + io::printable(state_file) +
+                             ": its bodies and joints are not those of " +
+                             io::printable(file.path) +
+                             " (the state file is a model file of the same system, such as "
+                             "equilibrium writes)");
+  op.q = other.q;
+  op.z = other.z;
+  op.where = "the initial state of " + io::printable(state_file);
+  return op;
+}
+
 }  // namespace kanedyn::cli

@@ -47,4 +47,15 @@ State chosen_state(const io::ModelFile& file, const StateChoice& choice, double&
 State chosen_state(const io::ModelFile& file, const StateChoice& choice, double& t,
                    std::string& where, VectorX& q, VectorX& z, VectorX& u);
 
+/// The operating point of an analysis command (linearize, view --mode): (q, z) in the Model's
+/// layout for every model, and u. From --state FILE (a model file of the same bodies and
+/// joints, such as the one equilibrium writes: its initial state) when given, else from
+/// chosen_state(); then the --input values. `where` says which.
+struct OperatingPoint {
+  VectorX q, z, u;
+  std::string where;
+};
+OperatingPoint operating_point(const io::ModelFile& file, const StateChoice& choice,
+                               const std::string& state_file);
+
 }  // namespace kanedyn::cli

@@ -923,6 +923,25 @@ EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const Vecto
         if (flagged[at(i)]) result.unrestrained.push_back(free[at(i)]);
     }
   }
+  // The motion about q with the held coordinates locked: [M_ff] dz_f/dt = -dQ_f/dq_f dq_f -
+  // dQ_f/dz_f dz_f, and d(q_f)/dt = z_f at rest (w0 = 0).
+  if (f > 0) {
+    MatrixX M(n, n);
+    Terms(model).mass_matrix(result.q, M);
+    MatrixX mff(f, f), kff(f, f), dff(f, f);
+    for (int r = 0; r < f; ++r)
+      for (int c = 0; c < f; ++c) {
+        mff(r, c) = M(free[at(r)], free[at(c)]);
+        kff(r, c) = dq(free[at(r)], free[at(c)]);
+        dff(r, c) = dz(free[at(r)], free[at(c)]);
+      }
+    const Eigen::LLT<MatrixX> llt(mff);
+    MatrixX a = MatrixX::Zero(2 * f, 2 * f);
+    a.topRightCorner(f, f).setIdentity();
+    a.bottomLeftCorner(f, f) = -llt.solve(kff);
+    a.bottomRightCorner(f, f) = -llt.solve(dff);
+    if (a.allFinite()) result.eigenvalues = sorted_eigenvalues(a);
+  }
   std::ostringstream msg;
   msg.precision(3);
   if (result.converged) {

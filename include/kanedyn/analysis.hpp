@@ -126,6 +126,10 @@ struct EquilibriumResult {
   /// Tangent coordinates with no restoring force at the end (the Jacobian's null space): what to
   /// hold fixed.
   std::vector<int> unrestrained;
+  /// The eigenvalues of the motion about the rest pose with the held coordinates locked (the
+  /// free coordinates and their speeds), sorted as Linearization::eigenvalues: stable when
+  /// every real part is negative.
+  Eigen::VectorXcd eigenvalues;
 };
 
 /// Newton's method with the analytic Jacobian on Q(q) = 0 over the free coordinates, with

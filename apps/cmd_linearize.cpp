@@ -1,0 +1,191 @@
+// `kanedyn linearize MODEL [--state FILE | --trajectory F --t T] [--input NAME=VALUE] [--json]`:
+// the linearized motion about an operating point (docs/analysis.md; docs/model-format.md,
+// "Linearization output"), as the spec's JSON object or as a readable summary of each
+// eigenvalue: frequency, damping ratio, time constant, stable or not, and with --modes the state
+// entries each mode moves most.
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "kanedyn/analysis.hpp"
+#include "kanedyn/io/files.hpp"
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/io/text.hpp"
+#include "options.hpp"
+
+namespace kanedyn::cli {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+Json vector_json(const VectorX& v) {
+  Json out = Json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) out.push_back(v[i]);
+  return out;
+}
+
+Json matrix_json(const MatrixX& a) {
+  Json out = Json::array();
+  for (Eigen::Index r = 0; r < a.rows(); ++r) out.push_back(vector_json(a.row(r).transpose()));
+  return out;
+}
+
+Json complex_json(std::complex<double> c) { return Json::array({c.real(), c.imag()}); }
+
+struct Options {
+  std::string model, state_file;
+  StateChoice state;
+  bool json = false, modes = false;
+};
+
+// The scale below which a real part counts as zero: a simple eigenvalue is found to about
+// eps |A|, but a double one (a free body's unrestrained coordinate and its speed, a Jordan block)
+// only to about sqrt(eps |A|); ten times that.
+double zero_tolerance(const Linearization& lin) {
+  const double norm = std::max(1.0, lin.A.cwiseAbs().rowwise().sum().maxCoeff());
+  return 10.0 * std::sqrt(std::numeric_limits<double>::epsilon() * norm);
+}
+
+std::string number(double v, const char* format = "%.4g") {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+void print_summary(const io::ModelFile& file, const Linearization& lin, const OperatingPoint& op,
+                   const Derivatives& derivatives, bool modes) {
+  const double tol = zero_tolerance(lin);
+  std::printf("linearization of %s at %s\n", io::printable(file.path).c_str(), op.where.c_str());
+  std::printf("  state: %d coordinates and %d speeds (tangent coordinates); %d inputs\n", lin.n,
+              lin.n, lin.m);
+  std::printf("  derivatives: %s\n", derivatives.method().c_str());
+  const double moving = lin.zdot.size() ? lin.zdot.cwiseAbs().maxCoeff() : 0.0;
+  if (moving > tol)
+    std::printf(
+        "  not an equilibrium: the largest z dot there is %s; A describes the motion about the "
+        "nominal motion through this point\n",
+        number(moving).c_str());
+  if (lin.periodic)
+    std::printf(
+        "  a free body turns here (w0 != 0): the linear system is periodic, and its eigenvalues "
+        "at one instant do not decide stability\n");
+  std::printf("\n  %4s  %12s  %12s  %11s  %9s  %14s  %s\n", "#", "real", "imag", "freq [Hz]",
+              "damping", "time const [s]", "");
+  int stable = 0, unstable = 0, marginal = 0;
+  for (Eigen::Index i = 0; i < lin.eigenvalues.size(); ++i) {
+    const std::complex<double> l = lin.eigenvalues[i];
+    const ModeReading r = read_eigenvalue(l, tol);
+    const char* verdict = r.unstable ? "unstable" : r.stable ? "stable" : "marginal";
+    stable += r.stable ? 1 : 0;
+    unstable += r.unstable ? 1 : 0;
+    marginal += (!r.stable && !r.unstable) ? 1 : 0;
+    const bool zero_re = std::abs(l.real()) <= tol;
+    std::printf("  %4lld  %12s  %12s  %11s  %9s  %14s  %s\n", static_cast<long long>(i + 1),
+                zero_re ? "0" : number(l.real(), "%+.5g").c_str(),
+                std::abs(l.imag()) <= tol ? "0" : number(l.imag(), "%+.5g").c_str(),
+                std::abs(l.imag()) <= tol ? "-" : number(r.frequency_hz).c_str(),
+                std::abs(l) <= tol ? "-"
+                : zero_re          ? "0"
+                                   : number(r.damping_ratio, "%.3f").c_str(),
+                zero_re ? "-" : number(r.time_constant).c_str(), verdict);
+    if (modes && lin.modes.cols() == lin.eigenvalues.size()) {
+      // The entries the mode moves most: |v_i| >= 0.1 of the largest (which is 1).
+      const Eigen::VectorXcd v = lin.modes.col(i);
+      std::string text;
+      for (Eigen::Index s = 0; s < v.size(); ++s) {
+        if (std::abs(v[s]) < 0.1) continue;
+        text += "  " + lin.state[static_cast<size_t>(s)] + " " + number(std::abs(v[s]), "%.2f");
+        const double phase = std::arg(v[s]) * 180.0 / 3.141592653589793;
+        if (std::abs(phase) > 0.5) text += "@" + number(phase, "%.0f") + "deg";
+      }
+      std::printf("        moves:%s\n", text.c_str());
+    }
+  }
+  std::printf("\n  %d stable, %d unstable, %d marginal (|real part| <= %s counts as 0)\n", stable,
+              unstable, marginal, number(tol, "%.1e").c_str());
+  if (lin.periodic)
+    std::printf("  (periodic system: see above)\n");
+  else if (moving > tol)
+    std::printf("  (not an equilibrium: the verdicts hold for a steady motion only)\n");
+  else
+    std::printf("  the operating point is %s\n",
+                unstable > 0   ? "unstable"
+                : marginal > 0 ? "not asymptotically stable (marginal eigenvalues)"
+                               : "asymptotically stable");
+}
+
+void run(const Options& o) {
+  const io::ModelFile file = io::load_model_file(o.model);
+  const Model& model = file.model;
+  const OperatingPoint op = operating_point(file, o.state, o.state_file);
+  const Linearization lin = linearize(model, op.q, op.z, op.u, o.modes);
+  if (!lin.A.allFinite() || !lin.B.allFinite())
+    throw std::runtime_error("linearize: the derivatives at " + op.where + " are not finite");
+  if (!o.json) {
+    Derivatives derivatives(model);
+    print_summary(file, lin, op, derivatives, o.modes);
+    return;
+  }
+  Json j;
+  j["n"] = lin.n;
+  j["m"] = lin.m;
+  j["state"] = lin.state;
+  j["inputs"] = lin.inputs;
+  j["q"] = vector_json(lin.q);
+  j["z"] = vector_json(lin.z);
+  j["u"] = vector_json(lin.u);
+  j["A"] = matrix_json(lin.A);
+  if (lin.m > 0) j["B"] = matrix_json(lin.B);
+  Json values = Json::array();
+  for (Eigen::Index i = 0; i < lin.eigenvalues.size(); ++i)
+    values.push_back(complex_json(lin.eigenvalues[i]));
+  j["eigenvalues"] = values;
+  if (o.modes) {
+    // Not in the spec's object unless asked: column i is eigenvalue i's vector, [re, im] pairs.
+    Json modes = Json::array();
+    for (Eigen::Index c = 0; c < lin.modes.cols(); ++c) {
+      Json col = Json::array();
+      for (Eigen::Index r = 0; r < lin.modes.rows(); ++r)
+        col.push_back(complex_json(lin.modes(r, c)));
+      modes.push_back(col);
+    }
+    j["modes"] = modes;
+  }
+  io::write_to_stdout(j.dump() + "\n");
+}
+
+void add_linearize(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "linearize",
+      "Linearize the motion about an operating point: A, B and the eigenvalues, each with its "
+      "frequency, damping and time constant");
+  auto o = std::make_shared<Options>();
+  cmd->footer(
+      "The operating point is the model's initial state with zero inputs unless --state, "
+      "--trajectory or --input says otherwise; it need not be an equilibrium. Positions are "
+      "perturbed in tangent coordinates (a rotation vector for each set of Euler parameters); "
+      "the state is every body's coordinates, then its speeds (docs/model-format.md, "
+      "\"Linearization output\"). The derivatives are analytic (dual numbers through the "
+      "inverse dynamics; docs/analysis.md).");
+  cmd->add_option("MODEL", o->model, "model file (YAML or JSON) or URDF robot")->required();
+  cmd->add_flag("--json", o->json, "print the JSON object of docs/model-format.md");
+  cmd->add_flag("--modes", o->modes,
+                "also each eigenvector: the state entries it moves most (with --json: a "
+                "\"modes\" array of columns of [re, im] pairs)");
+  cmd->add_option("--state", o->state_file,
+                  "take the operating point from this model file's initial state (the same "
+                  "bodies and joints; e.g. what equilibrium writes)");
+  add_state_options(cmd, o->state);
+  cmd->callback([o] { run(*o); });
+}
+
+}  // namespace
+KANEDYN_COMMAND(33, add_linearize);
+}  // namespace kanedyn::cli
