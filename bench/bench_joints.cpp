@@ -13,7 +13,8 @@
 // terms/frame_jacobian (frame_jacobian of the model's first frame from kinematics computed
 // beforehand; terms/frame_jacobian_with_kinematics computes them each time: joint_state and
 // compute_kinematics) on the six-joint arm of examples/urdf/arm.urdf and the 512-link revolute
-// chain. Filter them with --benchmark_filter=terms.
+// chain. Filter them with --benchmark_filter=terms. terms/derivatives gives all three blocks of
+// d(z dot) (Derivatives::forward) and terms/linearize A, B and the eigenvalues.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -22,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/analysis.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/frames.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -75,13 +77,24 @@ JointedChain arm() {
 }
 
 // One of the terms, or the forward dynamics they are compared with, at the model's (q, z).
-enum class Term { forward, inverse_dynamics, mass_matrix, frame_jacobian, jacobian_and_kinematics };
+enum class Term {
+  forward,
+  inverse_dynamics,
+  mass_matrix,
+  frame_jacobian,
+  jacobian_and_kinematics,
+  derivatives,
+  linearize
+};
 
 void run_term(benchmark::State& bench, const JointedChain& c, Term term) {
   const Model& model = *c.model;
   const int n = model.num_speeds();
   Dynamics dyn(model);
   Terms terms(model);
+  Derivatives derivatives(model);
+  const VectorX u = VectorX::Zero(model.num_inputs());
+  MatrixX dq(n, n), dz(n, n), du(n, model.num_inputs());
   VectorX zdot(n), Q(n);
   dyn.evaluate(c.q, c.z, zdot);
   MatrixX M(n, n), Jv(3, n), Jw(3, n);
@@ -111,6 +124,15 @@ void run_term(benchmark::State& bench, const JointedChain& c, Term term) {
         frame_jacobian(model, 0, c.q, data.kinematics, Jv, Jw);
         benchmark::DoNotOptimize(Jv.data());
         break;
+      case Term::derivatives:  // all three blocks, d(z dot)/dq, dz, du
+        derivatives.forward(c.q, c.z, u, dq, dz, du);
+        benchmark::DoNotOptimize(dq.data());
+        break;
+      case Term::linearize: {  // A, B and the eigenvalues
+        const Linearization lin = linearize(model, c.q, c.z, u);
+        benchmark::DoNotOptimize(lin.eigenvalues.data());
+        break;
+      }
     }
     benchmark::ClobberMemory();
   }
@@ -160,10 +182,14 @@ void register_all() {
   term("mass_matrix", Term::mass_matrix, "arm", arm);
   term("frame_jacobian", Term::frame_jacobian, "arm", arm);
   term("frame_jacobian_with_kinematics", Term::jacobian_and_kinematics, "arm", arm);
+  term("derivatives", Term::derivatives, "arm", arm);
+  term("linearize", Term::linearize, "arm", arm);
   const auto chain512 = [] { return revolute_chain(512); };
   term("forward", Term::forward, "chain-512", chain512);
   term("inverse_dynamics", Term::inverse_dynamics, "chain-512", chain512);
   term("mass_matrix", Term::mass_matrix, "chain-512", chain512);
+  term("derivatives", Term::derivatives, "chain-512", chain512);
+  term("linearize", Term::linearize, "chain-512", chain512);
 }
 
 }  // namespace

@@ -38,10 +38,6 @@ namespace {
 
 size_t at(int i) { return static_cast<size_t>(i); }
 
-// The width of one dual pass: 8 directions, two AVX2 registers a number.
-constexpr int kChunk = 8;
-using D8 = Dual<kChunk>;
-
 template <typename S>
 using V3 = eq::Vec3<S>;
 template <typename S>
@@ -131,10 +127,16 @@ struct Tables {
   std::vector<const ConstantForce*> forces;
   std::vector<const ConstantTorque*> torques;
   std::vector<const JointLoad*> joint_loads;
+  std::vector<int> speed_body;  // the body of each speed
   bool supported = true;
+  // Whether the evaluation needs every body's absolute Euler parameters (a bushing measures K
+  // relative to J through them) and rotation (a constant force is inertial; a free body below
+  // another body turns relative to it through [R_K][R_J]^T); else only E is formed.
+  bool absolute_euler = false, absolute_rotation = false;
 
   explicit Tables(const Model& model) {
     for (int k = 0; k < model.num_bodies(); ++k) {
+      for (int c = 0; c < speed_count(model.joint(k).type); ++c) speed_body.push_back(k);
       translation.push_back(joint_translation_block(model, k));
       unsigned mask = 0;
       for (int c = 0; c < speed_count(model.joint(k).type); ++c)
@@ -153,6 +155,11 @@ struct Tables {
       else
         supported = false;
     }
+    absolute_euler = !bushings.empty();
+    absolute_rotation = !forces.empty();
+    for (int k = 0; k < model.num_bodies(); ++k)
+      if (model.joint(k).type == JointType::free && model.lower_body(k) != kGround)
+        absolute_rotation = true;
   }
 };
 
@@ -234,8 +241,8 @@ void joint_terms(const Model& model, const Tables& tables, int k, const S* q, co
     }
   if (!is_identity(jt.frame)) rel = compose(constant_euler<S>(jt.frame), rel);
   b.E = eq::rotation_matrix(rel);
-  b.eps = lower ? compose(lower->eps, rel) : rel;
-  b.R = lower ? product(b.E, lower->R) : b.E;
+  if (tables.absolute_euler) b.eps = lower ? compose(lower->eps, rel) : rel;
+  if (tables.absolute_rotation) b.R = lower ? product(b.E, lower->R) : b.E;
 }
 
 // The loads on the bodies of the built-in force elements and of the inputs at u, into
@@ -424,6 +431,43 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
   }
 }
 
+// The dual passes, one per width, each compiled for AVX2 and for the baseline and chosen when
+// the program is loaded (a pack of four directions is one AVX register). Flattened: every small
+// vector operation inlined, which the compiler would leave as calls for the wide numbers and
+// which then dominate.
+#define KANEDYN_DUAL_PASS(N)                                                                  \
+  __attribute__((flatten, target_clones("avx2", "default"))) void dual_inverse_dynamics_##N(  \
+      const Model& model, const Tables& tables, const Dual<N>* q, const Dual<N>* z,           \
+      const double* zdot, const Dual<N>* u, Dual<N>* Q, std::vector<Body<Dual<N>>>& bodies) { \
+    inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies);                                \
+  }
+KANEDYN_DUAL_PASS(4)
+KANEDYN_DUAL_PASS(8)
+KANEDYN_DUAL_PASS(12)
+KANEDYN_DUAL_PASS(16)
+#undef KANEDYN_DUAL_PASS
+
+void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<4>* q,
+                           const Dual<4>* z, const double* zdot, const Dual<4>* u, Dual<4>* Q,
+                           std::vector<Body<Dual<4>>>& bodies) {
+  dual_inverse_dynamics_4(model, tables, q, z, zdot, u, Q, bodies);
+}
+void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<8>* q,
+                           const Dual<8>* z, const double* zdot, const Dual<8>* u, Dual<8>* Q,
+                           std::vector<Body<Dual<8>>>& bodies) {
+  dual_inverse_dynamics_8(model, tables, q, z, zdot, u, Q, bodies);
+}
+void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<12>* q,
+                           const Dual<12>* z, const double* zdot, const Dual<12>* u, Dual<12>* Q,
+                           std::vector<Body<Dual<12>>>& bodies) {
+  dual_inverse_dynamics_12(model, tables, q, z, zdot, u, Q, bodies);
+}
+void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<16>* q,
+                           const Dual<16>* z, const double* zdot, const Dual<16>* u, Dual<16>* Q,
+                           std::vector<Body<Dual<16>>>& bodies) {
+  dual_inverse_dynamics_16(model, tables, q, z, zdot, u, Q, bodies);
+}
+
 // Whether tangent entry c of body k is a rotation-vector entry (a free body's first three, a
 // spherical joint's three).
 bool is_rotation_entry(JointType type, int c) {
@@ -548,14 +592,73 @@ std::vector<std::string> tangent_state_names(const Model& model) {
 
 // ---- Derivatives ----
 
+// One width of dual pass: the numbers of one evaluation, N directions each.
+template <int N>
+struct Pass {
+  std::vector<Body<Dual<N>>> bodies;
+  std::vector<Dual<N>> q, z, u, Q;
+
+  explicit Pass(const Model& m)
+      : bodies(at(m.num_bodies())),
+        q(at(m.num_coordinates())),
+        z(at(m.num_speeds())),
+        u(at(m.num_inputs())),
+        Q(at(m.num_speeds())) {}
+
+  // dQ along the directions dirs[first..first+N) into out's columns of the same index:
+  // direction d < n the tangent of q, n <= d < 2n z, 2n + i input i.
+  void run(const Model& model, const Tables& tables, const VectorX& q0, const VectorX& z0,
+           const VectorX& zdot, const VectorX& u0, const std::vector<int>& dirs, size_t first,
+           Eigen::Ref<MatrixX> out);
+};
+
+template <int N>
+void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, const VectorX& z0,
+                  const VectorX& zdot, const VectorX& u0, const std::vector<int>& dirs,
+                  size_t first, Eigen::Ref<MatrixX> out) {
+  using D = Dual<N>;
+  const int n = model.num_speeds();
+  const size_t count = std::min(dirs.size() - first, static_cast<size_t>(N));
+  for (size_t i = 0; i < q.size(); ++i) q[i] = D(q0[static_cast<Eigen::Index>(i)]);
+  for (size_t i = 0; i < z.size(); ++i) z[i] = D(z0[static_cast<Eigen::Index>(i)]);
+  for (size_t i = 0; i < u.size(); ++i) u[i] = D(u0[static_cast<Eigen::Index>(i)]);
+  // Seed: slot s is direction dirs[first + s]. A rotation vector r enters through the Euler
+  // parameters of exp(-[r~]) composed with the nominal ones, (r/2, 1) to first order.
+  std::vector<Eu<D>> half(at(model.num_bodies()), Eu<D>{{D(0.0), D(0.0), D(0.0), D(1.0)}});
+  std::vector<bool> turned(at(model.num_bodies()), false);
+  for (size_t s = 0; s < count; ++s) {
+    const int dir = dirs[first + s];
+    if (dir >= 2 * n) {
+      u[at(dir - 2 * n)].derivative(static_cast<int>(s)) = 1.0;
+    } else if (dir >= n) {
+      z[at(dir - n)].derivative(static_cast<int>(s)) = 1.0;
+    } else {
+      const int k = tables.speed_body[at(dir)];
+      const int c = dir - model.speed_offset(k);
+      if (is_rotation_entry(model.joint(k).type, c)) {
+        half[at(k)].e[c].derivative(static_cast<int>(s)) = 0.5;
+        turned[at(k)] = true;
+      } else {
+        q[at(coordinate_of_entry(model, k, c))].derivative(static_cast<int>(s)) = 1.0;
+      }
+    }
+  }
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    if (!turned[at(k)]) continue;
+    const int o = model.coordinate_offset(k);
+    const Eu<D> e = compose(constant_euler<D>(q0.segment<4>(o)), half[at(k)]);
+    for (int i = 0; i < 4; ++i) q[at(o + i)] = e.e[i];
+  }
+  dual_inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u.data(), Q.data(), bodies);
+  for (size_t s = 0; s < count; ++s)
+    for (int row = 0; row < n; ++row)
+      out(row, dirs[first + s]) = Q[at(row)].derivative(static_cast<int>(s));
+}
+
 struct Derivatives::Impl {
   explicit Impl(const Model& m)
-      : model(m), tables(m), dynamics(m), terms(m), bodies(at(m.num_bodies())) {
+      : model(m), tables(m), dynamics(m), terms(m), pass4(m), pass8(m), pass12(m), pass16(m) {
     const int n = m.num_speeds();
-    q.resize(at(m.num_coordinates()));
-    z.resize(at(n));
-    u.resize(at(m.num_inputs()));
-    Q.resize(at(n));
     M.resize(n, n);
     zdot0.resize(n);
   }
@@ -564,13 +667,17 @@ struct Derivatives::Impl {
   Tables tables;
   Dynamics dynamics;
   Terms terms;
-  std::vector<Body<D8>> bodies;
-  std::vector<D8> q, z, u, Q;
+  Pass<4> pass4;
+  Pass<8> pass8;
+  Pass<12> pass12;
+  Pass<16> pass16;
   MatrixX M;
+  Eigen::LLT<MatrixX> llt;
   VectorX zdot0;
+  std::vector<int> dirs;
 
-  // dQ along every direction: directions 0..n-1 the tangent of q, n..2n-1 z, 2n..2n+m-1 u,
-  // into out (n x (2n + m)).
+  // dQ along every direction: columns 0..n-1 the tangent of q, n..2n-1 z, 2n..2n+m-1 u, into
+  // out (n x (2n + m)).
   void inverse_directions(const VectorX& q0, const VectorX& z0, const VectorX& zdot,
                           const VectorX& u0, Eigen::Ref<MatrixX> out);
   // Central differences of F in tangent coordinates (a model with an element of another type).
@@ -582,46 +689,38 @@ void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
                                            const VectorX& zdot, const VectorX& u0,
                                            Eigen::Ref<MatrixX> out) {
   const int n = model.num_speeds();
-  const int m = model.num_inputs();
-  const int total = 2 * n + m;
-  for (int first = 0; first < total; first += kChunk) {
-    // Seed this chunk's directions: slot s is direction first + s.
-    for (size_t i = 0; i < q.size(); ++i) q[i] = D8(q0[static_cast<Eigen::Index>(i)]);
-    for (size_t i = 0; i < z.size(); ++i) z[i] = D8(z0[static_cast<Eigen::Index>(i)]);
-    for (size_t i = 0; i < u.size(); ++i) u[i] = D8(u0[static_cast<Eigen::Index>(i)]);
-    for (int k = 0; k < model.num_bodies(); ++k) {
-      const JointType type = model.joint(k).type;
-      const int p = model.speed_offset(k);
-      const int count = speed_count(type);
-      bool turned = false;
-      Eu<D8> half{{D8(0.0), D8(0.0), D8(0.0), D8(1.0)}};  // (r/2, 1): exp(-[r~]) to first order
-      for (int c = 0; c < count; ++c) {
-        const int dir = p + c;
-        if (dir < first || dir >= first + kChunk) continue;
-        const int slot = dir - first;
-        if (is_rotation_entry(type, c)) {
-          half.e[c].d[at(slot)] = 0.5;
-          turned = true;
-        } else {
-          q[at(coordinate_of_entry(model, k, c))].d[at(slot)] = 1.0;
-        }
-      }
-      if (turned) {
-        const int o = model.coordinate_offset(k);
-        const Eu<D8> e = compose(constant_euler<D8>(q0.segment<4>(o)), half);
-        for (int i = 0; i < 4; ++i) q[at(o + i)] = e.e[i];
-      }
+  dirs.clear();
+  for (int d = 0; d < 2 * n; ++d) dirs.push_back(d);
+  // A joint input on a joint other than free adds u to one generalized force: its column of dQ
+  // is minus that unit column, exactly; the others go through the dual numbers.
+  const auto& inputs = model.inputs();
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const Input& in = inputs[i];
+    const int col = 2 * n + static_cast<int>(i);
+    if (in.type == InputType::joint && model.joint(in.body).type != JointType::free) {
+      out.col(col).setZero();
+      out(model.speed_offset(in.body) + in.speed, col) = -1.0;
+    } else {
+      dirs.push_back(col);
     }
-    for (int s = 0; s < kChunk && first + s < total; ++s) {
-      const int dir = first + s;
-      if (dir >= 2 * n)
-        u[at(dir - 2 * n)].d[at(s)] = 1.0;
-      else if (dir >= n)
-        z[at(dir - n)].d[at(s)] = 1.0;
+  }
+  // The widest pass that is not mostly empty: one op on N directions costs about N/4 of a
+  // double op (AVX2), plus the value's own.
+  for (size_t first = 0; first < dirs.size();) {
+    const size_t left = dirs.size() - first;
+    if (left > 12) {
+      pass16.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      first += 16;
+    } else if (left > 8) {
+      pass12.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      first += 12;
+    } else if (left > 4) {
+      pass8.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      first += 8;
+    } else {
+      pass4.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      first += 4;
     }
-    inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u.data(), Q.data(), bodies);
-    for (int s = 0; s < kChunk && first + s < total; ++s)
-      for (int row = 0; row < n; ++row) out(row, first + s) = Q[at(row)].d[at(s)];
   }
 }
 
@@ -671,9 +770,10 @@ Derivatives::~Derivatives() = default;
 const Model& Derivatives::model() const { return impl_->model; }
 bool Derivatives::analytic() const { return impl_->tables.supported; }
 std::string Derivatives::method() const {
-  return analytic() ? "forward-mode dual numbers through the inverse dynamics, 8 directions a pass"
-                    : "central differences in tangent coordinates (a force element of a type "
-                      "the library does not define)";
+  return analytic()
+             ? "forward-mode dual numbers through the inverse dynamics, up to 16 directions a pass"
+             : "central differences in tangent coordinates (a force element of a type "
+               "the library does not define)";
 }
 
 void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
@@ -687,14 +787,18 @@ void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
   check_size("Derivatives: z", z.size(), n);
   check_size("Derivatives: u", u.size(), m);
   MatrixX all(n, 2 * n + m);
-  s.dynamics.forward(q, z, u, s.zdot0);
   if (s.tables.supported) {
+    // z dot = -[M]^-1 Q(q, z, 0, u) (the bias), with the factor the derivatives need anyway:
+    // half the cost of another forward evaluation.
+    s.terms.mass_matrix(q, s.M);
+    s.llt.compute(s.M);
+    s.terms.bias_forces(q, z, s.zdot0, &u);
+    s.zdot0 = -s.llt.solve(s.zdot0);
     s.inverse_directions(q, z, s.zdot0, u, all);
     // [M] d(z dot) + dQ = 0 at z dot = F(q, z, u), where Q vanishes.
-    s.terms.mass_matrix(q, s.M);
-    const Eigen::LLT<MatrixX> llt(s.M);
-    all = -llt.solve(all);
+    all = -s.llt.solve(all);
   } else {
+    s.dynamics.forward(q, z, u, s.zdot0);
     s.forward_differences(q, z, u, all);
   }
   check_size("Derivatives: dq rows", dq.rows(), n);

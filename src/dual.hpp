@@ -11,42 +11,68 @@
 
 namespace kanedyn {
 
+// Aligned explicitly: without AVX the compiler aligns a 32-byte vector to 16 bytes only, and the
+// AVX2 clones of src/analysis.cpp and the baseline code must agree on the layout.
 template <int N>
-struct Dual {
-  double v = 0.0;
-  std::array<double, N> d{};
+struct alignas(32) Dual {
+  static_assert(N % 4 == 0, "a dual number carries whole packs of four directions");
+  // Four directions a pack, one AVX register: the compiler keeps small std::arrays in 128-bit
+  // halves and copies them through memory, where packs stay in registers.
+  using Pack = double __attribute__((vector_size(32)));
+  static constexpr int kPacks = N / 4;
 
+  double v;
+  alignas(32) Pack d[kPacks];
+
+  // Value-initialized (S{}) it is zero; default-initialized its parts are set by the caller.
   Dual() = default;
-  Dual(double value) : v(value) {}  // NOLINT: a constant is a dual with zero derivatives
+  static_assert(sizeof(Pack) == 32);
+  Dual(double value) : v(value) {  // NOLINT: a constant is a dual with zero derivatives
+    for (int i = 0; i < kPacks; ++i) d[i] = Pack{};
+  }
+  double& derivative(int i) { return d[i / 4][i % 4]; }
+  double derivative(int i) const { return d[i / 4][i % 4]; }
 
   Dual& operator+=(const Dual& b) {
     v += b.v;
-    for (int i = 0; i < N; ++i) d[i] += b.d[i];
+    for (int i = 0; i < kPacks; ++i) d[i] += b.d[i];
     return *this;
   }
   Dual& operator-=(const Dual& b) {
     v -= b.v;
-    for (int i = 0; i < N; ++i) d[i] -= b.d[i];
+    for (int i = 0; i < kPacks; ++i) d[i] -= b.d[i];
     return *this;
   }
-  friend Dual operator+(Dual a, const Dual& b) { return a += b; }
-  friend Dual operator-(Dual a, const Dual& b) { return a -= b; }
+  // Each result built in place: a copy of an operand (136 bytes and more) costs more than the
+  // arithmetic.
+  friend Dual operator+(const Dual& a, const Dual& b) {
+    Dual r;
+    r.v = a.v + b.v;
+    for (int i = 0; i < kPacks; ++i) r.d[i] = a.d[i] + b.d[i];
+    return r;
+  }
+  friend Dual operator-(const Dual& a, const Dual& b) {
+    Dual r;
+    r.v = a.v - b.v;
+    for (int i = 0; i < kPacks; ++i) r.d[i] = a.d[i] - b.d[i];
+    return r;
+  }
   friend Dual operator-(const Dual& a) {
     Dual r;
     r.v = -a.v;
-    for (int i = 0; i < N; ++i) r.d[i] = -a.d[i];
+    for (int i = 0; i < kPacks; ++i) r.d[i] = -a.d[i];
     return r;
   }
   friend Dual operator*(const Dual& a, const Dual& b) {
     Dual r;
     r.v = a.v * b.v;
-    for (int i = 0; i < N; ++i) r.d[i] = a.d[i] * b.v + a.v * b.d[i];
+    for (int i = 0; i < kPacks; ++i) r.d[i] = a.d[i] * b.v + a.v * b.d[i];
     return r;
   }
   friend Dual operator*(double a, const Dual& b) {
     Dual r;
     r.v = a * b.v;
-    for (int i = 0; i < N; ++i) r.d[i] = a * b.d[i];
+    for (int i = 0; i < kPacks; ++i) r.d[i] = a * b.d[i];
     return r;
   }
   friend Dual operator*(const Dual& a, double b) { return b * a; }
@@ -54,17 +80,28 @@ struct Dual {
     const double inv = 1.0 / b.v;
     Dual r;
     r.v = a.v * inv;
-    for (int i = 0; i < N; ++i) r.d[i] = (a.d[i] - r.v * b.d[i]) * inv;
+    for (int i = 0; i < kPacks; ++i) r.d[i] = (a.d[i] - r.v * b.d[i]) * inv;
     return r;
   }
   friend Dual operator/(double a, const Dual& b) { return Dual(a) / b; }
   friend Dual operator/(const Dual& a, double b) { return (1.0 / b) * a; }
-  friend Dual operator+(double a, const Dual& b) { return Dual(a) + b; }
-  friend Dual operator+(const Dual& a, double b) { return a + Dual(b); }
-  friend Dual operator-(double a, const Dual& b) { return Dual(a) - b; }
-  friend Dual operator-(const Dual& a, double b) { return a - Dual(b); }
+  friend Dual operator+(double a, const Dual& b) {
+    Dual r;
+    r.v = a + b.v;
+    for (int i = 0; i < kPacks; ++i) r.d[i] = b.d[i];
+    return r;
+  }
+  friend Dual operator+(const Dual& a, double b) { return b + a; }
+  friend Dual operator-(double a, const Dual& b) {
+    Dual r;
+    r.v = a - b.v;
+    for (int i = 0; i < kPacks; ++i) r.d[i] = -b.d[i];
+    return r;
+  }
+  friend Dual operator-(const Dual& a, double b) { return (-b) + a; }
   // Comparisons of the values: the branches of the equations take the path of the point.
   friend bool operator<(const Dual& a, double b) { return a.v < b; }
+  friend bool operator>(const Dual& a, double b) { return a.v > b; }
   friend bool operator>(const Dual& a, const Dual& b) { return a.v > b.v; }
   friend bool operator<=(const Dual& a, const Dual& b) { return a.v <= b.v; }
 };
@@ -74,7 +111,7 @@ inline Dual<N> sin(const Dual<N>& a) {
   Dual<N> r;
   r.v = std::sin(a.v);
   const double c = std::cos(a.v);
-  for (int i = 0; i < N; ++i) r.d[i] = c * a.d[i];
+  for (int i = 0; i < Dual<N>::kPacks; ++i) r.d[i] = c * a.d[i];
   return r;
 }
 template <int N>
@@ -82,7 +119,7 @@ inline Dual<N> cos(const Dual<N>& a) {
   Dual<N> r;
   r.v = std::cos(a.v);
   const double s = -std::sin(a.v);
-  for (int i = 0; i < N; ++i) r.d[i] = s * a.d[i];
+  for (int i = 0; i < Dual<N>::kPacks; ++i) r.d[i] = s * a.d[i];
   return r;
 }
 template <int N>
@@ -90,7 +127,7 @@ inline Dual<N> sqrt(const Dual<N>& a) {
   Dual<N> r;
   r.v = std::sqrt(a.v);
   const double h = 0.5 / r.v;
-  for (int i = 0; i < N; ++i) r.d[i] = h * a.d[i];
+  for (int i = 0; i < Dual<N>::kPacks; ++i) r.d[i] = h * a.d[i];
   return r;
 }
 
