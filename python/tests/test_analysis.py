@@ -312,6 +312,39 @@ def test_equilibrium_with_some_coordinates_free() -> None:
     assert np.abs(both.eigenvalues.real).max() <= 1e-12 * np.abs(both.eigenvalues).max()
 
 
+def test_equilibrium_with_inputs_is_where_they_balance_gravity() -> None:
+    # The URDF arm with its joint torques held at u = g(q*), the generalized gravity at q*
+    # (Model.gravity_forces, the torques that hold the arm there): from 0.05 rad off on every
+    # joint Newton comes back to q*. The shoulder pan turns about the vertical and the last
+    # wrist joint about the tool's axis here, so gravity restrains neither: they keep their
+    # start and are reported. The others land on q* to the residual's tolerance (3e-10 N m)
+    # over the gravity stiffness (order 1 N m / rad): asserted 1e-8 rad.
+    arm = kanedyn.load(EXAMPLES / "urdf" / "arm.urdf")
+    target = np.array([0.4, -0.9, 1.3, -0.6, 0.5, 0.3])
+    u = arm.gravity_forces(arm.state(q=target))
+    rest = arm.equilibrium(u=u, state=arm.state(q=target + 0.05))
+    assert rest.converged, rest.message
+    assert rest.unrestrained == ["shoulder_link.j1", "wrist_3_link.j1"]
+    np.testing.assert_array_equal(rest.u, u)
+    np.testing.assert_allclose(rest.q[1:5], target[1:5], rtol=0, atol=1e-8)
+    np.testing.assert_allclose(rest.q[[0, 5]], target[[0, 5]] + 0.05, rtol=0, atol=1e-12)
+    # Held by constant torques, not springs: a rest pose, but not a stable one.
+    assert rest.eigenvalues.real.max() > 0.1
+
+
+def test_linearize_of_a_spinning_free_body_is_periodic() -> None:
+    racket = kanedyn.load(EXAMPLES / "tennis_racket.yaml")  # spinning at 6 rad/s about y
+    lin = racket.linearize()
+    assert lin.periodic and "periodic" in lin.summary()
+    assert not racket.linearize(q=racket.initial_joint_coordinates, z=np.zeros(6)).periodic
+    # The rotation vector's rate at the spin w0: dr/dt = dw - w0 x r, so A's top-left block is
+    # -[w0~] (the spec, "Linearization output").
+    w0 = racket.initial_joint_speeds[:3]
+    skew = np.array([[0, -w0[2], w0[1]], [w0[2], 0, -w0[0]], [-w0[1], w0[0], 0]])
+    np.testing.assert_array_equal(lin.A[:3, :3], -skew)
+    np.testing.assert_array_equal(lin.A[:6, 6:], np.eye(6))
+
+
 def test_equilibrium_that_cannot_converge_returns_and_says_why() -> None:
     # A free body under gravity with nothing holding it: no rest pose. The result says so
     # instead of raising, with the coordinates that nothing restrains.
