@@ -62,7 +62,9 @@ class Linearization:
 
     def as_dict(self) -> Dict[str, Any]:
         """The spec's JSON object (`kanedyn linearize --json`) as plain Python: n, m, state,
-        inputs, q, z, u, A, B (only when m > 0) and eigenvalues as [real, imaginary] pairs."""
+        inputs, q, z, u, A, B (only when m > 0) and eigenvalues as [real, imaginary] pairs;
+        with modes (linearize(modes=True), `--json --modes`) also "modes", each column a list
+        of [real, imaginary] pairs."""
         out: Dict[str, Any] = {
             "n": int(self.n),
             "m": int(self.m),
@@ -76,6 +78,10 @@ class Linearization:
         if self.m > 0:
             out["B"] = self.B.tolist()
         out["eigenvalues"] = [[float(v.real), float(v.imag)] for v in self.eigenvalues]
+        if self.modes is not None:
+            # Not in the spec's object unless asked, as `--json --modes` adds it: column i, the
+            # vector of eigenvalue i, as [real, imaginary] pairs.
+            out["modes"] = [[[float(v.real), float(v.imag)] for v in column] for column in self.modes.T]
         return out
 
     def to_json(self, indent: Optional[int] = None) -> str:

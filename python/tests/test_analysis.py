@@ -202,7 +202,8 @@ def test_linearize_without_inputs_has_no_B_and_gives_modes() -> None:
     eight = kanedyn.load(EXAMPLES / "eight_body.yaml")
     lin = eight.linearize(modes=True)  # the initial state, which moves
     d = lin.as_dict()
-    assert list(d) == [k for k in SPEC_KEYS if k != "B"] and d["m"] == 0
+    assert list(d) == [k for k in SPEC_KEYS if k != "B"] + ["modes"] and d["m"] == 0
+    assert eight.linearize().as_dict().keys() == d.keys() - {"modes"}
     n = d["n"]
     assert n == 48 and len(d["state"]) == 96 and np.array(d["A"]).shape == (96, 96)
     assert json.loads(lin.to_json(indent=1)) == d
@@ -211,6 +212,8 @@ def test_linearize_without_inputs_has_no_B_and_gives_modes() -> None:
     residual = lin.A @ lin.modes - lin.modes * lin.eigenvalues
     assert np.abs(residual).max() <= 1e-9 * np.abs(lin.A).max()
     np.testing.assert_allclose(np.abs(lin.modes).max(axis=0), 1.0, rtol=0, atol=1e-12)
+    m = np.array(d["modes"])  # columns of [re, im] pairs
+    np.testing.assert_array_equal(m[..., 0].T + 1j * m[..., 1].T, lin.modes)
     mode = lin.mode(0)
     assert list(mode) == lin.state and max(abs(v) for v in mode.values()) == pytest.approx(1.0)
     # The sort of the spec: decreasing real part, then decreasing imaginary part.
@@ -379,3 +382,46 @@ def test_equilibrium_refuses_a_bad_free_name_with_the_closest() -> None:
         cart.equilibrium(tolerance=0.0)
     with pytest.raises(ValueError, match="max_iterations"):
         cart.equilibrium(max_iterations=-1)
+
+
+def test_linearize_gives_the_object_of_the_tool() -> None:
+    # `kanedyn linearize MODEL --json` and Model.linearize() at the same default operating point
+    # (the initial state, zero inputs) call the same library function: the same numbers, bit
+    # for bit once read back (both write doubles that round-trip). Skipped by a tool built
+    # without the command.
+    from conftest import run_tool
+
+    for name in ("cart_pole.yaml", "tennis_racket.yaml"):
+        done = run_tool(["linearize", EXAMPLES / name, "--json"])
+        if "unknown command 'linearize'" in done.stderr:
+            pytest.skip("this build's tool has no linearize command")
+        assert done.returncode == 0, done.stderr
+        assert json.loads(done.stdout) == kanedyn.load(EXAMPLES / name).linearize().as_dict()
+
+
+def test_derivatives_from_several_threads_equal_the_serial_ones() -> None:
+    # Each call takes a workspace (its own Derivatives) from the model's pool, and models of 32
+    # bodies or more compute without the GIL: four threads on one 64-body model at once give
+    # the serial results bit for bit.
+    import threading
+
+    chain = kanedyn.load(EXAMPLES / "chain64.yaml")
+    rng = np.random.default_rng(8)
+    n = len(chain.tangent_state_names) // 2
+    points = [(chain.retract(chain.initial_joint_coordinates, rng.uniform(-0.3, 0.3, n)), rng.uniform(-1, 1, n)) for _ in range(8)]
+    serial = [chain.forward_derivatives(q=q, z=z) for q, z in points]
+    failures = []
+
+    def worker(offset: int) -> None:
+        for i in range(len(points)):
+            k = (i + offset) % len(points)
+            got = chain.forward_derivatives(q=points[k][0], z=points[k][1])
+            if any(a.tobytes() != b.tobytes() for a, b in zip(got, serial[k])):
+                failures.append(k)
+
+    threads = [threading.Thread(target=worker, args=(t,)) for t in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert failures == []
