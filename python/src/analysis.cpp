@@ -139,9 +139,14 @@ py::dict linearize_model(const PyModel& m, py::object state, py::object u_obj, b
   model_state(m, state, q_obj, z_obj, q, z);
   input_values(m, u_obj, u);
   Linearization lin;
-  {
+  try {
     py::gil_scoped_release release;
     lin = linearize(m.model(), q, z, u, modes);
+  } catch (const std::invalid_argument& e) {
+    // The sizes are checked above: what is left is an A that overflowed.
+    throw py::value_error(
+        std::string("linearize(): the derivatives at this state are not finite (") + e.what() +
+        ")");
   }
   return linearization_dict(lin);
 }
@@ -263,14 +268,21 @@ py::dict equilibrium_of(const PyModel& m, py::object free, py::object u_obj, py:
   input_values(m, u_obj, u);
   EquilibriumResult result;
   Linearization lin;
+  bool linearized = false;
   {
     py::gil_scoped_release release;
     result = equilibrium(model, q, u, options);
-    // The eigenvalues say whether the rest pose is stable; a pose that is not one has none.
-    if (result.converged)
-      lin = options.free.empty()
-                ? linearize(model, result.q, VectorX::Zero(model.num_speeds()), u)
-                : held_linearization(model, result.q, u, options.free, result.residual);
+    // The eigenvalues say whether the rest pose is stable; a pose that is not one has none,
+    // nor one whose derivatives overflow (sorted_eigenvalues refuses a non-finite A).
+    try {
+      if (result.converged) {
+        lin = options.free.empty()
+                  ? linearize(model, result.q, VectorX::Zero(model.num_speeds()), u)
+                  : held_linearization(model, result.q, u, options.free, result.residual);
+        linearized = true;
+      }
+    } catch (const std::invalid_argument&) {
+    }
   }
   const std::vector<std::string> names = tangent_state_names(model);
   std::vector<int> free_indices = options.free;
@@ -291,7 +303,7 @@ py::dict equilibrium_of(const PyModel& m, py::object free, py::object u_obj, py:
   d["tolerance"] = tolerance;
   d["message"] = result.message;
   d["unrestrained"] = unrestrained;
-  d["linearization"] = result.converged ? py::object(linearization_dict(lin)) : py::none();
+  d["linearization"] = linearized ? py::object(linearization_dict(lin)) : py::none();
   return d;
 }
 

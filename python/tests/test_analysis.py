@@ -267,6 +267,9 @@ def test_linearize_checks_its_arguments() -> None:
         cart.inverse_derivatives(cart.initial_state())
     with pytest.raises(ValueError, match="has no modes"):
         cart.linearize().mode(0)
+    # Finite but absurd speeds overflow the derivatives: refused, saying so.
+    with pytest.raises(ValueError, match="derivatives at this state are not finite"):
+        cart.linearize(z=[1e200, 1e200])
 
 
 def test_equilibrium_of_the_hanging_figure() -> None:
