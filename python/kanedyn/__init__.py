@@ -36,12 +36,15 @@ from ._kanedyn import (
     _load_file,
     _load_text,
 )
+from ._analysis import Equilibrium, Linearization
 from ._result import ProgressBar, Result
 
 __all__ = [
     "BodyInspection",
+    "Equilibrium",
     "EquationsOfMotion",
     "Inspection",
+    "Linearization",
     "Model",
     "ModelError",
     "ProgressBar",

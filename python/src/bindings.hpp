@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/analysis.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -44,6 +45,8 @@ class PyModel {
     std::unique_ptr<Terms> terms;        // made on first use by terms_of()
     VectorX v, dv;                       // the packed (q; z) and its rate
     VectorX u;                           // the inputs' values of the call
+    /// The analysis' derivatives (analysis.cpp), made on first use.
+    std::unique_ptr<Derivatives> derivatives;
     /// The inputs' values every later evaluation in this workspace reads, from a Python
     /// argument (None: zero; input_values()): set by each call, since a pooled workspace keeps
     /// the values of its last one.
@@ -193,6 +196,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
 void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_view(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_control(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
+void register_analysis(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 
 /// Raises kanedyn.ModelError for a model-file error (with its parts as attributes).
 [[noreturn]] void raise_model_error(const io::ModelFileError& e);

@@ -67,3 +67,44 @@ def test_arm_computed_torque_tracks_the_sines(tmp_path) -> None:
     assert late < 1e-7
     end = [line for line in out.splitlines() if line.startswith("t = 4.0")][0]
     assert float(end.split("error ")[1].split()[0]) < 1e-9
+
+
+def test_cart_pole_lqr_holds_the_pole_up(tmp_path) -> None:
+    # From 0.2 rad at rest. The LQR design makes the linear closed loop stable; its slowest
+    # eigenvalues are near -1.1 /s, so after 5 s the angle is of order 0.2 exp(-5) ~ 1e-3:
+    # asserted below 5e-3 rad (a pole that fell would lie at pi/2 or beyond), the cart within
+    # 5 cm of the origin. The push acts from the first instant, so the pole never tips further
+    # than it started (0.21 rad leaves room for the sampled law's first 10 ms).
+    out = run("cart_pole_lqr.py", tmp_path)
+    assert float(out.split("closed loop: largest real part ")[1].split()[0]) < 0
+    largest = float(out.split("largest pole angle ")[1].split()[0])
+    assert 0.2 <= largest < 0.21
+    final = out.split("final pole angle ")[1].split()
+    assert float(final[0]) < 5e-3
+    assert float(final[3]) < 0.05  # the cart, m
+
+
+def test_tennis_racket_intermediate_axis_is_unstable(tmp_path) -> None:
+    # The eigenvalues of the linearized spin against Euler's equations, computed here from the
+    # model file's moments (not from the script's own formula), at 1e-10 relative (the
+    # derivatives are dual numbers, exact to round-off; printed with 15 digits). About the
+    # intermediate axis y a real eigenvalue w0 sqrt((I2 - I1)(I3 - I2) / (I1 I3)); about x
+    # and z no real part above 1e-10 /s, and a wobble at w0 sqrt((I2 - I1)(I3 - I1) / (I2 I3))
+    # and w0 sqrt((I3 - I1)(I3 - I2) / (I1 I2)).
+    out = run("tennis_racket.py", tmp_path)
+    I1, I2, I3, w0 = 0.0022, 0.0120, 0.0138, 6.0
+    rate = w0 * ((I2 - I1) * (I3 - I2) / (I1 * I3)) ** 0.5
+    wobble = {"x": w0 * ((I2 - I1) * (I3 - I1) / (I2 * I3)) ** 0.5, "z": w0 * ((I3 - I1) * (I3 - I2) / (I1 * I2)) ** 0.5}
+    readings = {r[0]: r for r in out.split("spin about ")[1:]}
+    assert sorted(readings) == ["x", "y", "z"]
+    measured = float(readings["y"].split("largest real part ")[1].split()[0])
+    assert abs(measured - rate) <= 1e-10 * rate, (measured, rate)
+    for axis in "xz":
+        reading = readings[axis]
+        assert "stable wobble" in reading, reading
+        assert float(reading.split("largest real part ")[1].split()[0]) <= 1e-10
+        frequency = float(reading.split("wobble at ")[1].split()[0])
+        assert abs(frequency - wobble[axis]) <= 1e-10 * wobble[axis], (axis, frequency, wobble[axis])
+    # The nonlinear simulation's wobble grows at nearly that rate (cosh, not exp: 1% less).
+    simulated = float(out.split("simulated wobble grows at ")[1].split()[0])
+    assert 0.98 * rate < simulated < rate
