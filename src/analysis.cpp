@@ -938,6 +938,60 @@ Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, 
   return lin;
 }
 
+Linearization linearize_at_rest(const Model& model, const VectorX& q, const VectorX& u,
+                                const std::vector<int>& free) {
+  const int n = model.num_speeds();
+  const int m = model.num_inputs();
+  const int f = static_cast<int>(free.size());
+  check_size("linearize_at_rest: q", q.size(), model.num_coordinates());
+  check_size("linearize_at_rest: u", u.size(), m);
+  for (const int i : free)
+    if (i < 0 || i >= n)
+      throw std::invalid_argument("linearize_at_rest: coordinate " + std::to_string(i) +
+                                  " outside 0.." + std::to_string(n - 1));
+  Derivatives derivatives(model);
+  if (!derivatives.analytic())
+    throw std::invalid_argument(
+        "linearize_at_rest: the model has a force element of a type the library does not define");
+  const VectorX zero = VectorX::Zero(n);
+  MatrixX dq(n, n), dz(n, n), du(n, m), M(n, n);
+  derivatives.inverse(q, zero, zero, u, dq, dz, du);
+  Terms(model).mass_matrix(q, M);
+  // The free rows (and, square, columns) of a matrix.
+  const auto rows = [&](const MatrixX& a, bool square) {
+    MatrixX out(f, square ? f : a.cols());
+    for (int r = 0; r < f; ++r)
+      for (Eigen::Index c = 0; c < out.cols(); ++c)
+        out(r, c) = a(free[at(r)], square ? free[at(static_cast<int>(c))] : c);
+    return out;
+  };
+  // [M_ff] d(z_f)/dt = -Q_f - dQ_f/dq_f dq_f - dQ_f/dz_f dz_f - dQ_f/du du, and d(q_f)/dt = z_f
+  // (a rotation vector's too: w0 = 0).
+  const Eigen::LLT<MatrixX> llt(rows(M, true));
+  const VectorX residual = detail::generic_inverse_dynamics(model, q, zero, zero, u);
+  Linearization lin;
+  lin.n = f;
+  lin.m = m;
+  const std::vector<std::string> names = tangent_state_names(model);
+  for (const int i : free) lin.state.push_back(names[at(i)]);
+  for (const int i : free) lin.state.push_back(names[at(n + i)]);
+  for (const Input& in : model.inputs()) lin.inputs.push_back(in.name);
+  lin.q = q;
+  lin.z = zero;
+  lin.u = u;
+  VectorX rf(f);
+  for (int i = 0; i < f; ++i) rf[i] = residual[free[at(i)]];
+  lin.zdot = -llt.solve(rf);
+  lin.A = MatrixX::Zero(2 * f, 2 * f);
+  lin.B = MatrixX::Zero(2 * f, m);
+  lin.A.topRightCorner(f, f).setIdentity();
+  lin.A.bottomLeftCorner(f, f) = -llt.solve(rows(dq, true));
+  lin.A.bottomRightCorner(f, f) = -llt.solve(rows(dz, true));
+  lin.B.bottomRows(f) = -llt.solve(rows(du, false));
+  if (lin.A.allFinite()) lin.eigenvalues = sorted_eigenvalues(lin.A);
+  return lin;
+}
+
 // ---- Static equilibrium ----
 
 EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
@@ -1027,24 +1081,10 @@ EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const Vecto
         if (flagged[at(i)]) result.unrestrained.push_back(free[at(i)]);
     }
   }
-  // The motion about q with the held coordinates locked: [M_ff] dz_f/dt = -dQ_f/dq_f dq_f -
-  // dQ_f/dz_f dz_f, and d(q_f)/dt = z_f at rest (w0 = 0).
+  // Stable or not: the motion about q with the held coordinates locked.
   if (f > 0) {
-    MatrixX M(n, n);
-    Terms(model).mass_matrix(result.q, M);
-    MatrixX mff(f, f), kff(f, f), dff(f, f);
-    for (int r = 0; r < f; ++r)
-      for (int c = 0; c < f; ++c) {
-        mff(r, c) = M(free[at(r)], free[at(c)]);
-        kff(r, c) = dq(free[at(r)], free[at(c)]);
-        dff(r, c) = dz(free[at(r)], free[at(c)]);
-      }
-    const Eigen::LLT<MatrixX> llt(mff);
-    MatrixX a = MatrixX::Zero(2 * f, 2 * f);
-    a.topRightCorner(f, f).setIdentity();
-    a.bottomLeftCorner(f, f) = -llt.solve(kff);
-    a.bottomRightCorner(f, f) = -llt.solve(dff);
-    if (a.allFinite()) result.eigenvalues = sorted_eigenvalues(a);
+    const Linearization held = linearize_at_rest(model, result.q, u, free);
+    if (held.A.allFinite()) result.eigenvalues = sorted_eigenvalues(held.A);
   }
   std::ostringstream msg;
   msg.precision(3);

@@ -422,6 +422,34 @@ TEST(Equilibrium, AHeldCoordinateKeepsItsValue) {
   EXPECT_EQ(rest.residual.size(), m.num_speeds() - 1);
 }
 
+// With every coordinate free, the linearization at rest is linearize() at z = 0; with one held,
+// it is the system without that coordinate: its rows and columns left out of M and dQ.
+TEST(Equilibrium, LinearizationAtRestLocksTheHeldCoordinates) {
+  const Model m = hanging_three();
+  const EquilibriumResult rest = equilibrium(m, identity_pose(m), VectorX());
+  ASSERT_TRUE(rest.converged);
+  const int n = m.num_speeds();
+  std::vector<int> all;
+  for (int i = 0; i < n; ++i) all.push_back(i);
+  const Linearization whole = linearize(m, rest.q, VectorX::Zero(n), VectorX());
+  const Linearization at_rest = linearize_at_rest(m, rest.q, VectorX(), all);
+  EXPECT_LE((whole.A - at_rest.A).cwiseAbs().maxCoeff(), 1e-9 * whole.A.cwiseAbs().maxCoeff());
+  EXPECT_EQ(whole.state, at_rest.state);
+  // Hold everything but the arm's hinge: a damped pendulum on a spring, whose eigenvalues are
+  // those of the 1-speed system M s^2 + D s + K = 0 from the whole model's matrices.
+  const int hinge = n - 1;
+  const Linearization one = linearize_at_rest(m, rest.q, VectorX(), {hinge});
+  ASSERT_EQ(one.A.rows(), 2);
+  MatrixX M(n, n), dq(n, n), dz(n, n), du(n, 0);
+  Terms(m).mass_matrix(rest.q, M);
+  Derivatives(m).inverse(rest.q, VectorX::Zero(n), VectorX::Zero(n), VectorX(), dq, dz, du);
+  const double a = M(hinge, hinge), b = dz(hinge, hinge), c = dq(hinge, hinge);
+  const std::complex<double> root =
+      (-b + std::sqrt(std::complex<double>(b * b - 4 * a * c))) / (2 * a);
+  EXPECT_TRUE(contains(one.eigenvalues, root, 1e-12)) << one.eigenvalues.transpose();
+  EXPECT_EQ(one.state, (std::vector<std::string>{"arm.j1", "arm.jd1"}));
+}
+
 TEST(Equilibrium, AFallingBodyFailsAndSaysWhatIsUnrestrained) {
   const Model m({body("rock", kGround, 1.0, Vector3(1, 1, 1), Vector3::Zero())},
                 Vector3(0, 0, -kG));

@@ -91,6 +91,13 @@ struct Linearization {
 Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, const VectorX& u,
                         bool modes = false);
 
+/// The linearization at rest (z = 0) of the motion in which only the tangent coordinates `free`
+/// move and the others are locked (held by reactions): the state is the free coordinates, then
+/// their speeds; zdot the free speeds' rates there. With every coordinate free it equals
+/// linearize() at z = 0. Analytic models only (std::invalid_argument otherwise).
+Linearization linearize_at_rest(const Model& model, const VectorX& q, const VectorX& u,
+                                const std::vector<int>& free);
+
 /// The eigenvalues (and, when vectors is not null, the eigenvectors, scaled as in
 /// Linearization::modes) of a square matrix, sorted as Linearization::eigenvalues.
 Eigen::VectorXcd sorted_eigenvalues(const MatrixX& a, Eigen::MatrixXcd* vectors = nullptr);

@@ -207,51 +207,6 @@ std::vector<int> free_coordinates(const Model& model, py::handle free) {
   return out;
 }
 
-/// The linearization at a rest pose q (z = 0) of the model with every coordinate outside
-/// `free` held where it is: the held coordinates and their speeds leave the state, and the
-/// reactions that hold them do no work on the free ones, so M_ff d(z_f dot) + dQ_f = 0 with
-/// M_ff and dQ_f the free rows and columns of the mass matrix and of the inverse dynamics'
-/// derivatives. The whole model's linearization would move the held coordinates too, about a
-/// pose where they need not rest.
-Linearization held_linearization(const Model& model, const VectorX& q, const VectorX& u,
-                                 const std::vector<int>& free, const VectorX& residual) {
-  const int n = model.num_speeds();
-  const int m = model.num_inputs();
-  const int f = static_cast<int>(free.size());
-  const VectorX zero = VectorX::Zero(n);
-  MatrixX dq(n, n), dz(n, n), du(n, m), M(n, n);
-  Derivatives(model).inverse(q, zero, zero, u, dq, dz, du);
-  Terms(model).mass_matrix(q, M);
-  const auto rows = [&](const MatrixX& a, bool square) {
-    MatrixX out(f, square ? f : a.cols());
-    for (int r = 0; r < f; ++r)
-      for (int c = 0; c < out.cols(); ++c)
-        out(r, c) = a(free[static_cast<size_t>(r)], square ? free[static_cast<size_t>(c)] : c);
-    return out;
-  };
-  const Eigen::LLT<MatrixX> llt(rows(M, true));
-  Linearization lin;
-  lin.n = f;
-  lin.m = m;
-  const std::vector<std::string> names = tangent_state_names(model);
-  for (const int i : free) lin.state.push_back(names[static_cast<size_t>(i)]);
-  for (const int i : free) lin.state.push_back(names[static_cast<size_t>(n + i)]);
-  for (const Input& in : model.inputs()) lin.inputs.push_back(in.name);
-  lin.q = q;
-  lin.z = zero;
-  lin.u = u;
-  lin.zdot = -llt.solve(residual);  // the free speeds' rates: Newton's residual
-  lin.A = MatrixX::Zero(2 * f, 2 * f);
-  lin.B = MatrixX::Zero(2 * f, m);
-  // At z = 0 every coordinate's rate is its speed, a rotation vector's too (w0 = 0).
-  lin.A.topRightCorner(f, f).setIdentity();
-  lin.A.bottomLeftCorner(f, f) = -llt.solve(rows(dq, true));
-  lin.A.bottomRightCorner(f, f) = -llt.solve(rows(dz, true));
-  lin.B.bottomRows(f) = -llt.solve(rows(du, false));
-  lin.eigenvalues = sorted_eigenvalues(lin.A);
-  return lin;
-}
-
 py::dict equilibrium_of(const PyModel& m, py::object free, py::object u_obj, py::object state,
                         double tolerance, py::object max_iterations, py::object q_obj) {
   const Model& model = m.model();
@@ -277,7 +232,7 @@ py::dict equilibrium_of(const PyModel& m, py::object free, py::object u_obj, py:
       if (result.converged) {
         lin = options.free.empty()
                   ? linearize(model, result.q, VectorX::Zero(model.num_speeds()), u)
-                  : held_linearization(model, result.q, u, options.free, result.residual);
+                  : linearize_at_rest(model, result.q, u, options.free);
         linearized = true;
       }
     } catch (const std::invalid_argument&) {
