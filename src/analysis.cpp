@@ -3,6 +3,7 @@
 #include "kanedyn/analysis.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/QR>
 #include <algorithm>
@@ -656,8 +657,7 @@ void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, c
 }
 
 struct Derivatives::Impl {
-  explicit Impl(const Model& m)
-      : model(m), tables(m), dynamics(m), terms(m), pass4(m), pass8(m), pass12(m), pass16(m) {
+  explicit Impl(const Model& m) : model(m), tables(m), terms(m) {
     const int n = m.num_speeds();
     M.resize(n, n);
     zdot0.resize(n);
@@ -665,12 +665,24 @@ struct Derivatives::Impl {
 
   const Model& model;
   Tables tables;
-  Dynamics dynamics;
   Terms terms;
-  Pass<4> pass4;
-  Pass<8> pass8;
-  Pass<12> pass12;
-  Pass<16> pass16;
+  // Made on first use: a pass of 16 directions holds some 10 kB a body, and most models use
+  // one width; the forward route only for the central differences.
+  std::unique_ptr<Pass<4>> pass4;
+  std::unique_ptr<Pass<8>> pass8;
+  std::unique_ptr<Pass<12>> pass12;
+  std::unique_ptr<Pass<16>> pass16;
+  std::unique_ptr<Dynamics> forward_route;
+
+  template <int N>
+  Pass<N>& pass(std::unique_ptr<Pass<N>>& p) {
+    if (!p) p = std::make_unique<Pass<N>>(model);
+    return *p;
+  }
+  Dynamics& dynamics() {
+    if (!forward_route) forward_route = std::make_unique<Dynamics>(model);
+    return *forward_route;
+  }
   MatrixX M;
   Eigen::LLT<MatrixX> llt;
   VectorX zdot0;
@@ -709,16 +721,16 @@ void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
   for (size_t first = 0; first < dirs.size();) {
     const size_t left = dirs.size() - first;
     if (left > 12) {
-      pass16.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      pass(pass16).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 16;
     } else if (left > 8) {
-      pass12.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      pass(pass12).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 12;
     } else if (left > 4) {
-      pass8.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      pass(pass8).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 8;
     } else {
-      pass4.run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      pass(pass4).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 4;
     }
   }
@@ -732,6 +744,7 @@ void Derivatives::Impl::forward_differences(const VectorX& q0, const VectorX& z0
   const int m = model.num_inputs();
   const double base = std::ldexp(1.0, -17);
   VectorX plus(n), minus(n);
+  Dynamics& dynamics = this->dynamics();
   dynamics.set_inputs(u0);
   for (int i = 0; i < n; ++i) {  // q, in tangent coordinates
     VectorX dx = VectorX::Zero(n);
@@ -798,7 +811,7 @@ void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
     // [M] d(z dot) + dQ = 0 at z dot = F(q, z, u), where Q vanishes.
     all = -s.llt.solve(all);
   } else {
-    s.dynamics.forward(q, z, u, s.zdot0);
+    s.dynamics().forward(q, z, u, s.zdot0);
     s.forward_differences(q, z, u, all);
   }
   check_size("Derivatives: dq rows", dq.rows(), n);
@@ -829,6 +842,10 @@ void Derivatives::inverse(const VectorX& q, const VectorX& z, const VectorX& zdo
 
 // ---- Linearization and eigenvalues ----
 
+// Below this size Eigen's solver is used: LAPACK's (OpenBLAS's) would wake its threads for a
+// matrix that takes microseconds, which on a loaded machine costs far more.
+constexpr int kSmallEigenproblem = 48;
+
 extern "C" void dgeev_(const char* jobvl, const char* jobvr, const int* n, double* a,
                        const int* lda, double* wr, double* wi, double* vl, const int* ldvl,
                        double* vr, const int* ldvr, double* work, const int* lwork, int* info);
@@ -840,25 +857,50 @@ Eigen::VectorXcd sorted_eigenvalues(const MatrixX& a, Eigen::MatrixXcd* vectors)
   if (vectors) vectors->resize(n, n);
   if (n == 0) return values;
   if (!a.allFinite()) throw std::invalid_argument("sorted_eigenvalues: a matrix with NaN or inf");
-  // LAPACK's dgeev (Hessenberg reduction and the multishift QR, blocked): a general matrix of
-  // 1,000 rows in about a second where Eigen's EigenSolver takes twenty.
-  MatrixX work_a = a;
   VectorX wr(n), wi(n);
-  MatrixX vr(vectors ? n : 1, vectors ? n : 1);
-  const char jobvl = 'N', jobvr = vectors ? 'V' : 'N';
-  const int ldvr = vectors ? n : 1, one = 1;
-  int info = 0, lwork = -1;
-  double query = 0.0;
-  double dummy = 0.0;
-  dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
-         &ldvr, &query, &lwork, &info);
-  lwork = std::max(1, static_cast<int>(query));
-  std::vector<double> work(at(lwork));
-  dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
-         &ldvr, work.data(), &lwork, &info);
-  if (info != 0)
-    throw std::runtime_error("eigenvalues: LAPACK dgeev did not converge (info " +
-                             std::to_string(info) + ")");
+  Eigen::MatrixXcd raw;
+  if (n <= kSmallEigenproblem) {
+    // Eigen's EigenSolver: a few microseconds at this size, with no threads to wake.
+    const Eigen::EigenSolver<MatrixX> solver(a, vectors != nullptr);
+    if (solver.info() != Eigen::Success)
+      throw std::runtime_error("eigenvalues: the QR iteration did not converge");
+    wr = solver.eigenvalues().real();
+    wi = solver.eigenvalues().imag();
+    if (vectors) raw = solver.eigenvectors();
+  } else {
+    // LAPACK's dgeev (Hessenberg reduction and the multishift QR, blocked): a general matrix
+    // of 1,000 rows in about a second where Eigen's EigenSolver takes twenty.
+    MatrixX work_a = a;
+    MatrixX vr(vectors ? n : 1, vectors ? n : 1);
+    const char jobvl = 'N', jobvr = vectors ? 'V' : 'N';
+    const int ldvr = vectors ? n : 1, one = 1;
+    int info = 0, lwork = -1;
+    double query = 0.0, dummy = 0.0;
+    dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
+           &ldvr, &query, &lwork, &info);
+    lwork = std::max(1, static_cast<int>(query));
+    std::vector<double> work(at(lwork));
+    dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
+           &ldvr, work.data(), &lwork, &info);
+    if (info != 0)
+      throw std::runtime_error("eigenvalues: LAPACK dgeev did not converge (info " +
+                               std::to_string(info) + ")");
+    if (vectors) {
+      // dgeev stores a complex pair's vector as two real columns j, j+1: v = vr_j +- i vr_j+1.
+      raw.resize(n, n);
+      for (int j = 0; j < n; ++j) {
+        if (wi[j] == 0.0) {
+          raw.col(j) = vr.col(j).cast<std::complex<double>>();
+        } else if (wi[j] > 0.0 && j + 1 < n) {
+          for (int r = 0; r < n; ++r) {
+            raw(r, j) = {vr(r, j), vr(r, j + 1)};
+            raw(r, j + 1) = {vr(r, j), -vr(r, j + 1)};
+          }
+          ++j;
+        }
+      }
+    }
+  }
   std::vector<int> order(at(n));
   for (int i = 0; i < n; ++i) order[at(i)] = i;
   std::stable_sort(order.begin(), order.end(), [&](int x, int y) {
@@ -867,19 +909,6 @@ Eigen::VectorXcd sorted_eigenvalues(const MatrixX& a, Eigen::MatrixXcd* vectors)
   });
   for (int i = 0; i < n; ++i) values[i] = {wr[order[at(i)]], wi[order[at(i)]]};
   if (vectors) {
-    // dgeev stores a complex pair's vector as two real columns j, j+1: v = vr_j +- i vr_j+1.
-    Eigen::MatrixXcd raw(n, n);
-    for (int j = 0; j < n; ++j) {
-      if (wi[j] == 0.0) {
-        raw.col(j) = vr.col(j).cast<std::complex<double>>();
-      } else if (wi[j] > 0.0 && j + 1 < n) {
-        for (int r = 0; r < n; ++r) {
-          raw(r, j) = {vr(r, j), vr(r, j + 1)};
-          raw(r, j + 1) = {vr(r, j), -vr(r, j + 1)};
-        }
-        ++j;
-      }
-    }
     for (int i = 0; i < n; ++i) {
       Eigen::VectorXcd v = raw.col(order[at(i)]);
       Eigen::Index big = 0;

@@ -4,6 +4,8 @@
 // cart-pole) and against the nonlinear motion, and static equilibrium.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -532,6 +534,23 @@ TEST(Eigenvalues, SortedByRealPartThenImaginaryWithUnitVectors) {
     EXPECT_LE((a.cast<std::complex<double>>() * v - values[i] * v).norm(), 1e-14);
     EXPECT_NEAR(v.cwiseAbs().maxCoeff(), 1.0, 1e-15);
   }
+}
+
+// Above 48 rows LAPACK's dgeev computes them: the same values as Eigen's solver, and vectors
+// with A v = lambda v (round-off: 1e-10 of |A| on a 60 x 60 matrix).
+TEST(Eigenvalues, LapackAndEigenAgreeOnALargerMatrix) {
+  std::mt19937 rng(23);
+  const MatrixX a = MatrixX::NullaryExpr(60, 60, [&] { return uniform(rng, -1, 1); });
+  Eigen::MatrixXcd vectors;
+  const Eigen::VectorXcd values = sorted_eigenvalues(a, &vectors);
+  const Eigen::VectorXcd reference = Eigen::EigenSolver<MatrixX>(a, false).eigenvalues();
+  for (Eigen::Index i = 0; i < reference.size(); ++i)
+    EXPECT_TRUE(contains(values, reference[i], 1e-10)) << reference[i];
+  for (Eigen::Index i = 0; i + 1 < values.size(); ++i)
+    EXPECT_GE(values[i].real(), values[i + 1].real());
+  const Eigen::MatrixXcd ac = a.cast<std::complex<double>>();
+  for (Eigen::Index i = 0; i < values.size(); ++i)
+    EXPECT_LE((ac * vectors.col(i) - values[i] * vectors.col(i)).norm(), 1e-10 * 60);
 }
 
 }  // namespace
