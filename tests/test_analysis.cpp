@@ -182,6 +182,32 @@ TEST(Derivatives, MatchCentralDifferencesInTangentCoordinates) {
   }
 }
 
+// Above 48 speeds the mass matrix is factored by LAPACK: a chain of 20 free and spherical
+// bodies (n = 90) against central differences as above.
+TEST(Derivatives, LargerModelsMatchCentralDifferences) {
+  std::mt19937 rng(29);
+  test::RandomTreeOptions opt;
+  opt.min_bodies = opt.max_bodies = 20;
+  opt.chain = true;
+  opt.gravity = Vector3(0, 0, -9.81);
+  const Model tree = test::random_tree(rng, opt);
+  std::vector<Joint> joints;
+  for (int k = 0; k < tree.num_bodies(); ++k)
+    joints.push_back(test::random_joint(rng, k % 2 ? JointType::spherical : JointType::free));
+  const Model m = with_joints(tree, joints);
+  ASSERT_GT(m.num_speeds(), 48);
+  VectorX q, z;
+  random_joint_state(m, rng, q, z);
+  const int n = m.num_speeds();
+  MatrixX dq(n, n), dz(n, n), du(n, 0);
+  Derivatives(m).forward(q, z, VectorX(), dq, dz, du);
+  const MatrixX fd = central_differences(m, q, z, VectorX());
+  EXPECT_LE((dq - fd.leftCols(n)).cwiseAbs().maxCoeff(),
+            1e-6 * std::max(1.0, fd.leftCols(n).cwiseAbs().maxCoeff()));
+  EXPECT_LE((dz - fd.rightCols(n)).cwiseAbs().maxCoeff(),
+            1e-6 * std::max(1.0, fd.rightCols(n).cwiseAbs().maxCoeff()));
+}
+
 // The inverse dynamics' derivatives: dQ/dz dot is the mass matrix, so [M] d(z dot)/dx = -dQ/dx
 // ties the two calls together.
 TEST(Derivatives, InverseDerivativesGiveTheForwardOnesThroughTheMassMatrix) {
