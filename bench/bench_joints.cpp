@@ -184,6 +184,9 @@ void register_all() {
   term("frame_jacobian_with_kinematics", Term::jacobian_and_kinematics, "arm", arm);
   term("derivatives", Term::derivatives, "arm", arm);
   term("linearize", Term::linearize, "arm", arm);
+  const auto chain64 = [] { return revolute_chain(64); };
+  term("forward", Term::forward, "chain-64", chain64);
+  term("derivatives", Term::derivatives, "chain-64", chain64);
   const auto chain512 = [] { return revolute_chain(512); };
   term("forward", Term::forward, "chain-512", chain512);
   term("inverse_dynamics", Term::inverse_dynamics, "chain-512", chain512);
