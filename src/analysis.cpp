@@ -436,8 +436,14 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
 // the program is loaded (a pack of four directions is one AVX register). Flattened: every small
 // vector operation inlined, which the compiler would leave as calls for the wide numbers and
 // which then dominate.
+// clang refuses flatten beside target_clones: it gets the clones alone.
+#if defined(__clang__)
+#define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((target_clones("avx2", "default")))
+#else
+#define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((flatten, target_clones("avx2", "default")))
+#endif
 #define KANEDYN_DUAL_PASS(N)                                                                  \
-  __attribute__((flatten, target_clones("avx2", "default"))) void dual_inverse_dynamics_##N(  \
+  KANEDYN_DUAL_PASS_ATTRIBUTES void dual_inverse_dynamics_##N(                                \
       const Model& model, const Tables& tables, const Dual<N>* q, const Dual<N>* z,           \
       const double* zdot, const Dual<N>* u, Dual<N>* Q, std::vector<Body<Dual<N>>>& bodies) { \
     inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies);                                \
@@ -447,6 +453,7 @@ KANEDYN_DUAL_PASS(8)
 KANEDYN_DUAL_PASS(12)
 KANEDYN_DUAL_PASS(16)
 #undef KANEDYN_DUAL_PASS
+#undef KANEDYN_DUAL_PASS_ATTRIBUTES
 
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<4>* q,
                            const Dual<4>* z, const double* zdot, const Dual<4>* u, Dual<4>* Q,
@@ -674,17 +681,17 @@ void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, c
   for (size_t s = 0; s < count; ++s) {
     const int dir = dirs[first + s];
     if (dir >= 2 * n) {
-      u[at(dir - 2 * n)].derivative(static_cast<int>(s)) = 1.0;
+      u[at(dir - 2 * n)].set_derivative(static_cast<int>(s), 1.0);
     } else if (dir >= n) {
-      z[at(dir - n)].derivative(static_cast<int>(s)) = 1.0;
+      z[at(dir - n)].set_derivative(static_cast<int>(s), 1.0);
     } else {
       const int k = tables.speed_body[at(dir)];
       const int c = dir - model.speed_offset(k);
       if (is_rotation_entry(model.joint(k).type, c)) {
-        half[at(k)].e[c].derivative(static_cast<int>(s)) = 0.5;
+        half[at(k)].e[c].set_derivative(static_cast<int>(s), 0.5);
         turned[at(k)] = true;
       } else {
-        q[at(coordinate_of_entry(model, k, c))].derivative(static_cast<int>(s)) = 1.0;
+        q[at(coordinate_of_entry(model, k, c))].set_derivative(static_cast<int>(s), 1.0);
       }
     }
   }

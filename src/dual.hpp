@@ -30,8 +30,8 @@ struct alignas(32) Dual {
   Dual(double value) : v(value) {  // NOLINT: a constant is a dual with zero derivatives
     for (int i = 0; i < kPacks; ++i) d[i] = Pack{};
   }
-  double& derivative(int i) { return d[i / 4][i % 4]; }
   double derivative(int i) const { return d[i / 4][i % 4]; }
+  void set_derivative(int i, double value) { d[i / 4][i % 4] = value; }
 
   Dual& operator+=(const Dual& b) {
     v += b.v;
