@@ -7,6 +7,7 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -60,6 +61,33 @@ template <typename S>
 S dot_constant(const Vector3& a, const V3<S>& b) {
   return a.x() * b.x + a.y() * b.y + a.z() * b.z;
 }
+// Products with a constant vector: a dual number times a double is one multiply per pack, where
+// a constant made a dual number would take two and an add.
+template <typename S>
+V3<S> scale(const S& s, const Vector3& v) {
+  return {s * v.x(), s * v.y(), s * v.z()};
+}
+template <typename S>
+void add_constant(V3<S>& a, const Vector3& v) {
+  a.x += v.x();
+  a.y += v.y();
+  a.z += v.z();
+}
+template <typename S>
+V3<S> cross(const V3<S>& a, const Vector3& b) {
+  return {a.y * b.z() - a.z * b.y(), a.z * b.x() - a.x * b.z(), a.x * b.y() - a.y * b.x()};
+}
+template <typename S>
+V3<S> cross(const Vector3& a, const V3<S>& b) {
+  return {b.z * a.y() - b.y * a.z(), b.x * a.z() - b.z * a.x(), b.y * a.x() - b.x * a.y()};
+}
+template <typename S>
+V3<S> times_constant(const M3<S>& m, const Vector3& v) {
+  return {m.a[0] * v.x() + m.a[1] * v.y() + m.a[2] * v.z(),
+          m.a[3] * v.x() + m.a[4] * v.y() + m.a[5] * v.z(),
+          m.a[6] * v.x() + m.a[7] * v.y() + m.a[8] * v.z()};
+}
+
 // a b and a b^T.
 template <typename S>
 M3<S> product(const M3<S>& a, const M3<S>& b) {
@@ -114,7 +142,7 @@ struct Body {
   V3<S> sd;                       // s'_K dot, body-J components
   V3<S> slide;                    // s'_K, body-J components
   V3<S> w, w_rel;                 // w'_K; [G_K] z_K
-  V3<S> G[3];                     // [G_K]'s columns
+  V3<S> g0;                       // a universal joint's first column of [G_K], which turns with q2
   V3<S> alpha, a;                 // alpha'_K; the acceleration of O_K
   V3<S> moment, force;            // what K (then its subtree) needs, about O_K
   V3<S> load_force, load_moment;  // the resultants on K: a force at G_K, a moment
@@ -129,6 +157,10 @@ struct Tables {
   std::vector<const ConstantTorque*> torques;
   std::vector<const JointLoad*> joint_loads;
   std::vector<int> speed_body;  // the body of each speed
+  // [G_K]'s columns (body K), constant but for a universal joint's first, and the mask of the
+  // nonzero ones.
+  std::vector<std::array<Vector3, 3>> turn_axes;
+  std::vector<unsigned> turns;
   bool supported = true;
   // Whether the evaluation needs every body's absolute Euler parameters (a bushing measures K
   // relative to J through them) and rotation (a constant force is inertial; a free body below
@@ -138,6 +170,32 @@ struct Tables {
   explicit Tables(const Model& model) {
     for (int k = 0; k < model.num_bodies(); ++k) {
       for (int c = 0; c < speed_count(model.joint(k).type); ++c) speed_body.push_back(k);
+      const Joint& jt = model.joint(k);
+      std::array<Vector3, 3> axes{Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ()};
+      unsigned turning = 0;
+      switch (jt.type) {
+        case JointType::free:
+        case JointType::spherical:
+          turning = 7u;
+          break;
+        case JointType::revolute:
+        case JointType::cylindrical:
+          axes[0] = jt.axis;
+          turning = 1u;
+          break;
+        case JointType::universal:
+          axes[1] = jt.axes[1];
+          turning = 3u;
+          break;
+        case JointType::planar:
+          turning = 4u;
+          break;
+        case JointType::weld:
+        case JointType::prismatic:
+          break;
+      }
+      turn_axes.push_back(axes);
+      turns.push_back(turning);
       translation.push_back(joint_translation_block(model, k));
       unsigned mask = 0;
       for (int c = 0; c < speed_count(model.joint(k).type); ++c)
@@ -165,22 +223,22 @@ struct Tables {
 };
 
 // The joint table of body K over S (the table of detail::joint_motion, docs/theory.md,
-// "Joints"): eps, R, E, slide, sd, w_rel and the columns G into b, [G dot] z_K into g_dot_z;
-// J's terms in lower (null for a root).
+// "Joints"): eps, R, E, slide, sd, w_rel and a universal joint's first column of [G_K] into b
+// (the other columns are constant: Tables::turn_axes), [G dot] z_K into g_dot_z for a universal
+// joint (universal set); J's terms in lower (null for a root).
 template <typename S>
 void joint_terms(const Model& model, const Tables& tables, int k, const S* q, const S* z,
-                 const Body<S>* lower, Body<S>& b, V3<S>& g_dot_z) {
+                 const Body<S>* lower, Body<S>& b, V3<S>& g_dot_z, bool& universal) {
   const Joint& jt = model.joint(k);
   const int o = model.coordinate_offset(k);
   const int p = model.speed_offset(k);
   const S zero{};
   const S one = zero + 1.0;
   const V3<S> none{zero, zero, zero};
-  for (auto& g : b.G) g = none;
   b.w_rel = none;
   b.slide = none;
   b.sd = none;
-  g_dot_z = none;
+  universal = false;
   if (jt.type == JointType::free) {  // the notes' own: eps_K and s'_K in q, w'_K and s'_K dot in z
     b.eps = {{q[o], q[o + 1], q[o + 2], q[o + 3]}};
     b.R = eq::rotation_matrix(b.eps);
@@ -188,9 +246,6 @@ void joint_terms(const Model& model, const Tables& tables, int k, const S* q, co
     b.w_rel = {z[p], z[p + 1], z[p + 2]};
     b.slide = {q[o + 4], q[o + 5], q[o + 6]};
     b.sd = {z[p + 3], z[p + 4], z[p + 5]};
-    b.G[0] = {one, zero, zero};
-    b.G[1] = {zero, one, zero};
-    b.G[2] = {zero, zero, one};
     return;
   }
   Eu<S> rel{{zero, zero, zero, one}};  // K relative to F
@@ -203,8 +258,7 @@ void joint_terms(const Model& model, const Tables& tables, int k, const S* q, co
     case JointType::revolute:
     case JointType::cylindrical:
       rel = turn(jt.axis, q[o]);
-      b.G[0] = constant<S>(jt.axis);
-      b.w_rel = z[p] * b.G[0];
+      b.w_rel = scale(z[p], jt.axis);
       break;
     case JointType::prismatic:
       break;
@@ -212,33 +266,29 @@ void joint_terms(const Model& model, const Tables& tables, int k, const S* q, co
       // a1 first, then a2 as the first turn carried it: a1 in K components is [R(a2, q2)] a1,
       // and d/dt [R(a2, q2)] a1 = -(q2 dot a2) x [R(a2, q2)] a1.
       const Eu<S> second = turn(jt.axes[1], q[o + 1]);
-      b.G[0] = eq::rotation_matrix(second) * constant<S>(jt.axes[0]);
-      b.G[1] = constant<S>(jt.axes[1]);
+      b.g0 = times_constant(eq::rotation_matrix(second), jt.axes[0]);
       rel = compose(turn(jt.axes[0], q[o]), second);
-      b.w_rel = z[p] * b.G[0] + z[p + 1] * b.G[1];
-      g_dot_z = -(z[p] * z[p + 1]) * eq::cross(b.G[1], b.G[0]);
+      b.w_rel = z[p] * b.g0 + scale(z[p + 1], jt.axes[1]);
+      g_dot_z = -(z[p] * z[p + 1]) * cross(jt.axes[1], b.g0);
+      universal = true;
       break;
     }
     case JointType::spherical:
       rel = {{q[o], q[o + 1], q[o + 2], q[o + 3]}};
-      b.G[0] = {one, zero, zero};
-      b.G[1] = {zero, one, zero};
-      b.G[2] = {zero, zero, one};
       b.w_rel = {z[p], z[p + 1], z[p + 2]};
       break;
     case JointType::planar:  // K's z is F's z
       rel = turn(Vector3(Vector3::UnitZ()), q[o + 2]);
-      b.G[2] = {zero, zero, one};
-      b.w_rel = z[p + 2] * b.G[2];
+      b.w_rel = {zero, zero, z[p + 2]};
       break;
   }
   // The slides: z_K = dq_K/dt on every joint type with one (prismatic, cylindrical, planar).
   const unsigned mask = tables.slides[at(k)];
   for (int c = 0; c < 3; ++c)
     if (mask & (1u << c)) {
-      const V3<S> t = constant<S>(tables.translation[at(k)].col(c));
-      b.slide = b.slide + q[o + c] * t;
-      b.sd = b.sd + z[p + c] * t;
+      const Vector3 t = tables.translation[at(k)].col(c);
+      b.slide = b.slide + scale(q[o + c], t);
+      b.sd = b.sd + scale(z[p + c], t);
     }
   if (!is_identity(jt.frame)) rel = compose(constant_euler<S>(jt.frame), rel);
   b.E = eq::rotation_matrix(rel);
@@ -353,36 +403,38 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     Body<S>& b = bodies[at(k)];
     const bool free = model.joint(k).type == JointType::free;
     V3<S> g_dot_z;
-    joint_terms(model, tables, k, q, z, lower, b, g_dot_z);
-    b.r = constant<S>(model.body(k).joint) + b.slide;
+    bool universal = false;
+    joint_terms(model, tables, k, q, z, lower, b, g_dot_z, universal);
+    b.r = b.slide;
+    add_constant(b.r, model.body(k).joint);
     b.w = free || !lower ? b.w_rel : b.w_rel + b.E * lower->w;
     const int p = model.speed_offset(k);
     const int m = speed_count(model.joint(k).type);
+    const unsigned turns = tables.turns[at(k)], slides = tables.slides[at(k)];
     // The acceleration of O_K in body-J components (Eqs. 28 and 30), then in K's.
     V3<S> a_j = lower ? lower->a : ground_a;
     if (lower) {
       a_j = a_j + eq::cross(lower->alpha, b.r) + eq::transport_acceleration(lower->w, b.sd, b.r);
     }
+    // [G_K] z dot_K and [T_K] z dot_K: constant columns add to the values only.
     V3<S> alpha = none;
     for (int c = 0; c < m; ++c) {
       const double rate = zdot[p + c];
-      if (free) {
-        if (c < 3) alpha = alpha + rate * b.G[c];
-      } else {
-        alpha = alpha + rate * b.G[c];
-      }
-      if (tables.slides[at(k)] & (1u << c))
-        a_j = a_j + rate * constant<S>(tables.translation[at(k)].col(c));
+      if (universal && c == 0)
+        alpha = alpha + rate * b.g0;
+      else if (turns & (1u << c))
+        add_constant(alpha, Vector3(rate * tables.turn_axes[at(k)][at(c)]));
+      if (slides & (1u << c)) add_constant(a_j, Vector3(rate * tables.translation[at(k)].col(c)));
     }
     b.a = b.E * a_j;
     if (!free) {
       if (lower) alpha = alpha + b.E * lower->alpha;
-      alpha = alpha + eq::cross(b.w, b.w_rel) + g_dot_z;
+      alpha = alpha + eq::cross(b.w, b.w_rel);
+      if (universal) alpha = alpha + g_dot_z;
     }
     b.alpha = alpha;
     const BodySpec& body = model.body(k);
-    const V3<S> com = constant<S>(body.com);
-    const V3<S> a_g = b.a + eq::cross(alpha, com) + eq::centripetal_acceleration(b.w, com);
+    const V3<S> a_g = b.a + cross(alpha, body.com) + eq::cross(b.w, cross(b.w, body.com));
     b.force = body.mass * a_g;
     b.moment = times(body.inertia, alpha) + eq::cross(b.w, times(body.inertia, b.w));
   }
@@ -393,16 +445,20 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
   }
   for (int k = 0; k < n; ++k) {
     Body<S>& b = bodies[at(k)];
-    b.moment = b.moment + eq::cross(constant<S>(model.body(k).com), b.force);
+    b.moment = b.moment + cross(model.body(k).com, b.force);
   }
   for (int k = n - 1; k >= 0; --k) {
     const Body<S>& b = bodies[at(k)];
     const V3<S> moment_j = eq::transpose_times(b.E, b.moment);
     const V3<S> force_j = eq::transpose_times(b.E, b.force);
     const int p = model.speed_offset(k);
+    const bool universal = model.joint(k).type == JointType::universal;
     for (int c = 0; c < speed_count(model.joint(k).type); ++c) {
       S sum = zero;
-      if (model.joint(k).type != JointType::free || c < 3) sum = eq::dot(b.G[c], b.moment);
+      if (universal && c == 0)
+        sum = eq::dot(b.g0, b.moment);
+      else if (tables.turns[at(k)] & (1u << c))
+        sum = dot_constant(tables.turn_axes[at(k)][at(c)], b.moment);
       if (tables.slides[at(k)] & (1u << c))
         sum = sum + dot_constant(Vector3(tables.translation[at(k)].col(c)), force_j);
       Q[p + c] = sum;

@@ -33,6 +33,10 @@ struct alignas(32) Dual {
   double derivative(int i) const { return d[i / 4][i % 4]; }
   void set_derivative(int i, double value) { d[i / 4][i % 4] = value; }
 
+  Dual& operator+=(double b) {
+    v += b;
+    return *this;
+  }
   Dual& operator+=(const Dual& b) {
     v += b.v;
     for (int i = 0; i < kPacks; ++i) d[i] += b.d[i];
