@@ -273,7 +273,7 @@ void read_vary(const StudyReader& r, const YNode& list, Study& study) {
           problem += "the model has no inputs";
         } else {
           problem += "the model's inputs are numbered 0 to " + std::to_string(inputs.size() - 1);
-          const std::string c = closest_word(ref, names, std::numeric_limits<size_t>::max());
+          const std::string c = closest_word(ref, names, 1000);
           if (!c.empty()) problem += " (closest name: " + quote(c) + ")";
         }
         r.fail(key_node, path + ".key", problem);
@@ -365,7 +365,7 @@ void read_outputs(const StudyReader& r, const YNode& list, Study& study) {
     const auto it = std::find(columns.begin(), columns.end(), o.column);
     if (it == columns.end()) {
       std::string problem = "no trajectory column " + quote(o.column);
-      const std::string c = closest_word(o.column, columns, std::numeric_limits<size_t>::max());
+      const std::string c = closest_word(o.column, columns, 1000);
       if (!c.empty()) problem += " (closest: " + quote(c) + ")";
       r.fail(value, path + "." + kind, problem);
     }
