@@ -37,6 +37,7 @@ from ._kanedyn import (
     _load_text,
 )
 from ._result import ProgressBar, Result
+from .study import Study, read_results
 
 __all__ = [
     "BodyInspection",
@@ -49,10 +50,12 @@ __all__ = [
     "SimulationError",
     "Simulator",
     "State",
+    "Study",
     "__version__",
     "load",
     "loads",
     "read_csv",
+    "read_results",
 ]
 
 

@@ -193,6 +193,7 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
 void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_view(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_control(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
+void register_study(py::module_& m);
 
 /// Raises kanedyn.ModelError for a model-file error (with its parts as attributes).
 [[noreturn]] void raise_model_error(const io::ModelFileError& e);

@@ -251,4 +251,5 @@ PYBIND11_MODULE(_kanedyn, m) {
   register_run(m, model);
   register_view(model);
   register_control(m, model);
+  register_study(m);
 }

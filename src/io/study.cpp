@@ -393,7 +393,8 @@ long read_trajectories(const StudyReader& r, const YNode& n) {
 
 }  // namespace
 
-Study parse_study(std::string text, const std::string& source_name, const std::string& base_dir) {
+Study parse_study(std::string text, const std::string& source_name, const std::string& base_dir,
+                  const std::string* model_text) {
   const auto doc = detail::read_yaml(std::move(text), source_name, "a study file");
   const Tree& tree = doc->tree;
   const StudyReader r(source_name, tree);
@@ -432,7 +433,8 @@ Study parse_study(std::string text, const std::string& source_name, const std::s
                          : (std::filesystem::path(base_dir) / model_path).string();
   // The model's messages name it as the study does, whatever the current folder: the table of
   // one study is the same file wherever it runs.
-  study.model = ModelDocument::load(study.model_path, model_name);
+  study.model = model_text ? ModelDocument::parse(*model_text, model_name)
+                           : ModelDocument::load(study.model_path, model_name);
 
   if (const auto it = top.find("runs"); it != top.end())
     study.runs_per_point = static_cast<long>(r.integer(it->second, "runs", 1, kMaxRuns));

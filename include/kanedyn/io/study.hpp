@@ -78,8 +78,10 @@ struct Study {
 /// ModelFileError (its model file's).
 Study load_study(const std::string& path);
 /// The same from text: `source_name` stands for the file in messages, and `model:` is relative
-/// to `base_dir` ("" for the current folder).
-Study parse_study(std::string text, const std::string& source_name, const std::string& base_dir);
+/// to `base_dir` ("" for the current folder). With `model_text`, that is the model file's text
+/// and no file is read (a worker on another machine, sent both texts).
+Study parse_study(std::string text, const std::string& source_name, const std::string& base_dir,
+                  const std::string* model_text = nullptr);
 
 /// The uniform number in [0, 1) of draw k of entry `entry` of run `run`: a counter-based
 /// generator, a function of its four arguments alone (docs/studies.md gives the formula).
