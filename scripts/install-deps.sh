@@ -9,7 +9,8 @@
 set -euo pipefail
 pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev liburdfdom-dev libcli11-dev
       nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
-      python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib)
+      python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib
+      python3-distributed)
 for arg in "$@"; do
   case "$arg" in
     --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev libdart-utils-urdf-dev) ;;
