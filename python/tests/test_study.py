@@ -21,7 +21,7 @@ import kanedyn
 
 from conftest import EXAMPLES, run_tool
 
-distributed = pytest.importorskip("distributed")
+distributed = pytest.importorskip("distributed")  # Debian: python3-distributed
 
 PYTHON = sys.executable
 
@@ -263,3 +263,21 @@ def test_every_run_failing(tmp_path: pathlib.Path) -> None:
     assert len(table) == 2
     assert all(s.startswith("invalid model: eight_body.yaml:") for s in table["status"])
     assert np.isnan(np.asarray(table["final:head.z"], dtype=float)).all()
+
+
+@pytest.mark.parametrize(
+    "study, plot, output",
+    [
+        ("tennis_flip.yaml", "plot_tennis_flip.py", "tennis_flip.png"),
+        ("eight_body_stiffness.yaml", "plot_eight_body_stiffness.py", "eight_body_stiffness.png"),
+    ],
+)
+def test_example_studies_run_and_plot(tmp_path: pathlib.Path, study: str, plot: str, output: str) -> None:
+    pytest.importorskip("matplotlib")
+    examples = EXAMPLES / "studies"
+    done = run_tool(["sweep", examples / study, "-o", tmp_path / "out"])
+    assert done.returncode == 0, done.stderr
+    assert "failed: 0" in done.stdout
+    drawn = subprocess.run([PYTHON, examples / plot, tmp_path / "out"], capture_output=True, text=True, check=False)
+    assert drawn.returncode == 0, drawn.stderr
+    assert (tmp_path / "out" / output).stat().st_size > 10000
