@@ -431,7 +431,7 @@ TEST(StudySweep, EveryRunFailingExitsNonzeroWithTheFailuresByKind) {
         "format: kanedyn-study/1\nmodel: racket.yaml\nvary:\n"
         "  - key: bodies[racket].mass\n    grid: [-1, 0]\n"
         "  - key: bodies[racket].inertia[0]\n    grid: [0.0022, 1.0]\n"
-        "simulate: {t_end: 0.1}\n");
+        "simulate: {t_end: 0.1}\ntrajectories: all\n");
   const ToolRun r = run_in(dir, "sweep study.yaml -o out");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.out.find("failed: 4"), std::string::npos) << r.out;
@@ -439,6 +439,32 @@ TEST(StudySweep, EveryRunFailingExitsNonzeroWithTheFailuresByKind) {
   EXPECT_NE(r.err.find("every run of the study failed"), std::string::npos) << r.err;
   // The header and one row per run (the statuses hold commas: count lines).
   EXPECT_EQ(split(slurp(dir / "out/results.csv"), '\n').size(), 6u);
+  // Runs refused before they began have no trajectory, and are done: nothing runs again.
+  EXPECT_TRUE(fs::is_empty(dir / "out/runs"));
+  const ToolRun again = run_in(dir, "sweep study.yaml -o out");
+  EXPECT_NE(again.out.find("0 run now"), std::string::npos) << again.out;
+}
+
+TEST(StudySweep, AFullDiskStopsTheStudyKeepingTheRunsDone) {
+  const fs::path dir = temp_dir("study_full");
+  fs::copy_file(kRacket, dir / "racket.yaml");
+  // The model's own t_end is varied: the last run's trajectory (301 rows, about 100 kB) is
+  // over the file size limit of 16 kB, the first two (6 and 7 rows) are not.
+  write(dir / "study.yaml",
+        "format: kanedyn-study/1\nmodel: racket.yaml\nvary:\n"
+        "  - key: simulation.t_end\n    grid: [0.05, 0.06, 3.0]\n"
+        "outputs:\n  - final: racket.w2\ntrajectories: all\n");
+  const ToolRun r = run_in(dir, "sweep study.yaml -o out -j 1", "ulimit -f 16 && ");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("run_000002.csv.partial': File too large"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("2 of 3 runs are kept"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out/results.csv"));
+  EXPECT_FALSE(fs::exists(dir / "out/runs/run_000002.csv.partial"));
+  EXPECT_TRUE(fs::exists(dir / "out/runs/run_000001.csv"));
+  const ToolRun resumed = run_in(dir, "sweep study.yaml -o out -j 1");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_NE(resumed.out.find("1 run now"), std::string::npos) << resumed.out;
+  EXPECT_EQ(split(slurp(dir / "out/results.csv"), '\n').size(), 5u);
 }
 
 TEST(StudySweep, WritesNothingOutsideItsFolderAndRefusesAnotherStudys) {

@@ -844,12 +844,13 @@ void StudyFolder::read_manifest() {
         const auto [end, error] = std::from_chars(r.data(), r.data() + r.size(), run);
         if (error != std::errc() || end != r.data() + r.size() || run < 0 || run >= study_->runs)
           bad(i + 1, "the run number " + quote(r) + " is not one of this study's");
-        // A kept trajectory that has gone makes its run missing again.
-        if (study_->keeps_trajectory(run) && !fs::exists(trajectory_path(run))) continue;
-        if (rows_.emplace(run, lines[i]).second) {
-          const std::string& status = (*f)[fields - 2];
-          if (status != "ok") kinds_[run] = status_kind(status);
-        }
+        // A kept trajectory that has gone makes its run missing again (a run refused before
+        // it began has none).
+        const std::string& status = (*f)[fields - 2];
+        if (status == "ok" && study_->keeps_trajectory(run) && !fs::exists(trajectory_path(run)))
+          continue;
+        if (rows_.emplace(run, lines[i]).second && status != "ok")
+          kinds_[run] = status_kind(status);
       }
     }
   }
@@ -881,20 +882,35 @@ void StudyFolder::record(const std::vector<StudyRun>& runs) {
     fresh.push_back(&r);
   }
   if (fresh.empty()) return;
-  for (const StudyRun* r : fresh) {
-    if (study_->keeps_trajectory(r->run))
-      write_file_atomically(trajectory_path(r->run), r->trajectory);
-    part += r->row;
-    part += '\n';
+  // The trajectories first: a row in the manifest says its trajectory is whole. When one
+  // cannot be written (a full disk), the runs before it are still recorded.
+  size_t written = 0;
+  std::exception_ptr error;
+  for (; written < fresh.size(); ++written) {
+    const StudyRun& r = *fresh[written];
+    try {
+      if (study_->keeps_trajectory(r.run) && !r.trajectory.empty())
+        write_file_atomically(trajectory_path(r.run), r.trajectory);
+    } catch (...) {
+      error = std::current_exception();
+      break;
+    }
   }
-  char name[32];
-  std::snprintf(name, sizeof name, "/part_%06ld.csv", next_part_);
-  write_file_atomically(dir_ + "/manifest" + name, part);
-  ++next_part_;
-  for (const StudyRun* r : fresh) {
-    rows_.emplace(r->run, r->row);
-    if (r->status != "ok") kinds_[r->run] = status_kind(r->status);
+  if (written > 0) {
+    for (size_t i = 0; i < written; ++i) {
+      part += fresh[i]->row;
+      part += '\n';
+    }
+    char name[32];
+    std::snprintf(name, sizeof name, "/part_%06ld.csv", next_part_);
+    write_file_atomically(dir_ + "/manifest" + name, part);
+    ++next_part_;
+    for (size_t i = 0; i < written; ++i) {
+      rows_.emplace(fresh[i]->run, fresh[i]->row);
+      if (fresh[i]->status != "ok") kinds_[fresh[i]->run] = status_kind(fresh[i]->status);
+    }
   }
+  if (error) std::rethrow_exception(error);
 }
 
 void StudyFolder::write_results() const {

@@ -122,7 +122,8 @@ class StudyFolder {
   bool is_done(long run) const { return rows_.count(run) > 0; }
   std::vector<long> missing() const;  ///< the runs not done, in order
 
-  /// Records finished runs: their trajectories (runs/run_NNNNNN.csv), then one manifest part
+  /// Records finished runs: their kept trajectories (runs/run_NNNNNN.csv; none for a run
+  /// refused before it began), then one manifest part
   /// with their rows. Runs already done are skipped. Throws std::runtime_error naming the file
   /// when a write fails (a full disk): what was recorded before stays.
   void record(const std::vector<StudyRun>& runs);
