@@ -433,8 +433,16 @@ Study parse_study(std::string text, const std::string& source_name, const std::s
                          : (std::filesystem::path(base_dir) / model_path).string();
   // The model's messages name it as the study does, whatever the current folder: the table of
   // one study is the same file wherever it runs.
-  study.model = model_text ? ModelDocument::parse(*model_text, model_name)
-                           : ModelDocument::load(study.model_path, model_name);
+  try {
+    study.model = model_text ? ModelDocument::parse(*model_text, model_name)
+                             : ModelDocument::load(study.model_path, model_name);
+  } catch (const ModelFileError& e) {
+    // A file that cannot be read is the study's `model:` key at fault; a model file that is
+    // read and refused says where, in its own message.
+    if (e.line() > 0 || !e.key_path().empty()) throw;
+    r.fail(model_it->second, "model",
+           "the model file " + quote(study.model_path) + ": " + e.problem());
+  }
 
   if (const auto it = top.find("runs"); it != top.end())
     study.runs_per_point = static_cast<long>(r.integer(it->second, "runs", 1, kMaxRuns));
