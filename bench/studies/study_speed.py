@@ -69,7 +69,14 @@ def main() -> None:
             subprocess.run([args.tool, "sweep", study, "-o", out, "-j", str(threads)], check=True,
                            capture_output=True)
 
-        one, two, dask, t1, t50 = [], [], [], [], []
+        def side_by_side(round_: int) -> None:
+            # The machine's own scaling: two independent one-thread sweeps at once.
+            procs = [subprocess.Popen([args.tool, "sweep", study, "-o", work / f"pair{k}_{round_}", "-j", "1"],
+                                      stdout=subprocess.DEVNULL) for k in range(2)]
+            for p in procs:
+                assert p.wait() == 0
+
+        one, two, dask, t1, t50, pair = [], [], [], [], [], []
         small = 200
         with distributed.LocalCluster(host="127.0.0.1", processes=True, n_workers=2, threads_per_worker=1,
                                       dashboard_address=None) as cluster, distributed.Client(cluster) as client:
@@ -84,18 +91,20 @@ def main() -> None:
             for r in range(args.rounds):
                 one.append(timed(f"kanedyn sweep, {args.runs} runs, -j 1", lambda: sweep(1, r)))
                 two.append(timed(f"kanedyn sweep, {args.runs} runs, -j 2", lambda: sweep(2, r)))
+                pair.append(timed("two sweeps -j 1 side by side (processes)", lambda: side_by_side(r)))
                 dask.append(timed("Study.run, dask, 2 workers, default chunks",
                                   lambda: s.run(out=work / f"dask{r}", client=client)))
                 t1.append(timed(f"Study.run, dask, {small} runs, chunks of 1",
                                 lambda: s_small.run(out=work / f"c1_{r}", client=client, chunk_size=1)))
                 t50.append(timed(f"Study.run, dask, {small} runs, chunks of 50",
                                  lambda: s_small.run(out=work / f"c50_{r}", client=client, chunk_size=50)))
-        one, two, dask, t1, t50 = min(one), min(two), min(dask), min(t1), min(t50)
+        one, two, dask, t1, t50, pair = min(one), min(two), min(dask), min(t1), min(t50), min(pair)
         print(f"best of {args.rounds}: -j 1 {one:.3f} s, -j 2 {two:.3f} s, dask {dask:.3f} s")
         tables = [(work / d / "results.csv").read_text().splitlines() for d in ("sweep1_0", "sweep2_0", "dask0")]
         same = all([line.rsplit(",", 1)[0] for line in t] == [line.rsplit(",", 1)[0] for line in tables[0]]
                    for t in tables)
         print(f"the three tables are the same (wall_s aside): {same}")
+        print(f"the machine: two processes do    {2 * one / pair:.2f}x the work of one in the same time")
         print(f"sweep -j 2 / -j 1 speed-up:      {one / two:.2f}x")
         print(f"dask 2 workers / -j 1 speed-up:  {one / dask:.2f}x")
         print(f"runs per second per core (-j 1): {args.runs / one:.0f}")
