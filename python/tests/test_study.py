@@ -281,3 +281,34 @@ def test_example_studies_run_and_plot(tmp_path: pathlib.Path, study: str, plot: 
     drawn = subprocess.run([PYTHON, examples / plot, tmp_path / "out"], capture_output=True, text=True, check=False)
     assert drawn.returncode == 0, drawn.stderr
     assert (tmp_path / "out" / output).stat().st_size > 10000
+
+
+THREADED_DRIVER = """
+import sys, kanedyn
+kanedyn.Study(sys.argv[1]).run(out=sys.argv[2], threads=1)
+print("finished")
+"""
+
+
+def test_ctrl_c_keeps_the_runs_done_and_run_again_resumes(tmp_path: pathlib.Path) -> None:
+    # 600 runs of 2 s: about 3 s on one thread; Ctrl-C comes after the first second.
+    path = make_study(tmp_path, 300, 2.0)
+    out = tmp_path / "out"
+    args = [PYTHON, "-c", THREADED_DRIVER, str(path), str(out)]
+    driver = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not (out / "manifest" / "part_000001.csv").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    sent = time.monotonic()
+    driver.send_signal(signal.SIGINT)
+    _, err = driver.communicate(timeout=60)
+    assert time.monotonic() - sent < 1.5
+    assert driver.returncode != 0
+    assert "KeyboardInterrupt: stopped:" in err
+    assert "run() again with the same folder" in err
+    assert not (out / "results.csv").exists()
+    again = subprocess.run(args, capture_output=True, text=True, timeout=120, check=False)
+    assert again.returncode == 0, again.stderr
+    done = run_tool(["sweep", path, "-o", tmp_path / "sweep", "-j", "2"])
+    assert done.returncode == 0, done.stderr
+    assert without_wall(out / "results.csv") == without_wall(tmp_path / "sweep" / "results.csv")
