@@ -939,97 +939,116 @@ std::map<std::string, long> StudyFolder::failures() const {
 
 // ---- Running on threads ----------------------------------------------------------------------
 
-SweepResult sweep(const Study& study, StudyFolder& folder, const SweepOptions& options) {
-  const std::vector<long> todo = folder.missing();
-  SweepResult result;
-  int threads =
-      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::max(1, std::min<int>(threads, static_cast<int>(std::max<size_t>(1, todo.size()))));
-  std::atomic<size_t> next{0};
-  std::atomic<bool> stopping{false};
-  std::mutex mutex;
-  std::condition_variable finished;
-  std::vector<StudyRun> ready;
-  std::exception_ptr worker_error;
-  const std::function<bool()> stop = [&stopping] {
-    return stopping.load(std::memory_order_relaxed);
-  };
-  const auto work = [&] {
+namespace {
+
+/// Threads that run a list of runs, each taking the next one, and hand the results to the
+/// thread that made the pool (collect()). stop() ends the runs in flight within a step.
+class RunPool {
+ public:
+  RunPool(const Study& study, std::vector<long> todo, int threads)
+      : study_(study), todo_(std::move(todo)) {
+    const int n = std::max(1, std::min<int>(threads, static_cast<int>(todo_.size())));
+    for (int i = 0; i < n && !todo_.empty(); ++i) pool_.emplace_back([this] { work(); });
+  }
+  ~RunPool() { stop(); }
+  RunPool(const RunPool&) = delete;
+  RunPool& operator=(const RunPool&) = delete;
+
+  /// Waits up to `wait` for results and moves those finished into `out`; true once every run
+  /// has come back (or the pool has stopped). Rethrows a worker's exception.
+  bool collect(std::chrono::milliseconds wait, std::vector<StudyRun>& out) {
+    std::unique_lock lock(mutex_);
+    finished_.wait_for(lock, wait);
+    if (error_) std::rethrow_exception(error_);
+    received_ += ready_.size();
+    for (StudyRun& r : ready_) out.push_back(std::move(r));
+    ready_.clear();
+    return received_ == todo_.size();
+  }
+  /// Stops the runs, waits for the threads, and moves what they finished into `out`.
+  void stop(std::vector<StudyRun>* out = nullptr) {
+    stopping_ = true;
+    for (std::thread& t : pool_) t.join();
+    pool_.clear();
+    if (out)
+      for (StudyRun& r : ready_) out->push_back(std::move(r));
+    ready_.clear();
+  }
+
+ private:
+  void work() {
+    const std::function<bool()> stop = [this] { return stopping_.load(std::memory_order_relaxed); };
     try {
-      for (;;) {
-        if (stopping.load()) return;
-        const size_t i = next.fetch_add(1);
-        if (i >= todo.size()) return;
-        StudyRun r = run_study_run(study, todo[i], stop);
-        const std::lock_guard lock(mutex);
-        ready.push_back(std::move(r));
-        finished.notify_one();
+      while (!stopping_) {
+        const size_t i = next_.fetch_add(1);
+        if (i >= todo_.size()) return;
+        StudyRun r = run_study_run(study_, todo_[i], stop);
+        const std::lock_guard lock(mutex_);
+        ready_.push_back(std::move(r));
+        finished_.notify_one();
       }
     } catch (...) {
-      const std::lock_guard lock(mutex);
-      if (!worker_error) worker_error = std::current_exception();
-      stopping = true;
-      finished.notify_one();
+      const std::lock_guard lock(mutex_);
+      if (!error_) error_ = std::current_exception();
+      stopping_ = true;
+      finished_.notify_one();
     }
-  };
-  std::vector<std::thread> pool;
-  pool.reserve(static_cast<size_t>(threads));
-  for (int i = 0; i < threads && !todo.empty(); ++i) pool.emplace_back(work);
+  }
+
+  const Study& study_;
+  const std::vector<long> todo_;
+  std::atomic<size_t> next_{0};
+  std::atomic<bool> stopping_{false};
+  std::mutex mutex_;
+  std::condition_variable finished_;
+  std::vector<StudyRun> ready_;  // guarded by mutex_
+  size_t received_ = 0;
+  std::exception_ptr error_;  // guarded by mutex_
+  std::vector<std::thread> pool_;
+};
+
+}  // namespace
+
+SweepResult sweep(const Study& study, StudyFolder& folder, const SweepOptions& options) {
   using Clock = std::chrono::steady_clock;
-  auto last_flush = Clock::now();
+  const int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  SweepResult result;
   std::vector<StudyRun> pending;
-  std::exception_ptr error;
+  auto last_flush = Clock::now();
   const auto flush = [&] {
-    if (pending.empty()) return;
     std::vector<StudyRun> batch;
     batch.swap(pending);
     folder.record(batch);
     for (const StudyRun& r : batch) result.ran += r.interrupted ? 0 : 1;
     last_flush = Clock::now();
   };
-  long received = 0;
-  while (received < static_cast<long>(todo.size())) {
-    {
-      std::unique_lock lock(mutex);
-      finished.wait_for(lock, std::chrono::milliseconds(100));
-      for (StudyRun& r : ready) pending.push_back(std::move(r));
-      received += static_cast<long>(ready.size());
-      ready.clear();
-      if (worker_error) break;
-    }
-    try {
-      if (options.stop && options.stop()) stopping = true;
+  RunPool pool(study, folder.missing(), threads);
+  try {
+    bool all_back = folder.done() == folder.total();
+    while (!all_back) {
+      all_back = pool.collect(std::chrono::milliseconds(100), pending);
+      if (options.stop && options.stop()) {
+        pool.stop(&pending);  // the runs in flight end within a step, interrupted
+        break;
+      }
       if (std::chrono::duration<double>(Clock::now() - last_flush).count() >= options.flush_seconds)
         flush();
       if (options.progress)
         options.progress(folder.done() + static_cast<long>(pending.size()),
                          result.ran + static_cast<long>(pending.size()));
-    } catch (...) {
-      error = std::current_exception();
-      stopping = true;
-      break;
     }
-    if (stopping) {
-      // Wait for the runs in flight to end (they see `stopping` within a step).
-      for (std::thread& t : pool) t.join();
-      pool.clear();
-      for (StudyRun& r : ready) pending.push_back(std::move(r));
-      ready.clear();
-      break;
-    }
-  }
-  stopping = stopping || error || worker_error;
-  for (std::thread& t : pool) t.join();
-  for (StudyRun& r : ready) pending.push_back(std::move(r));
-  if (error) {
-    try {  // what finished is kept if the disk lets it be
+  } catch (...) {
+    // A worker's error, a write error, or the caller's callbacks: keep what finished if the
+    // disk lets us, and report the error.
+    pool.stop(&pending);
+    try {
       flush();
     } catch (...) {
     }
-    std::rethrow_exception(error);
+    throw;
   }
   flush();
-  if (worker_error) std::rethrow_exception(worker_error);
   if (options.progress) options.progress(folder.done(), result.ran);
   result.stopped = folder.done() < folder.total();
   if (!result.stopped) folder.write_results();
