@@ -569,8 +569,10 @@ namespace {
 
 /// The numbers of one trajectory row, in the order of trajectory_columns() (the writer's,
 /// csv.cpp): t, per body G_K, eps, s', w', s' dot and the joint columns, energy, inputs.
+/// Without `kinematics` (data's not computed for this state) G_K is left 0.
 void row_values(const Model& model, double t, const State& state, const VectorX& q,
-                const VectorX& z, const Data& data, double energy, std::vector<double>& row) {
+                const VectorX& z, const Data& data, bool kinematics, double energy,
+                std::vector<double>& row) {
   row.clear();
   row.push_back(t);
   const auto put = [&row](const auto& v) {
@@ -578,7 +580,7 @@ void row_values(const Model& model, double t, const State& state, const VectorX&
   };
   const bool jointed = !model.all_free();
   for (int k = 0; k < model.num_bodies(); ++k) {
-    put(data.kinematics.p_G[static_cast<size_t>(k)]);
+    put(kinematics ? data.kinematics.p_G[static_cast<size_t>(k)] : Vector3::Zero().eval());
     put(state.euler_parameters(k));
     put(state.translation(k));
     put(state.angular_velocity(k));
@@ -634,76 +636,105 @@ struct RunFailure : std::runtime_error {
 
 }  // namespace
 
+namespace {
+
+/// Run `run`'s model, built with its values p, and its settings (inputs held at their values);
+/// throws RunFailure when the values make either invalid.
+std::pair<ModelFile, SimulationSettings> run_model(const Study& study,
+                                                   const std::vector<double>& p) {
+  std::vector<std::pair<uint32_t, double>> changes;
+  for (size_t j = 0; j < p.size(); ++j)
+    if (study.vary[j].input < 0) changes.emplace_back(study.vary[j].node, p[j]);
+  std::optional<ModelFile> file;
+  try {
+    file = study.model.build(changes);
+  } catch (const ModelFileError& e) {
+    throw RunFailure(one_line("invalid model", e.what()));
+  }
+  const Model& model = file->model;
+  SimulationSettings settings = study.settings(*file);
+  if (std::any_of(study.vary.begin(), study.vary.end(),
+                  [](const auto& v) { return v.input >= 0; })) {
+    // One row of the inputs table holds from t_start on.
+    MatrixX u = MatrixX::Zero(1, model.num_inputs());
+    for (size_t j = 0; j < p.size(); ++j)
+      if (study.vary[j].input >= 0) u(0, study.vary[j].input) = p[j];
+    settings.inputs = std::make_shared<const InputTable>(std::vector<double>{settings.t_start}, u);
+  }
+  try {
+    validate_settings(model, settings);
+  } catch (const std::invalid_argument& e) {
+    throw RunFailure(one_line("invalid settings", e.what()));
+  }
+  return {std::move(*file), std::move(settings)};
+}
+
+/// Reduces a run's output rows to the study's outputs, and writes them as a trajectory CSV
+/// when kept. The kinematics and the energy of a row are computed only when read.
+class RowReducer {
+ public:
+  RowReducer(const Study& study, const Model& model, bool keep, std::string& trajectory)
+      : study_(study),
+        model_(model),
+        keep_(keep),
+        trajectory_(trajectory),
+        outputs_(study.outputs.size()) {
+    const int energy_column =
+        static_cast<int>(trajectory_columns(model).size()) - 1 - model.num_inputs();
+    needs_energy_ = needs_kinematics_ = keep;
+    for (const StudyOutput& o : study.outputs) {
+      needs_energy_ = needs_energy_ || o.column_index == energy_column;
+      needs_kinematics_ =
+          needs_kinematics_ || (o.column_index > 0 && o.column_index <= energy_column);
+    }
+    if (keep) trajectory_ = join_columns(trajectory_columns(model)) + "\n";
+  }
+  bool needs_kinematics() const { return needs_kinematics_; }
+
+  void add(double t, const State& state, const VectorX& q, const VectorX& z, const Data& data) {
+    double energy = 0.0;
+    if (needs_energy_)
+      energy = model_.all_free() ? total_energy_of_kinematics(model_, state, data)
+                                 : total_energy_of_kinematics(model_, state, q, data);
+    row_values(model_, t, state, q, z, data, needs_kinematics_, energy, row_);
+    for (size_t i = 0; i < outputs_.size(); ++i)
+      outputs_[i].add(row_[static_cast<size_t>(study_.outputs[i].column_index)]);
+    if (!keep_) return;
+    for (size_t i = 0; i < row_.size(); ++i) {
+      if (i) trajectory_ += ',';
+      put_number(trajectory_, row_[i]);
+    }
+    trajectory_ += '\n';
+  }
+  double output(size_t i) const { return outputs_[i].value(study_.outputs[i].statistic); }
+
+ private:
+  const Study& study_;
+  const Model& model_;
+  bool keep_;
+  std::string& trajectory_;
+  std::vector<Accumulator> outputs_;
+  std::vector<double> row_;
+  bool needs_energy_ = false, needs_kinematics_ = false;
+};
+
+}  // namespace
+
 StudyRun run_study_run(const Study& study, long run, const std::function<bool()>& stop) {
   const auto start = std::chrono::steady_clock::now();
   const std::vector<double> p = study.parameters(run);
   StudyRun result;
   result.run = run;
-  const bool keep = study.keeps_trajectory(run);
-  std::vector<Accumulator> outputs(study.outputs.size());
+  std::vector<double> outputs;
   try {
-    std::vector<std::pair<uint32_t, double>> changes;
-    for (size_t j = 0; j < p.size(); ++j)
-      if (study.vary[j].input < 0) changes.emplace_back(study.vary[j].node, p[j]);
-    std::optional<ModelFile> file;
-    try {
-      file = study.model.build(changes);
-    } catch (const ModelFileError& e) {
-      throw RunFailure(one_line("invalid model", e.what()));
-    }
-    const Model& model = file->model;
-    SimulationSettings settings = study.settings(*file);
-    if (model.num_inputs() > 0 && std::any_of(study.vary.begin(), study.vary.end(),
-                                              [](const auto& v) { return v.input >= 0; })) {
-      MatrixX u = MatrixX::Zero(1, model.num_inputs());
-      for (size_t j = 0; j < p.size(); ++j)
-        if (study.vary[j].input >= 0) u(0, study.vary[j].input) = p[j];
-      settings.inputs =
-          std::make_shared<const InputTable>(std::vector<double>{settings.t_start}, u);
-    }
-    try {
-      validate_settings(model, settings);
-    } catch (const std::invalid_argument& e) {
-      throw RunFailure(one_line("invalid settings", e.what()));
-    }
-    // The kinematics and the energy only where a kept trajectory or an output reads them.
-    const int columns = static_cast<int>(trajectory_columns(model).size());
-    const int energy_column = columns - 1 - model.num_inputs();
-    bool needs_energy = keep, needs_kinematics = keep;
-    for (const StudyOutput& o : study.outputs) {
-      needs_energy = needs_energy || o.column_index == energy_column;
-      needs_kinematics = needs_kinematics || o.column_index == energy_column ||
-                         (o.column_index > 0 && o.column_index < energy_column);
-    }
-    settings.observer_kinematics = needs_kinematics;
+    auto [file, settings] = run_model(study, p);
+    RowReducer reducer(study, file.model, study.keeps_trajectory(run), result.trajectory);
+    settings.observer_kinematics = reducer.needs_kinematics();
     if (stop) settings.on_step = [&stop](double) { return !stop(); };
-    if (keep) {
-      const auto header = trajectory_columns(model);
-      for (size_t i = 0; i < header.size(); ++i) {
-        if (i) result.trajectory += ',';
-        result.trajectory += header[i];
-      }
-      result.trajectory += '\n';
-    }
-    std::vector<double> row;
-    const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
-                                  Data& data) {
-      double energy = 0.0;
-      if (needs_energy)
-        energy = model.all_free() ? total_energy_of_kinematics(model, state, data)
-                                  : total_energy_of_kinematics(model, state, q, data);
-      row_values(model, t, state, q, z, data, energy, row);
-      for (size_t i = 0; i < outputs.size(); ++i)
-        outputs[i].add(row[static_cast<size_t>(study.outputs[i].column_index)]);
-      if (keep) {
-        for (size_t i = 0; i < row.size(); ++i) {
-          if (i) result.trajectory += ',';
-          put_number(result.trajectory, row[i]);
-        }
-        result.trajectory += '\n';
-      }
-    };
-    const SimulationStats stats = simulate(model, file->q, file->z, settings, observer);
+    const SimulationStats stats =
+        simulate(file.model, file.q, file.z, settings,
+                 [&reducer](double t, const State& state, const VectorX& q, const VectorX& z,
+                            Data& data) { reducer.add(t, state, q, z, data); });
     if (stats.status == SimulationStatus::interrupted) {
       result.interrupted = true;
       return result;
@@ -712,6 +743,8 @@ StudyRun run_study_run(const Study& study, long run, const std::function<bool()>
                         ? "ok"
                         : one_line(to_string(stats.status),
                                    stats.message.empty() ? to_string(stats.status) : stats.message);
+    if (stats.ok())
+      for (size_t i = 0; i < study.outputs.size(); ++i) outputs.push_back(reducer.output(i));
   } catch (const RunFailure& e) {
     result.status = e.what();
   } catch (const std::exception& e) {
@@ -719,16 +752,16 @@ StudyRun run_study_run(const Study& study, long run, const std::function<bool()>
   }
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // The row: run, values, outputs (empty for a failed run), status, wall_s.
   std::string& line = result.row;
   line = std::to_string(run);
   for (const double v : p) {
     line += ',';
     put_number(line, v);
   }
-  const bool ok = result.status == "ok";
-  for (size_t i = 0; i < outputs.size(); ++i) {
+  for (size_t i = 0; i < study.outputs.size(); ++i) {
     line += ',';
-    if (ok) put_number(line, outputs[i].value(study.outputs[i].statistic));
+    if (i < outputs.size()) put_number(line, outputs[i]);
   }
   line += ',';
   put_field(line, result.status);
