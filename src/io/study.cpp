@@ -794,18 +794,15 @@ std::string hex(std::uint64_t v) {
 }
 
 /// Every line of a file (the file is ours: a manifest part or a copy of a study).
-std::vector<std::string> read_lines(const std::string& path) {
+/// The lines of a file (ours: a manifest part), without their breaks; `whole` tells whether
+/// the last one ended with a break.
+std::vector<std::string> read_lines(const std::string& path, bool& whole) {
   const std::string text =
       read_whole_file(open_regular_file(path), std::size_t{1} << 30, "a manifest part");
+  whole = text.empty() || text.back() == '\n';
   std::vector<std::string> lines;
-  size_t start = 0;
-  while (start < text.size()) {
-    const size_t end = text.find('\n', start);
-    if (end == std::string::npos) {
-      lines.push_back(text.substr(start));  // no final break: refused by the caller
-      lines.back() += '\r';
-      break;
-    }
+  for (size_t start = 0; start < text.size();) {
+    const size_t end = std::min(text.find('\n', start), text.size());
     lines.push_back(text.substr(start, end - start));
     start = end + 1;
   }
@@ -863,7 +860,8 @@ void StudyFolder::read_manifest() {
       const long part = std::atol(name.substr(5).c_str());
       next_part_ = std::max(next_part_, part + 1);
       const std::string path = entry.path().string();
-      const std::vector<std::string> lines = read_lines(path);
+      bool whole = true;
+      const std::vector<std::string> lines = read_lines(path, whole);
       const auto bad = [&](size_t line, const std::string& problem) {
         throw std::runtime_error("'" + printable(path) + "' line " + std::to_string(line) + ": " +
                                  problem + "; remove the file to run its runs again");
@@ -878,7 +876,7 @@ void StudyFolder::read_manifest() {
       if (lines[1] != header) bad(2, "its header is not this study's");
       for (size_t i = 2; i < lines.size(); ++i) {
         const auto f = split_csv(lines[i]);
-        if (!f || f->size() != fields || (!lines[i].empty() && lines[i].back() == '\r'))
+        if (!f || f->size() != fields || (i + 1 == lines.size() && !whole))
           bad(i + 1, "not a whole row of " + std::to_string(fields) + " fields");
         long run = -1;
         const std::string& r = f->front();

@@ -51,7 +51,7 @@ struct StudyOutput {
 struct Study {
   std::string path;        ///< as given ("<dict>" and the like for a text)
   std::string text;        ///< the study file's text
-  std::string model_path;  ///< the model file, relative to the study file's folder resolved
+  std::string model_path;  ///< the model file: `model:` taken from the study file's folder
   ModelDocument model;     ///< parsed once; its messages name the file as `model:` gives it
   std::uint64_t seed = 0;
   long runs_per_point = 1;  ///< `runs`
