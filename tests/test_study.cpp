@@ -346,6 +346,31 @@ TEST(StudySweep, RunIAloneIsRowI) {
   }
 }
 
+TEST(StudySweep, AnInputsValueHoldsForTheWholeRun) {
+  // inputs[NAME] is a constant input: the run is `simulate --inputs` with a one-row table.
+  const fs::path dir = temp_dir("study_inputs");
+  write(dir / "racket.yaml", slurp(kRacket) +
+                                 "inputs:\n  - name: spin\n    type: torque\n    body: racket\n"
+                                 "    axis: [0, 0, 1]\n");
+  write(dir / "study.yaml",
+        "format: kanedyn-study/1\nmodel: racket.yaml\nvary:\n"
+        "  - key: inputs[spin]\n    values: [0.0, 0.02]\n"
+        "simulate: {t_end: 0.3, dt_out: 0.01}\n"
+        "outputs:\n  - final: racket.w3\n  - max: input.spin\ntrajectories: all\n");
+  const ToolRun r = run_in(dir, "sweep study.yaml -o out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = read_csv(dir / "out/results.csv");
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0][1], "inputs[spin]");
+  EXPECT_EQ(parse(rows[2][3]), 0.02);  // held from the start to the end
+  write(dir / "u.csv", "t,spin\n0,0.02\n");
+  const ToolRun s =
+      run_in(dir, "simulate racket.yaml --t-end 0.3 --dt-out 0.01 --inputs u.csv -o alone.csv");
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  EXPECT_EQ(slurp(dir / "out/runs/run_000001.csv"), slurp(dir / "alone.csv"));
+  EXPECT_NE(parse(rows[1][2]), parse(rows[2][2]));  // the torque changed w3
+}
+
 TEST(StudySweep, OneTwoAndFourThreadsGiveTheSameTable) {
   const fs::path dir = temp_dir("study_threads");
   racket_study(dir, 10);
