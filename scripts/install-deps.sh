@@ -9,8 +9,7 @@
 set -euo pipefail
 pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev liburdfdom-dev libcli11-dev
       nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
-      python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib
-      python3-distributed)
+      python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib)
 for arg in "$@"; do
   case "$arg" in
     --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev libdart-utils-urdf-dev) ;;
@@ -23,6 +22,8 @@ done
 # chromium headless. A node that is already there (nodesource's, say, whose nodejs package
 # brings its own npm and conflicts with Debian's) is used as it is: node 18 or later works.
 pkgs+=(chromium)
+# Studies on a dask.distributed cluster (docs/studies.md) and their tests.
+pkgs+=(python3-distributed)
 if ! command -v node >/dev/null || ! command -v npm >/dev/null; then pkgs+=(nodejs npm); fi
 missing=()
 for p in "${pkgs[@]}"; do

@@ -187,13 +187,13 @@ py::array_t<double> to_numpy(const Matrix3& m);
 py::array_t<double> to_numpy(const std::vector<double>& values, py::ssize_t rows, py::ssize_t cols);
 
 // --- the parts of the module ---------------------------------------------------------------
+void register_study(py::module_& m);
 void register_errors(py::module_& m);
 void register_state(py::module_& m);
 void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_view(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_control(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
-void register_study(py::module_& m);
 
 /// Raises kanedyn.ModelError for a model-file error (with its parts as attributes).
 [[noreturn]] void raise_model_error(const io::ModelFileError& e);
