@@ -38,13 +38,13 @@ BENCHMARK(study_run)->Unit(benchmark::kMillisecond);
 
 // The same run with one output that needs neither the kinematics nor the energy of the rows.
 void study_run_rates_only(benchmark::State& state) {
-  static const io::Study s = io::parse_study(
-      "format: kanedyn-study/1\nmodel: " + kModel +
-          "\nseed: 1\nruns: 1000\nvary:\n"
-          "  - key: forces[1].stiffness\n    uniform: [2.0e4, 8.0e4]\n"
-          "  - key: bodies[head].mass\n    normal: {mean: 5.0, std: 0.5}\n"
-          "simulate: {t_end: 1.0, dt_out: 0.01}\noutputs:\n  - rms: torso.w1\n",
-      "bench.yaml", "");
+  static const io::Study s =
+      io::parse_study("format: kanedyn-study/1\nmodel: " + kModel +
+                          "\nseed: 1\nruns: 1000\nvary:\n"
+                          "  - key: forces[1].stiffness\n    uniform: [2.0e4, 8.0e4]\n"
+                          "  - key: bodies[head].mass\n    normal: {mean: 5.0, std: 0.5}\n"
+                          "simulate: {t_end: 1.0, dt_out: 0.01}\noutputs:\n  - rms: torso.w1\n",
+                      "bench.yaml", "");
   for (auto _ : state) benchmark::DoNotOptimize(io::run_study_run(s, 0));
 }
 BENCHMARK(study_run_rates_only)->Unit(benchmark::kMillisecond);
