@@ -23,6 +23,8 @@ done
 # chromium headless. A node that is already there (nodesource's, say, whose nodejs package
 # brings its own npm and conflicts with Debian's) is used as it is: node 18 or later works.
 pkgs+=(chromium)
+# Studies on a dask.distributed cluster (docs/studies.md) and their tests.
+pkgs+=(python3-distributed)
 if ! command -v node >/dev/null || ! command -v npm >/dev/null; then pkgs+=(nodejs npm); fi
 missing=()
 for p in "${pkgs[@]}"; do

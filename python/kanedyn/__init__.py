@@ -38,6 +38,7 @@ from ._kanedyn import (
 )
 from ._analysis import Equilibrium, Linearization
 from ._result import ProgressBar, Result
+from .study import Study, read_results
 
 __all__ = [
     "BodyInspection",
@@ -52,10 +53,12 @@ __all__ = [
     "SimulationError",
     "Simulator",
     "State",
+    "Study",
     "__version__",
     "load",
     "loads",
     "read_csv",
+    "read_results",
 ]
 
 

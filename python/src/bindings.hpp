@@ -190,6 +190,7 @@ py::array_t<double> to_numpy(const Matrix3& m);
 py::array_t<double> to_numpy(const std::vector<double>& values, py::ssize_t rows, py::ssize_t cols);
 
 // --- the parts of the module ---------------------------------------------------------------
+void register_study(py::module_& m);
 void register_errors(py::module_& m);
 void register_state(py::module_& m);
 void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);

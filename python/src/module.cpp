@@ -243,6 +243,7 @@ PYBIND11_MODULE(_kanedyn, m) {
   m.attr("__version__") = KANEDYN_VERSION;
   register_errors(m);
   register_state(m);
+  register_study(m);
   py::class_<PyModel, std::shared_ptr<PyModel>> model(
       m, "Model",
       "A multibody model loaded from a model file (kanedyn.load, kanedyn.loads). Immutable; "

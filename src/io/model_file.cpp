@@ -244,6 +244,7 @@ class Node {
     return (n.in_text ? tree_->text : std::string_view(tree_->chars)).substr(n.first, n.count);
   }
   Pos mark() const { return node().pos; }
+  uint32_t index() const { return index_; }  ///< in Tree::nodes
 
  private:
   const TreeNode& node() const { return tree_->nodes[index_]; }
@@ -409,6 +410,15 @@ class Reader {
   }
 
   bool fast_used() const { return fast_used_; }
+
+  /// Takes the tree of a text read before (whose text must outlive the reader) instead of
+  /// parsing: a model built again with some numbers changed (ModelDocument).
+  Node adopt(Tree tree) {
+    tree_ = std::move(tree);
+    return Node(&tree_, tree_.root);
+  }
+  /// The tree read by tree_of(), taken out of the reader.
+  Tree take_tree() { return std::move(tree_); }
 
   /// The document's root, which must be a mapping.
   Node load(std::string_view text, bool fast) {
@@ -1393,6 +1403,8 @@ SimulationSection read_simulation(const Reader& r, const Field& f) {
 
 /// Reads `text`; the fast scanner is tried first when `fast`, and `fast_used` tells whether it
 /// read the text (set before any check can throw).
+ModelFile read_model(const Reader& r, const Node& root_node, const std::string& source_name);
+
 ModelFile parse(const std::string& text, const std::string& source_name, bool fast,
                 bool& fast_used) {
   Reader r(source_name);
@@ -1401,7 +1413,11 @@ ModelFile parse(const std::string& text, const std::string& source_name, bool fa
     bool& used;
     ~Report() { used = r.fast_used(); }
   } report{r, fast_used};
-  const Node root_node = r.load(text, fast);
+  return read_model(r, r.load(text, fast), source_name);
+}
+
+/// The model of a document whose root is root_node (a mapping), checked key by key.
+ModelFile read_model(const Reader& r, const Node& root_node, const std::string& source_name) {
   const Field root{root_node, KeyPath(), root_node.mark(), root_node.mark()};
   const Mapping top = r.mapping(root);
 
@@ -1560,6 +1576,252 @@ FrontEnds compare_front_ends(std::string_view text) {
           "the fast scanner read a text that libyaml refuses: " + result.libyaml_error;
   }
   return result;
+}
+
+}  // namespace detail
+
+// ---- ModelDocument ------------------------------------------------------------------------
+
+struct ModelDocument::Impl {
+  std::string text;  // the text the tree views (never moved: Impl stays where it is made)
+  std::string source_name;
+  Tree tree;
+  std::optional<ModelFile> base;
+};
+
+namespace {
+
+/// The key path's first `end` characters, for messages.
+std::string path_prefix(std::string_view key_path, size_t end) {
+  return printable(key_path.substr(0, end), 200);
+}
+
+/// A list index: digits only, no sign.
+std::optional<size_t> list_index(std::string_view s) {
+  if (s.empty() || s.size() > 9 ||
+      !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return std::nullopt;
+  size_t v = 0;
+  std::from_chars(s.data(), s.data() + s.size(), v);
+  return v;
+}
+
+/// The entry of the mapping `map` under `key`, or a message naming the closest key it has.
+Node mapping_entry(const Node& map, std::string_view key, std::string_view key_path, size_t at) {
+  std::vector<std::string> keys;
+  for (size_t i = 0; i < map.size(); ++i) {
+    const Node k = map.key(i);
+    if (k.IsScalar() && k.Scalar() == key) return map.value(i);
+    if (k.IsScalar()) keys.emplace_back(k.Scalar());
+  }
+  const std::string where = at == 0 ? std::string("the model file") : path_prefix(key_path, at);
+  std::string problem = where + " has no key " + quote(key);
+  std::string best;
+  size_t best_distance = std::numeric_limits<size_t>::max();
+  for (const std::string& k : keys)
+    if (const size_t d = edit_distance(key, k); d < best_distance) {
+      best_distance = d;
+      best = k;
+    }
+  if (!best.empty()) problem += " (closest: " + quote(best) + ")";
+  throw std::invalid_argument(problem);
+}
+
+/// Body `ref` of the `bodies` list: a name, or K counted from 1.
+Node body_entry(const Node& bodies, std::string_view ref) {
+  const size_t n = bodies.size();
+  if (const auto k = list_index(ref)) {
+    if (*k >= 1 && *k <= n) return bodies[*k - 1];
+    throw std::invalid_argument("bodies[" + std::string(ref) + "]: the file has " +
+                                std::to_string(n) + " bodies, numbered 1 to " + std::to_string(n));
+  }
+  std::vector<std::string> names;
+  for (size_t i = 0; i < n; ++i) {
+    const Node body = bodies[i];
+    if (!body.IsMap()) continue;
+    for (size_t j = 0; j < body.size(); ++j)
+      if (body.key(j).Scalar() == "name" && body.value(j).IsScalar()) {
+        if (body.value(j).Scalar() == ref) return body;
+        names.emplace_back(body.value(j).Scalar());
+      }
+  }
+  std::string problem = "no body named " + quote(ref);
+  std::string best;
+  size_t best_distance = std::numeric_limits<size_t>::max();
+  for (const std::string& name : names)
+    if (const size_t d = edit_distance(ref, name); d < best_distance) {
+      best_distance = d;
+      best = name;
+    }
+  if (!best.empty()) problem += " (closest: " + quote(best) + ")";
+  throw std::invalid_argument(problem);
+}
+
+/// The shortest decimal that reads back as `value`: what a changed number becomes in the tree.
+std::string shortest(double value) {
+  char buf[32];
+  const auto result = std::to_chars(buf, buf + sizeof buf, value);
+  return std::string(buf, result.ptr);
+}
+
+}  // namespace
+
+ModelDocument ModelDocument::load(const std::string& path, const std::string& source_name) {
+  const std::string name = source_name.empty() ? path : source_name;
+  std::string text;
+  try {
+    text = read_whole_file(open_regular_file(path), kMaxFileBytes, "a model file");
+  } catch (const std::bad_alloc&) {
+    out_of_memory(name);
+  } catch (const std::runtime_error& e) {
+    throw ModelFileError(name, 0, 0, "", e.what());
+  }
+  if (path.ends_with(".urdf"))
+    throw ModelFileError(name, 0, 0, "",
+                         "a URDF file cannot be changed number by number; convert it with "
+                         "`kanedyn import` and name the model file it writes");
+  return parse(std::move(text), name);
+}
+
+ModelDocument ModelDocument::parse(std::string text, const std::string& source_name) {
+  auto impl = std::make_shared<Impl>();
+  impl->source_name = source_name;
+  try {
+    Reader r(source_name);
+    const Node root = r.load(text, true);
+    try {
+      impl->base = read_model(r, root, source_name);
+    } catch (const ModelFileError&) {
+      // The message of the one path every refusal takes (parse_model_file).
+      impl->base = parse_model_file(text, source_name);
+    }
+    impl->tree = r.take_tree();
+    // The tree views the text it was read from (a copy when the reader changed it): own it.
+    impl->text = std::string(impl->tree.text);
+    impl->tree.text = impl->text;
+  } catch (const std::bad_alloc&) {
+    out_of_memory(source_name);
+  }
+  ModelDocument doc;
+  doc.impl_ = std::move(impl);
+  return doc;
+}
+
+const ModelFile& ModelDocument::base() const { return *impl_->base; }
+const std::string& ModelDocument::text() const { return impl_->text; }
+const std::string& ModelDocument::source_name() const { return impl_->source_name; }
+
+ModelDocument::Number ModelDocument::find_number(std::string_view key_path) const {
+  const Tree& tree = impl_->tree;
+  Node node(&tree, tree.root);
+  size_t i = 0;
+  const auto fail = [&](const std::string& problem) -> void {
+    throw std::invalid_argument(problem);
+  };
+  if (key_path.empty()) fail("an empty key path");
+  bool top_bodies = false;
+  while (i < key_path.size()) {
+    // A key, then any number of [index].
+    const size_t key_end = std::min(key_path.find_first_of(".[", i), key_path.size());
+    const std::string_view key = key_path.substr(i, key_end - i);
+    if (key.empty()) fail("a key is missing at character " + std::to_string(i + 1));
+    if (!node.IsMap())
+      fail(path_prefix(key_path, i - 1) + " holds " + describe(node) + ", which has no keys");
+    top_bodies = i == 0 && key == "bodies";
+    node = mapping_entry(node, key, key_path, i == 0 ? 0 : i - 1);
+    i = key_end;
+    while (i < key_path.size() && key_path[i] == '[') {
+      const size_t close = key_path.find(']', i);
+      if (close == std::string_view::npos) fail("a '[' without its ']'");
+      const std::string_view ref = key_path.substr(i + 1, close - i - 1);
+      if (!node.IsSequence())
+        fail(path_prefix(key_path, i) + " holds " + describe(node) + ", not a list");
+      if (top_bodies) {
+        node = body_entry(node, ref);
+        top_bodies = false;
+      } else {
+        const auto k = list_index(ref);
+        if (!k)
+          fail(path_prefix(key_path, close + 1) +
+               ": list entries are numbered from 0 (only bodies go by name)");
+        if (*k >= node.size())
+          fail(path_prefix(key_path, close + 1) + ": " + path_prefix(key_path, i) + " has " +
+               std::to_string(node.size()) + " entries, numbered from 0");
+        node = node[*k];
+      }
+      i = close + 1;
+    }
+    if (i < key_path.size()) {
+      if (key_path[i] != '.') fail("expected '.' or '[' at character " + std::to_string(i + 1));
+      ++i;
+      if (i == key_path.size()) fail("the key path ends with '.'");
+    }
+  }
+  const std::string whole = path_prefix(key_path, key_path.size());
+  if (node.IsSequence())
+    fail(whole + " holds " + describe(node) + " numbers; name one, as " + whole + "[0]");
+  if (node.IsMap()) {
+    std::vector<std::string> keys;
+    for (size_t k = 0; k < node.size(); ++k) keys.emplace_back(node.key(k).Scalar());
+    fail(whole + " holds a mapping; name one of its keys: " + join(keys));
+  }
+  const auto value = Reader::plain_number(node);
+  if (!value) fail(whole + " holds " + describe(node) + ", not a number");
+  const Mark m = mark_of_pos(tree.text, node.mark());
+  Number n;
+  n.node = node.index();
+  n.value = *value;
+  n.line = static_cast<int>(m.line);
+  n.column = static_cast<int>(m.column);
+  return n;
+}
+
+ModelFile ModelDocument::build(std::span<const std::pair<uint32_t, double>> changes) const {
+  Tree tree = impl_->tree;  // a copy: its nodes are changed, its text is shared
+  for (const auto& [index, value] : changes) {
+    if (index >= tree.nodes.size() || tree.nodes[index].kind != static_cast<uint32_t>(Kind::scalar))
+      throw std::invalid_argument("ModelDocument::build: not a number's node");
+    const std::string text = shortest(value);
+    TreeNode& n = tree.nodes[index];
+    n.string = 0;
+    n.in_text = 0;
+    n.first = static_cast<uint32_t>(tree.chars.size());
+    n.count = static_cast<uint32_t>(text.size());
+    tree.chars += text;
+  }
+  try {
+    Reader r(impl_->source_name);
+    const Node root = r.adopt(std::move(tree));
+    return read_model(r, root, impl_->source_name);
+  } catch (const std::bad_alloc&) {
+    out_of_memory(impl_->source_name);
+  }
+}
+
+namespace detail {
+
+std::unique_ptr<YamlText> read_yaml(std::string text, const std::string& source_name,
+                                    const std::string& kind) {
+  auto doc = std::make_unique<YamlText>();
+  try {
+    Reader r(source_name);
+    r.tree_of(text, true);
+    doc->tree = r.take_tree();
+  } catch (const ModelFileError& e) {
+    // The reader speaks of model files; say which kind of file this is.
+    std::string problem = e.problem();
+    for (size_t at = 0; (at = problem.find("a model file", at)) != std::string::npos;)
+      problem.replace(at, 12, kind), at += kind.size();
+    throw ModelFileError(e.file(), e.line(), e.column(), e.key_path(), problem);
+  }
+  doc->text = std::string(doc->tree.text);
+  doc->tree.text = doc->text;
+  return doc;
+}
+
+std::pair<int, int> line_column(std::string_view text, Pos pos) {
+  const Mark m = mark_of_pos(text, pos);
+  return {static_cast<int>(m.line), static_cast<int>(m.column)};
 }
 
 }  // namespace detail

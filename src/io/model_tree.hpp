@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -85,5 +86,18 @@ struct FrontEnds {
   std::string difference;         ///< "" when they agree, or the fast scanner declined
 };
 FrontEnds compare_front_ends(std::string_view text);
+
+/// A YAML document other than a model file (a study file): its text and the tree viewing it.
+struct YamlText {
+  std::string text;
+  Tree tree;
+};
+/// Parses `text` by the model files' rules of YAML (one document, no tags, the size limit);
+/// throws ModelFileError naming source_name, whose problem calls the file `kind` ("a study
+/// file").
+std::unique_ptr<YamlText> read_yaml(std::string text, const std::string& source_name,
+                                    const std::string& kind);
+/// The 1-based line and column of position `pos` of `text` (0, 0 for kNoPos).
+std::pair<int, int> line_column(std::string_view text, Pos pos);
 
 }  // namespace kanedyn::io::detail

@@ -1,9 +1,14 @@
 // Model files (docs/model-format.md, format kanedyn-model/1): YAML, or JSON as a subset of YAML.
 #pragma once
 
+#include <cstdint>
+#include <memory>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
@@ -67,5 +72,44 @@ ModelFile load_model_file(const std::string& path);
 
 /// The same from text; `source_name` stands for the file name in error messages.
 ModelFile parse_model_file(const std::string& text, const std::string& source_name);
+
+/// A model file parsed once into its document tree, from which models with some numbers
+/// changed are built without parsing the text again (a study's runs: docs/studies.md).
+/// Copies share the tree; build() may run on several threads at once.
+class ModelDocument {
+ public:
+  ModelDocument() = default;  ///< empty: load() and parse() give documents to use
+  /// Reads and checks the model file at `path` (YAML or JSON; a URDF file is refused) as
+  /// load_model_file does, throwing ModelFileError; `source_name` (default: path) stands for
+  /// the file in every message, those of build() too.
+  static ModelDocument load(const std::string& path, const std::string& source_name = "");
+  /// The same from text.
+  static ModelDocument parse(std::string text, const std::string& source_name);
+
+  /// One number of the file.
+  struct Number {
+    uint32_t node = 0;         ///< its handle for build()
+    double value = 0.0;        ///< as the file gives it
+    int line = 0, column = 0;  ///< where it stands (1-based)
+  };
+  /// The number `key_path` names: `bodies[NAME]` or `bodies[K]` (K from 1), then the file's
+  /// keys, list entries by 0-based index (`forces[2].stiffness`, `bodies[head].inertia[0]`).
+  /// Throws std::invalid_argument with a one-line problem when it names nothing (with the
+  /// closest key or body name the file has there) or something other than one number.
+  Number find_number(std::string_view key_path) const;
+
+  /// The model with each (node, value) of `changes` in place of that number, checked as
+  /// load_model_file checks a file: a value that makes the model invalid throws ModelFileError
+  /// at that number's line and column.
+  ModelFile build(std::span<const std::pair<uint32_t, double>> changes) const;
+
+  const ModelFile& base() const;  ///< the model as the file gives it
+  const std::string& text() const;
+  const std::string& source_name() const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<const Impl> impl_;
+};
 
 }  // namespace kanedyn::io

@@ -1,0 +1,169 @@
+// Studies (docs/studies.md, format kanedyn-study/1): one model file run many times, some of its
+// numbers changed by grids and random draws, the results gathered into one table. The model
+// file is parsed once; each run builds its model from the document tree with its numbers.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kanedyn/io/model_file.hpp"
+#include "kanedyn/simulate.hpp"
+
+namespace kanedyn::io {
+
+/// A study file that cannot be read or is not valid: one line, "FILE:LINE:COL: KEY.PATH:
+/// problem", as ModelFileError.
+class StudyFileError : public ModelFileError {
+ public:
+  using ModelFileError::ModelFileError;
+};
+
+/// How a varied number takes its values: drawn once per run, or every value of a list (a grid).
+enum class Draw { normal, uniform, lognormal, choice, grid };
+
+/// One entry of `vary`.
+struct StudyVary {
+  std::string key;  ///< the key path as written: the results table's column
+  Draw draw = Draw::grid;
+  /// normal: (mean, std); uniform: (low, high); lognormal: (mu, sigma) of the log
+  double a = 0.0, b = 0.0;
+  std::vector<double> values;  ///< choice and grid (`grid` or `values`)
+  int input = -1;              ///< `inputs[...]`: the input's index; -1 for a number of the file
+  uint32_t node = 0;           ///< a number of the file: its ModelDocument handle
+};
+
+enum class Statistic { final, max, min, mean, rms };
+
+/// One entry of `outputs`: a statistic of one trajectory column over the rows of a run.
+struct StudyOutput {
+  Statistic statistic = Statistic::final;
+  std::string column;  ///< a column of the trajectory CSV ("head.z", "energy")
+  int column_index = 0;
+  std::string name;  ///< "max:head.z"
+};
+
+/// A study file, checked: every key path resolved, every setting valid for the model.
+struct Study {
+  std::string path;        ///< as given ("<dict>" and the like for a text)
+  std::string text;        ///< the study file's text
+  std::string model_path;  ///< the model file: `model:` taken from the study file's folder
+  ModelDocument model;     ///< parsed once; its messages name the file as `model:` gives it
+  std::uint64_t seed = 0;
+  long runs_per_point = 1;  ///< `runs`
+  std::vector<StudyVary> vary;
+  SimulationSection simulate;  ///< the study's `simulate:` section
+  std::vector<StudyOutput> outputs;
+  long keep_every = 0;   ///< trajectories: 0 none, 1 all, N every N-th run (runs 0, N, 2N...)
+  long grid_points = 1;  ///< the product of the grids' sizes
+  long runs = 1;         ///< grid_points * runs_per_point
+  std::uint64_t fingerprint = 0;  ///< of the study's and the model's texts
+
+  /// The header of results.csv: run, each varied key, each output's name, status, wall_s.
+  std::vector<std::string> columns() const;
+  /// Run `run`'s value of each `vary` entry: the grids' values by the run's grid point
+  /// (run / runs_per_point, the last grid varying fastest), the draws by (seed, run, entry).
+  std::vector<double> parameters(long run) const;
+  bool keeps_trajectory(long run) const { return keep_every > 0 && run % keep_every == 0; }
+  /// The settings of run `run` for its model file (whose `simulation:` section the study's
+  /// `simulate:` section overrides key by key).
+  SimulationSettings settings(const ModelFile& file) const;
+};
+
+/// Reads and checks a study file; throws StudyFileError (the study's own refusals) or
+/// ModelFileError (its model file's).
+Study load_study(const std::string& path);
+/// The same from text: `source_name` stands for the file in messages, and `model:` is relative
+/// to `base_dir` ("" for the current folder). With `model_text`, that is the model file's text
+/// and no file is read (a worker on another machine, sent both texts).
+Study parse_study(std::string text, const std::string& source_name, const std::string& base_dir,
+                  const std::string* model_text = nullptr);
+
+/// The uniform number in [0, 1) of draw k of entry `entry` of run `run`: a counter-based
+/// generator, a function of its four arguments alone (docs/studies.md gives the formula).
+double study_uniform(std::uint64_t seed, std::uint64_t run, std::uint64_t entry, std::uint64_t k);
+
+/// What one run gave.
+struct StudyRun {
+  long run = 0;
+  std::string row;           ///< its line of results.csv, without the line break
+  std::string trajectory;    ///< its trajectory CSV when the study keeps it, else empty
+  std::string status;        ///< "ok", or "KIND: message"
+  bool interrupted = false;  ///< stopped by `stop`: no result, to be run again
+};
+
+/// Runs run `run` of the study: builds its model, simulates, reduces the outputs. A model made
+/// invalid by the run's values, invalid settings or a failed simulation are the run's status.
+/// `stop` (if set) is polled at every step of the integration; when it returns true the run
+/// ends, interrupted. Throws only for a run index out of range (std::out_of_range).
+StudyRun run_study_run(const Study& study, long run, const std::function<bool()>& stop = {});
+
+/// The kind of a status ("ok", "invalid model", "non-finite state", ...): its text up to ": ".
+std::string status_kind(const std::string& status);
+
+/// A study's output folder (docs/studies.md): study.yaml (a copy), results.csv, runs/ (kept
+/// trajectories) and manifest/ (the runs done, in parts). Every file is written under a
+/// temporary name and renamed when whole.
+class StudyFolder {
+ public:
+  /// Opens `dir` for `study`, creating it (its parent must exist) or finding there the runs of
+  /// an earlier start of the same study, which count as done. Throws std::runtime_error naming
+  /// the file and the problem: `dir` is not a folder, holds another study, or a manifest part
+  /// that cannot be read. Leftover temporary files of a stopped run are removed.
+  StudyFolder(const Study& study, std::string dir);
+
+  const std::string& dir() const { return dir_; }
+  long total() const { return study_->runs; }
+  long done() const { return static_cast<long>(rows_.size()); }
+  bool is_done(long run) const { return rows_.count(run) > 0; }
+  std::vector<long> missing() const;  ///< the runs not done, in order
+
+  /// Records finished runs: their kept trajectories (runs/run_NNNNNN.csv; none for a run
+  /// refused before it began), then one manifest part
+  /// with their rows. Runs already done are skipped. Throws std::runtime_error naming the file
+  /// when a write fails (a full disk): what was recorded before stays.
+  void record(const std::vector<StudyRun>& runs);
+  /// Writes results.csv, the rows in run order; throws std::logic_error unless every run is done.
+  void write_results() const;
+
+  std::string results_path() const { return dir_ + "/results.csv"; }
+  std::string trajectory_path(long run) const;
+  /// The failed runs' count by status kind, over the runs done.
+  std::map<std::string, long> failures() const;
+
+ private:
+  void read_manifest();
+  const Study* study_;
+  std::string dir_;
+  std::map<long, std::string> rows_;   ///< run -> its row
+  std::map<long, std::string> kinds_;  ///< failed run -> its status kind
+  long next_part_ = 1;
+};
+
+/// How sweep() runs.
+struct SweepOptions {
+  int threads = 0;  ///< 0: std::thread::hardware_concurrency()
+  /// Polled by the calling thread about ten times a second; true stops the sweep: the runs
+  /// being simulated end (within a step), and every finished run is recorded.
+  std::function<bool()> stop;
+  /// Called by the calling thread about ten times a second and at the end: runs done (of
+  /// folder.total()), and the runs done by this call so far.
+  std::function<void(long done, long ran)> progress;
+  double flush_seconds = 1.0;  ///< the longest time between manifest parts
+};
+
+struct SweepResult {
+  long ran = 0;          ///< runs done by this call
+  bool stopped = false;  ///< stopped before every run was done
+};
+
+/// Runs the study's missing runs on `threads` threads, recording them in the folder as they
+/// finish; writes results.csv when every run is done. Throws what folder.record() throws (the
+/// runs recorded before stay).
+SweepResult sweep(const Study& study, StudyFolder& folder, const SweepOptions& options);
+
+}  // namespace kanedyn::io

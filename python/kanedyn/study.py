@@ -1,0 +1,207 @@
+"""Studies (docs/studies.md): one model run many times, some of its numbers changed by grids and
+random draws, the results gathered into one table.
+
+    import kanedyn
+    study = kanedyn.Study("examples/studies/eight_body_stiffness.yaml")
+    table = study.run(out="stiffness")               # this machine's cores
+    table = study.run(out="stiffness", client=dask_client)   # a dask.distributed cluster
+
+Either way the folder `out` is written by the caller, by the rules `kanedyn sweep` follows, and
+results.csv is the same file, byte for byte but for the wall_s column.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import sys
+import time
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from ._kanedyn import _Study, _StudyFolder
+
+__all__ = ["Study", "read_results"]
+
+# What a worker is sent: the study's text, its name in messages, and the model file's text, so
+# that it reads no file (it may be another machine).
+_Payload = Tuple[str, str, str]
+
+# Each worker process parses a study once and keeps it for the chunks that follow.
+_worker_studies: Dict[_Payload, _Study] = {}
+
+
+def _run_chunk(payload: _Payload, runs: Sequence[int]) -> List[Tuple[int, str, Optional[str], str]]:
+    """Runs a chunk of runs on a worker: (run, row, trajectory or None, status) for each."""
+    study = _worker_studies.get(payload)
+    if study is None:
+        text, name, model_text = payload
+        study = _Study.parse(text, name, "", model_text)
+        if len(_worker_studies) > 8:
+            _worker_studies.clear()
+        _worker_studies[payload] = study
+    return study.run_chunk(list(runs))
+
+
+def read_results(path: Union[str, os.PathLike]) -> Any:
+    """A results.csv as a numpy structured array: `run` (int64), the varied keys and the
+    outputs (float64; nan where a failed run has none), `status` (str) and `wall_s` (float64).
+    A pandas DataFrame of the same columns when pandas is installed."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], rows[1:]
+    numeric = header[1:-2]
+    status_width = max([len(r[-2]) for r in body] + [2])
+    dtype = (
+        [("run", np.int64)]
+        + [(name, np.float64) for name in numeric]
+        + [("status", f"U{status_width}"), ("wall_s", np.float64)]
+    )
+    table = np.empty(len(body), dtype=dtype)
+    for i, r in enumerate(body):
+        table[i] = (
+            int(r[0]),
+            *[float(v) if v != "" else math.nan for v in r[1:-2]],
+            r[-2],
+            float(r[-1]),
+        )
+    try:
+        import pandas  # noqa: PLC0415 (optional)
+    except ImportError:
+        return table
+    return pandas.DataFrame({name: table[name] for name in table.dtype.names})
+
+
+class Study:
+    """A study file (YAML or JSON, docs/studies.md) or a dict of the same structure, checked
+    at once: a refusal raises kanedyn.ModelError with the tool's one-line message. A dict's
+    `model` is relative to the current folder, a file's to the file's folder."""
+
+    def __init__(self, source: Union[str, os.PathLike, Mapping[str, Any]]):
+        if isinstance(source, Mapping):
+            text = json.dumps(source, allow_nan=False)
+            self._core = _Study.parse(text, "<dict>", "", None)
+        elif isinstance(source, (str, os.PathLike)):
+            self._core = _Study.load(os.fspath(source))
+        else:
+            raise TypeError(f"Study() takes a path or a dict, not {type(source).__name__}")
+
+    @property
+    def runs(self) -> int:
+        """The number of runs: the grids' product times `runs`."""
+        return self._core.runs
+
+    @property
+    def columns(self) -> List[str]:
+        """The columns of results.csv."""
+        return list(self._core.columns)
+
+    def parameters(self, run: int) -> List[float]:
+        """Run `run`'s value of each varied key, in the order of `vary`."""
+        return list(self._core.parameters(run))
+
+    def run(
+        self,
+        out: Union[str, os.PathLike],
+        client: Any = None,
+        *,
+        threads: int = 0,
+        chunk_size: Optional[int] = None,
+        progress: bool = False,
+    ) -> Any:
+        """Runs the runs not yet done in the folder `out` (created; its parent must exist) and
+        returns the results table (read_results). Without a client, on `threads` threads of
+        this process (0: all cores), as `kanedyn sweep`. With a dask.distributed Client, in
+        chunks of `chunk_size` runs on its workers (default: about eight chunks per worker
+        thread, at most 256 runs each); each worker parses the study and the model once from
+        their texts, sent with its first chunk. A lost worker's chunks are run again by dask.
+        The caller writes the folder as chunks come back. Ctrl-C stops, keeping every finished
+        run (KeyboardInterrupt); run() again with the same folder does only the missing runs."""
+        folder = _StudyFolder(self._core, os.fspath(out))
+        if client is None:
+            self._run_here(folder, threads, progress)
+        else:
+            self._run_dask(folder, client, chunk_size, progress)
+        return read_results(folder.results_path)
+
+    def _run_here(self, folder: _StudyFolder, threads: int, progress: bool) -> None:
+        bar = _Bar(folder.total) if progress else None
+        _ran, stopped, interrupted = folder.sweep(threads, bar.update if bar else None)
+        if bar:
+            bar.close()
+        if stopped:
+            _stopped(folder, interrupted)
+
+    def _run_dask(self, folder: _StudyFolder, client: Any, chunk_size: Optional[int], progress: bool) -> None:
+        from distributed import as_completed  # noqa: PLC0415 (only for this path)
+
+        missing = list(folder.missing())
+        if missing:
+            if chunk_size is None:
+                threads = sum(client.nthreads().values()) or 1
+                chunk_size = max(1, min(256, math.ceil(len(missing) / (8 * threads))))
+            if chunk_size < 1:
+                raise ValueError("chunk_size must be at least 1")
+            core = self._core
+            payload: _Payload = (core.text, core.path, core.model_text)
+            # The texts go with every chunk (a few kB): a worker that joins or restarts needs
+            # nothing from the others.
+            chunks = [missing[i : i + chunk_size] for i in range(0, len(missing), chunk_size)]
+            futures = [client.submit(_run_chunk, payload, chunk, pure=False) for chunk in chunks]
+            bar = _Bar(folder.total) if progress else None
+            pending: List[Tuple[int, str, Optional[str], str]] = []
+            last = time.monotonic()
+            try:
+                for future in as_completed(futures):
+                    pending.extend(future.result())
+                    future.release()
+                    if time.monotonic() - last >= 1.0:
+                        folder.record(pending)
+                        pending = []
+                        last = time.monotonic()
+                    if bar:
+                        bar.update(folder.done + len(pending), 0)
+                folder.record(pending)
+            except KeyboardInterrupt:
+                folder.record(pending)
+                client.cancel(futures)
+                _stopped(folder, True)
+            finally:
+                if bar:
+                    bar.close()
+        folder.write_results()
+
+
+def _stopped(folder: _StudyFolder, interrupted: bool) -> None:
+    message = (
+        f"stopped: {folder.done} of {folder.total} runs are kept; run() again with the same "
+        "folder runs only the missing ones"
+    )
+    if interrupted:
+        raise KeyboardInterrupt(message)
+    raise RuntimeError(message)
+
+
+class _Bar:
+    """Runs done, the rate and the time left, on stderr."""
+
+    def __init__(self, total: int):
+        self.total = total
+        self.start = time.monotonic()
+        self.first: Optional[int] = None
+
+    def update(self, done: int, _ran: int) -> None:
+        if self.first is None:
+            self.first = done
+        elapsed = time.monotonic() - self.start
+        rate = (done - self.first) / elapsed if elapsed > 0 else 0.0
+        left = f"{(self.total - done) / rate:.0f} s" if rate > 0 else "?"
+        sys.stderr.write(f"\r{done}/{self.total} runs  {rate:.1f} runs/s  left ~{left} \033[K")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        sys.stderr.write("\r\033[K")
+        sys.stderr.flush()
