@@ -1059,8 +1059,12 @@ Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, 
   lin.A = MatrixX::Zero(2 * n, 2 * n);
   lin.B = MatrixX::Zero(2 * n, m);
   Derivatives derivatives(model);
-  derivatives.forward(q, z, u, lin.A.bottomLeftCorner(n, n), lin.A.bottomRightCorner(n, n),
-                      lin.B.bottomRows(n), &lin.zdot);
+  // B's block through a matrix of its own: a block of a matrix without columns would offset a
+  // null pointer.
+  MatrixX du(n, m);
+  derivatives.forward(q, z, u, lin.A.bottomLeftCorner(n, n), lin.A.bottomRightCorner(n, n), du,
+                      &lin.zdot);
+  if (m > 0) lin.B.bottomRows(n) = du;
   // The coordinates' rates: d(r)/dt = (w - w0) - w0 x r for a rotation vector (the spec's
   // "Linearization output"), d(deviation)/dt = the speed's deviation for every other entry.
   lin.A.topRightCorner(n, n).setIdentity();
@@ -1125,7 +1129,7 @@ Linearization linearize_at_rest(const Model& model, const VectorX& q, const Vect
   lin.A.topRightCorner(f, f).setIdentity();
   lin.A.bottomLeftCorner(f, f) = -llt.solve(rows(dq, true));
   lin.A.bottomRightCorner(f, f) = -llt.solve(rows(dz, true));
-  lin.B.bottomRows(f) = -llt.solve(rows(du, false));
+  if (m > 0) lin.B.bottomRows(f) = -llt.solve(rows(du, false));
   if (lin.A.allFinite()) lin.eigenvalues = sorted_eigenvalues(lin.A);
   return lin;
 }
