@@ -402,7 +402,7 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     Body<S>* lower = j == kGround ? nullptr : &bodies[at(j)];
     Body<S>& b = bodies[at(k)];
     const bool free = model.joint(k).type == JointType::free;
-    V3<S> g_dot_z;
+    V3<S> g_dot_z{};  // set for a universal joint only
     bool universal = false;
     joint_terms(model, tables, k, q, z, lower, b, g_dot_z, universal);
     b.r = b.slide;
@@ -504,27 +504,15 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
       const double* zdot, const Dual<N>* u, Dual<N>* Q, std::vector<Body<Dual<N>>>& bodies) { \
     inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies);                                \
   }
-KANEDYN_DUAL_PASS(4)
 KANEDYN_DUAL_PASS(8)
-KANEDYN_DUAL_PASS(12)
 KANEDYN_DUAL_PASS(16)
 #undef KANEDYN_DUAL_PASS
 #undef KANEDYN_DUAL_PASS_ATTRIBUTES
 
-void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<4>* q,
-                           const Dual<4>* z, const double* zdot, const Dual<4>* u, Dual<4>* Q,
-                           std::vector<Body<Dual<4>>>& bodies) {
-  dual_inverse_dynamics_4(model, tables, q, z, zdot, u, Q, bodies);
-}
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<8>* q,
                            const Dual<8>* z, const double* zdot, const Dual<8>* u, Dual<8>* Q,
                            std::vector<Body<Dual<8>>>& bodies) {
   dual_inverse_dynamics_8(model, tables, q, z, zdot, u, Q, bodies);
-}
-void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<12>* q,
-                           const Dual<12>* z, const double* zdot, const Dual<12>* u, Dual<12>* Q,
-                           std::vector<Body<Dual<12>>>& bodies) {
-  dual_inverse_dynamics_12(model, tables, q, z, zdot, u, Q, bodies);
 }
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<16>* q,
                            const Dual<16>* z, const double* zdot, const Dual<16>* u, Dual<16>* Q,
@@ -775,9 +763,7 @@ struct Derivatives::Impl {
   Terms terms;
   // Made on first use: a pass of 16 directions holds some 10 kB a body, and most models use
   // one width; the forward route only for the central differences.
-  std::unique_ptr<Pass<4>> pass4;
   std::unique_ptr<Pass<8>> pass8;
-  std::unique_ptr<Pass<12>> pass12;
   std::unique_ptr<Pass<16>> pass16;
   std::unique_ptr<Dynamics> forward_route;
 
@@ -823,22 +809,15 @@ void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
       dirs.push_back(col);
     }
   }
-  // The widest pass that is not mostly empty: one op on N directions costs about N/4 of a
-  // double op (AVX2), plus the value's own.
+  // Passes of 16 directions, the last of 8 when that is enough: the cost of a pass grows with
+  // its width, and two widths keep the compiled code (each pass twice: AVX2 and baseline) small.
   for (size_t first = 0; first < dirs.size();) {
-    const size_t left = dirs.size() - first;
-    if (left > 12) {
+    if (dirs.size() - first > 8) {
       pass(pass16).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 16;
-    } else if (left > 8) {
-      pass(pass12).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
-      first += 12;
-    } else if (left > 4) {
+    } else {
       pass(pass8).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 8;
-    } else {
-      pass(pass4).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
-      first += 4;
     }
   }
 }
@@ -891,7 +870,7 @@ const Model& Derivatives::model() const { return impl_->model; }
 bool Derivatives::analytic() const { return impl_->tables.supported; }
 std::string Derivatives::method() const {
   return analytic()
-             ? "forward-mode dual numbers through the inverse dynamics, up to 16 directions a pass"
+             ? "forward-mode dual numbers through the inverse dynamics, 8 or 16 directions a pass"
              : "central differences in tangent coordinates (a force element of a type "
                "the library does not define)";
 }
