@@ -492,8 +492,12 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
 // the program is loaded (a pack of four directions is one AVX register). Flattened: every small
 // vector operation inlined, which the compiler would leave as calls for the wide numbers and
 // which then dominate.
-// clang refuses flatten beside target_clones: it gets the clones alone.
-#if defined(__clang__)
+// clang refuses flatten beside target_clones: it gets the clones alone. ThreadSanitizer cannot
+// run the resolver that picks a clone (it runs before the sanitizer's own start-up), so a TSan
+// build, like any other target, has the baseline function only (src/integrate.cpp likewise).
+#if !defined(__x86_64__) || defined(__SANITIZE_THREAD__)
+#define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((flatten))
+#elif defined(__clang__)
 #define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((target_clones("avx2", "default")))
 #else
 #define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((flatten, target_clones("avx2", "default")))
