@@ -509,6 +509,7 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies);                                \
   }
 KANEDYN_DUAL_PASS(8)
+KANEDYN_DUAL_PASS(12)
 KANEDYN_DUAL_PASS(16)
 #undef KANEDYN_DUAL_PASS
 #undef KANEDYN_DUAL_PASS_ATTRIBUTES
@@ -517,6 +518,11 @@ void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<
                            const Dual<8>* z, const double* zdot, const Dual<8>* u, Dual<8>* Q,
                            std::vector<Body<Dual<8>>>& bodies) {
   dual_inverse_dynamics_8(model, tables, q, z, zdot, u, Q, bodies);
+}
+void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<12>* q,
+                           const Dual<12>* z, const double* zdot, const Dual<12>* u, Dual<12>* Q,
+                           std::vector<Body<Dual<12>>>& bodies) {
+  dual_inverse_dynamics_12(model, tables, q, z, zdot, u, Q, bodies);
 }
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<16>* q,
                            const Dual<16>* z, const double* zdot, const Dual<16>* u, Dual<16>* Q,
@@ -697,13 +703,18 @@ template <int N>
 struct Pass {
   std::vector<Body<Dual<N>>> bodies;
   std::vector<Dual<N>> q, z, u, Q;
+  // A body's seeded half rotation, and whether it has one (kept between passes: no allocation).
+  std::vector<Eu<Dual<N>>> half;
+  std::vector<char> turned;
 
   explicit Pass(const Model& m)
       : bodies(at(m.num_bodies())),
         q(at(m.num_coordinates())),
         z(at(m.num_speeds())),
         u(at(m.num_inputs())),
-        Q(at(m.num_speeds())) {}
+        Q(at(m.num_speeds())),
+        half(at(m.num_bodies())),
+        turned(at(m.num_bodies()), 0) {}
 
   // dQ along the directions dirs[first..first+N) into out's columns of the same index:
   // direction d < n the tangent of q, n <= d < 2n z, 2n + i input i.
@@ -724,8 +735,7 @@ void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, c
   for (size_t i = 0; i < u.size(); ++i) u[i] = D(u0[static_cast<Eigen::Index>(i)]);
   // Seed: slot s is direction dirs[first + s]. A rotation vector r enters through the Euler
   // parameters of exp(-[r~]) composed with the nominal ones, (r/2, 1) to first order.
-  std::vector<Eu<D>> half(at(model.num_bodies()), Eu<D>{{D(0.0), D(0.0), D(0.0), D(1.0)}});
-  std::vector<bool> turned(at(model.num_bodies()), false);
+  std::fill(turned.begin(), turned.end(), 0);
   for (size_t s = 0; s < count; ++s) {
     const int dir = dirs[first + s];
     if (dir >= 2 * n) {
@@ -736,8 +746,9 @@ void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, c
       const int k = tables.speed_body[at(dir)];
       const int c = dir - model.speed_offset(k);
       if (is_rotation_entry(model.joint(k).type, c)) {
+        if (!turned[at(k)]) half[at(k)] = Eu<D>{{D(0.0), D(0.0), D(0.0), D(1.0)}};
         half[at(k)].e[c].set_derivative(static_cast<int>(s), 0.5);
-        turned[at(k)] = true;
+        turned[at(k)] = 1;
       } else {
         q[at(coordinate_of_entry(model, k, c))].set_derivative(static_cast<int>(s), 1.0);
       }
@@ -768,6 +779,7 @@ struct Derivatives::Impl {
   // Made on first use: a pass of 16 directions holds some 10 kB a body, and most models use
   // one width; the forward route only for the central differences.
   std::unique_ptr<Pass<8>> pass8;
+  std::unique_ptr<Pass<12>> pass12;
   std::unique_ptr<Pass<16>> pass16;
   std::unique_ptr<Dynamics> forward_route;
 
@@ -813,12 +825,16 @@ void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
       dirs.push_back(col);
     }
   }
-  // Passes of 16 directions, the last of 8 when that is enough: the cost of a pass grows with
-  // its width, and two widths keep the compiled code (each pass twice: AVX2 and baseline) small.
+  // Passes of 16 directions, the last of 12 or 8 when that is enough: the cost of a pass grows
+  // with its width (the six-joint arm's 12 directions take 5.5x its forward dynamics in a pass
+  // of 12, 6.4x in one of 16), and each width is compiled twice (AVX2 and baseline).
   for (size_t first = 0; first < dirs.size();) {
-    if (dirs.size() - first > 8) {
+    if (dirs.size() - first > 12) {
       pass(pass16).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 16;
+    } else if (dirs.size() - first > 8) {
+      pass(pass12).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      first += 12;
     } else {
       pass(pass8).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
       first += 8;
@@ -873,10 +889,10 @@ Derivatives::~Derivatives() = default;
 const Model& Derivatives::model() const { return impl_->model; }
 bool Derivatives::analytic() const { return impl_->tables.supported; }
 std::string Derivatives::method() const {
-  return analytic()
-             ? "forward-mode dual numbers through the inverse dynamics, 8 or 16 directions a pass"
-             : "central differences in tangent coordinates (a force element of a type "
-               "the library does not define)";
+  return analytic() ? "forward-mode dual numbers through the inverse dynamics, 8, 12 or 16 "
+                      "directions a pass"
+                    : "central differences in tangent coordinates (a force element of a type "
+                      "the library does not define)";
 }
 
 void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
@@ -938,9 +954,11 @@ void Derivatives::inverse(const VectorX& q, const VectorX& z, const VectorX& zdo
 // matrix that takes microseconds, which on a loaded machine costs far more.
 constexpr int kSmallEigenproblem = 48;
 
-extern "C" void dgeev_(const char* jobvl, const char* jobvr, const int* n, double* a,
-                       const int* lda, double* wr, double* wi, double* vl, const int* ldvl,
-                       double* vr, const int* ldvr, double* work, const int* lwork, int* info);
+extern "C" void dgeevx_(const char* balanc, const char* jobvl, const char* jobvr, const char* sense,
+                        const int* n, double* a, const int* lda, double* wr, double* wi, double* vl,
+                        const int* ldvl, double* vr, const int* ldvr, int* ilo, int* ihi,
+                        double* scale, double* abnrm, double* rconde, double* rcondv, double* work,
+                        const int* lwork, int* iwork, int* info);
 
 Eigen::VectorXcd sorted_eigenvalues(const MatrixX& a, Eigen::MatrixXcd* vectors) {
   if (a.rows() != a.cols()) throw std::invalid_argument("sorted_eigenvalues: a square matrix");
@@ -960,25 +978,34 @@ Eigen::VectorXcd sorted_eigenvalues(const MatrixX& a, Eigen::MatrixXcd* vectors)
     wi = solver.eigenvalues().imag();
     if (vectors) raw = solver.eigenvectors();
   } else {
-    // LAPACK's dgeev (Hessenberg reduction and the multishift QR, blocked): a general matrix
-    // of 1,000 rows in about a second where Eigen's EigenSolver takes twenty.
+    // LAPACK's dgeevx (Hessenberg reduction and the multishift QR, blocked): a general matrix
+    // of 1,000 rows in under a second where Eigen's EigenSolver takes twenty. Balanced by
+    // permutations only, as Eigen's solver is not at all: the diagonal scaling that dgeev always
+    // applies took a quarter of the time on the 512-link chain's A (its sweeps read rows across
+    // the column-major matrix) and moved its eigenvalues 1e-8 of their size away from an
+    // extended-precision reference, where the unscaled ones are within 1e-10 (scaling can harm
+    // as well as help: Watkins, "A case where balancing is harmful", ETNA 23, 2006).
     MatrixX work_a = a;
     MatrixX vr(vectors ? n : 1, vectors ? n : 1);
-    const char jobvl = 'N', jobvr = vectors ? 'V' : 'N';
+    const char balanc = 'P', jobvl = 'N', jobvr = vectors ? 'V' : 'N', sense = 'N';
     const int ldvr = vectors ? n : 1, one = 1;
-    int info = 0, lwork = -1;
-    double query = 0.0, dummy = 0.0;
-    dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
-           &ldvr, &query, &lwork, &info);
+    int info = 0, lwork = -1, ilo = 0, ihi = 0;
+    double query = 0.0, dummy = 0.0, abnrm = 0.0;
+    VectorX scale(n);
+    const auto call = [&](double* work) {
+      dgeevx_(&balanc, &jobvl, &jobvr, &sense, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy,
+              &one, vr.data(), &ldvr, &ilo, &ihi, scale.data(), &abnrm, &dummy, &dummy, work,
+              &lwork, nullptr, &info);
+    };
+    call(&query);
     lwork = std::max(1, static_cast<int>(query));
     std::vector<double> work(at(lwork));
-    dgeev_(&jobvl, &jobvr, &n, work_a.data(), &n, wr.data(), wi.data(), &dummy, &one, vr.data(),
-           &ldvr, work.data(), &lwork, &info);
+    call(work.data());
     if (info != 0)
-      throw std::runtime_error("eigenvalues: LAPACK dgeev did not converge (info " +
+      throw std::runtime_error("eigenvalues: LAPACK dgeevx did not converge (info " +
                                std::to_string(info) + ")");
     if (vectors) {
-      // dgeev stores a complex pair's vector as two real columns j, j+1: v = vr_j +- i vr_j+1.
+      // dgeevx stores a complex pair's vector as two real columns j, j+1: v = vr_j +- i vr_j+1.
       raw.resize(n, n);
       for (int j = 0; j < n; ++j) {
         if (wi[j] == 0.0) {

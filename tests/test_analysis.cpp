@@ -182,6 +182,35 @@ TEST(Derivatives, MatchCentralDifferencesInTangentCoordinates) {
   }
 }
 
+// Every width of pass, and the split of the directions among passes: chains of 3 to 13
+// revolute joints have 6 to 26 directions (passes of 8; 12; 16; 16 and 8; 16 and 12; 16 and 16),
+// against central differences as above.
+TEST(Derivatives, EveryPassWidthMatchesCentralDifferences) {
+  std::mt19937 rng(31);
+  for (int bodies = 3; bodies <= 13; ++bodies) {
+    test::RandomTreeOptions opt;
+    opt.min_bodies = opt.max_bodies = bodies;
+    opt.chain = true;
+    opt.gravity = Vector3(0, 0, -9.81);
+    const Model tree = test::random_tree(rng, opt);
+    std::vector<Joint> joints;
+    for (int k = 0; k < bodies; ++k) joints.push_back(test::random_joint(rng, JointType::revolute));
+    const Model m = with_joints(tree, joints);
+    VectorX q, z;
+    random_joint_state(m, rng, q, z);
+    const int n = m.num_speeds();
+    MatrixX dq(n, n), dz(n, n), du(n, 0);
+    Derivatives(m).forward(q, z, VectorX(), dq, dz, du);
+    const MatrixX fd = central_differences(m, q, z, VectorX());
+    EXPECT_LE((dq - fd.leftCols(n)).cwiseAbs().maxCoeff(),
+              1e-6 * std::max(1.0, fd.leftCols(n).cwiseAbs().maxCoeff()))
+        << bodies << " bodies";
+    EXPECT_LE((dz - fd.rightCols(n)).cwiseAbs().maxCoeff(),
+              1e-6 * std::max(1.0, fd.rightCols(n).cwiseAbs().maxCoeff()))
+        << bodies << " bodies";
+  }
+}
+
 // Above 48 speeds the mass matrix is factored by LAPACK: a chain of 20 free and spherical
 // bodies (n = 90) against central differences as above.
 TEST(Derivatives, LargerModelsMatchCentralDifferences) {
@@ -562,7 +591,7 @@ TEST(Eigenvalues, SortedByRealPartThenImaginaryWithUnitVectors) {
   }
 }
 
-// Above 48 rows LAPACK's dgeev computes them: the same values as Eigen's solver, and vectors
+// Above 48 rows LAPACK's dgeevx computes them: the same values as Eigen's solver, and vectors
 // with A v = lambda v (round-off: 1e-10 of |A| on a 60 x 60 matrix).
 TEST(Eigenvalues, LapackAndEigenAgreeOnALargerMatrix) {
   std::mt19937 rng(23);
