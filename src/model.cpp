@@ -57,14 +57,17 @@ std::string check_inertia(const Matrix3& inertia) {
 
 Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
              std::vector<std::shared_ptr<const ForceElement>> forces, std::string name,
-             std::vector<Joint> joints, std::vector<Frame> frames, std::vector<Input> inputs)
+             std::vector<Joint> joints, std::vector<Frame> frames, std::vector<Input> inputs,
+             std::vector<Constraint> constraints, std::vector<int> independent_speeds)
     : bodies_(std::move(bodies)),
       gravity_(std::move(gravity)),
       forces_(std::move(forces)),
       name_(std::move(name)),
       joints_(std::move(joints)),
       frames_(std::move(frames)),
-      inputs_(std::move(inputs)) {
+      inputs_(std::move(inputs)),
+      constraints_(std::move(constraints)),
+      independent_speeds_(std::move(independent_speeds)) {
   const int n = num_bodies();
   if (n == 0) throw ModelError("model: a model needs at least one body");
   if (!gravity_.allFinite()) fail("gravity", "has a non-finite component");
@@ -144,6 +147,91 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
     f.rotation.normalize();
   }
   set_up_inputs();
+  set_up_constraints();
+}
+
+void Model::set_up_constraints() {
+  const int n = num_bodies();
+  std::unordered_set<std::string> names;
+  const auto unit = [](Vector3& v) {
+    if (!all_finite(v) || !(v.norm() > 0.0)) return false;
+    v.normalize();
+    return true;
+  };
+  for (size_t i = 0; i < constraints_.size(); ++i) {
+    Constraint& c = constraints_[i];
+    const std::string where = "constraint " + std::to_string(i + 1) + " '" + c.name + "'";
+    if (!valid_name(c.name)) fail(where, "name must be non-empty and use only [A-Za-z0-9_-]");
+    if (!names.insert(c.name).second) fail(where, "duplicate constraint name '" + c.name + "'");
+    if (c.body < 0 || c.body >= n)
+      fail(where, "body index " + std::to_string(c.body) + " out of range");
+    if (!all_finite(c.at)) fail(where, "at has a non-finite component");
+    switch (c.type) {
+      case ConstraintType::rolling_disc:
+        if (!unit(c.axis)) fail(where, "axis must be a finite non-zero vector");
+        if (!unit(c.plane_normal)) fail(where, "plane normal must be a finite non-zero vector");
+        if (!std::isfinite(c.radius) || !(c.radius > 0.0)) fail(where, "radius must be > 0");
+        if (!std::isfinite(c.plane_offset)) fail(where, "plane offset must be finite");
+        break;
+      case ConstraintType::hinge:
+        if (!unit(c.axis)) fail(where, "axis must be a finite non-zero vector");
+        if (!unit(c.other_axis)) fail(where, "other_axis must be a finite non-zero vector");
+        [[fallthrough]];
+      case ConstraintType::ball:
+      case ConstraintType::distance:
+        if (c.other != kGround && (c.other < 0 || c.other >= n))
+          fail(where, "other body index " + std::to_string(c.other) + " out of range");
+        if (c.other == c.body) fail(where, "other must be a body other than `body`, or ground");
+        if (!all_finite(c.other_at)) fail(where, "other_at has a non-finite component");
+        if (c.type == ConstraintType::distance && (!std::isfinite(c.length) || !(c.length > 0.0)))
+          fail(where, "length must be > 0");
+        break;
+    }
+  }
+  std::vector<int> sorted = independent_speeds_;
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t i = 0; i < sorted.size(); ++i) {
+    if (sorted[i] < 0 || sorted[i] >= num_speeds())
+      fail("independent_speeds", "speed index " + std::to_string(sorted[i]) + " out of range");
+    if (i > 0 && sorted[i] == sorted[i - 1])
+      fail("independent_speeds", "speed index " + std::to_string(sorted[i]) + " given twice");
+  }
+  if (!independent_speeds_.empty() && constraints_.empty())
+    fail("independent_speeds", "given without constraints");
+  independent_speeds_ = std::move(sorted);
+}
+
+int Model::constraint_index(const std::string& name) const {
+  for (size_t i = 0; i < constraints_.size(); ++i)
+    if (constraints_[i].name == name) return static_cast<int>(i);
+  return -2;
+}
+
+const char* to_string(ConstraintType type) {
+  switch (type) {
+    case ConstraintType::rolling_disc:
+      return "rolling_disc";
+    case ConstraintType::ball:
+      return "ball";
+    case ConstraintType::hinge:
+      return "hinge";
+    case ConstraintType::distance:
+      return "distance";
+  }
+  return "?";
+}
+
+int equation_count(ConstraintType type) {
+  switch (type) {
+    case ConstraintType::rolling_disc:
+    case ConstraintType::ball:
+      return 3;
+    case ConstraintType::hinge:
+      return 5;
+    case ConstraintType::distance:
+      return 1;
+  }
+  return 0;
 }
 
 void Model::set_up_inputs() {
@@ -249,7 +337,7 @@ Model with_joints(const Model& model, std::vector<Joint> joints,
   std::vector<std::shared_ptr<const ForceElement>> forces = model.forces();
   forces.insert(forces.end(), more_forces.begin(), more_forces.end());
   return Model(model.bodies(), model.gravity(), std::move(forces), model.name(), std::move(joints),
-               model.frames(), model.inputs());
+               model.frames(), model.inputs(), model.constraints(), model.independent_speeds());
 }
 
 int Model::body_index(const std::string& name) const {

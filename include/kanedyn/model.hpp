@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/constraint.hpp"
 #include "kanedyn/joint.hpp"
 #include "kanedyn/types.hpp"
 
@@ -77,7 +78,8 @@ class Model {
   Model(std::vector<BodySpec> bodies, Vector3 gravity = Vector3::Zero(),
         std::vector<std::shared_ptr<const ForceElement>> forces = {}, std::string name = "",
         std::vector<Joint> joints = {}, std::vector<Frame> frames = {},
-        std::vector<Input> inputs = {});
+        std::vector<Input> inputs = {}, std::vector<Constraint> constraints = {},
+        std::vector<int> independent_speeds = {});
 
   int num_bodies() const { return static_cast<int>(bodies_.size()); }  ///< N
   int num_y() const { return 6 * num_bodies(); }                       ///< 6N, size of {y}
@@ -125,6 +127,14 @@ class Model {
   int num_inputs() const { return static_cast<int>(inputs_.size()); }  ///< m
   /// Index of the input with this name, or -2 if there is none.
   int input_index(const std::string& name) const;
+  /// The constraints beyond the tree (axes and normals normalized), in the order given.
+  const std::vector<Constraint>& constraints() const { return constraints_; }
+  int num_constraints() const { return static_cast<int>(constraints_.size()); }
+  /// Index of the constraint with this name, or -2 if there is none.
+  int constraint_index(const std::string& name) const;
+  /// The speeds (indices into z, ascending) the user chose to keep independent, or empty:
+  /// chosen by pivoting on [B] (constraints.hpp).
+  const std::vector<int>& independent_speeds() const { return independent_speeds_; }
   /// True when some input loads bodies (force and torque inputs, and joint inputs on free
   /// bodies, whose speeds' generalized forces are body loads); the others add to the joints'
   /// generalized forces only.
@@ -212,6 +222,7 @@ class Model {
  private:
   void set_up_joints();
   void set_up_inputs();
+  void set_up_constraints();
 
   std::vector<BodySpec> bodies_;
   Vector3 gravity_;
@@ -220,6 +231,8 @@ class Model {
   std::vector<Joint> joints_;
   std::vector<Frame> frames_;
   std::vector<Input> inputs_;
+  std::vector<Constraint> constraints_;
+  std::vector<int> independent_speeds_;
   bool all_free_ = true, body_forces_ = false, body_inputs_ = false;
   std::vector<const ForceElement*> joint_elements_;
   std::vector<const JointLoad*> joint_loads_;
