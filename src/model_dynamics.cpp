@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/joints.hpp"
@@ -36,12 +37,18 @@ struct Dynamics::Impl {
   Impl(const Model& m, Route r, int lanes)
       : model(m),
         route(r),
-        notes(m.all_free()),
+        notes(m.all_free() && m.num_constraints() == 0),
         n(m.num_bodies()),
         data(m, notes ? notes_options(r, lanes) : DataOptions::recursive_only(lanes)),
         work(m) {
     if (!notes) joint.emplace(m);
     if (!notes) drift_q = VectorX::Zero(m.num_coordinates());
+    if (m.num_constraints() > 0) {
+      constrained.emplace(m, r == Route::assembled ? ConstrainedDynamics::Method::projected
+                                                   : ConstrainedDynamics::Method::multipliers);
+      cq.resize(m.num_coordinates());
+      cz.resize(m.num_speeds());
+    }
   }
 
   const Model& model;
@@ -56,6 +63,10 @@ struct Dynamics::Impl {
   // Any other model.
   std::optional<detail::JointDynamics> joint;
   VectorX drift_q;  // project()'s copy of q when the Euler parameters are not projected
+  // A model with constraints (docs/theory.md, "Constraints"): its own route over the tree's.
+  std::optional<ConstrainedDynamics> constrained;
+  VectorX cq, cz;
+  double constraint_error = 0.0;  // the largest holonomic error project() found
 
   // The notes' state from q, z (an all-free model's slices are x, y body by body).
   void notes_state(const VectorX& q, const VectorX& z) {
@@ -88,12 +99,21 @@ std::string Dynamics::kernel() const {
       return "fused O(N) pass, " + std::to_string(lanes) + " bodies per SIMD pass";
     return "staged O(N) route";
   }
+  if (s.constrained)
+    return s.route == Route::assembled
+               ? "projected Kane equations in the independent speeds (dense)"
+               : "articulated-body recursion over the joints, multipliers in the constraint "
+                 "space";
   return s.route == Route::assembled ? "projected Kane equations, tree LDL^T"
                                      : "articulated-body recursion over the joints";
 }
 
 void Dynamics::evaluate(const VectorX& q, const VectorX& z, Eigen::Ref<VectorX> zdot) {
   Impl& s = *impl_;
+  if (s.constrained) {
+    s.constrained->evaluate(q, z, s.joint->inputs(), zdot);
+    return;
+  }
   if (!s.notes) {
     s.joint->evaluate(q, z, s.route, zdot);
     return;
@@ -205,6 +225,15 @@ void Dynamics::unpack(const VectorX& v, bool normalize, VectorX& q, VectorX& z, 
 // with Eigen's portable SSE2 loops they took as many instructions as the normalization.
 void Dynamics::derivative(const VectorX& v, VectorX& dv) {
   Impl& s = *impl_;
+  if (s.constrained) {
+    const int nq = s.model.num_coordinates();
+    s.cq = v.head(nq);
+    s.cz = v.tail(v.size() - nq);
+    normalize_joint_coordinates(s.model, s.cq);
+    joint_coordinate_rates(s.model, s.cq, s.cz, dv.head(nq));
+    s.constrained->evaluate(s.cq, s.cz, s.joint->inputs(), dv.tail(v.size() - nq));
+    return;
+  }
   if (!s.notes) {
     s.joint->derivative(v, s.route, dv);
     return;
@@ -221,6 +250,19 @@ void Dynamics::derivative(const VectorX& v, VectorX& dv) {
 
 double Dynamics::project(VectorX& v, bool apply) {
   Impl& s = *impl_;
+  if (s.constrained) {
+    // The constraints are kept by projection whatever `apply` says about the Euler
+    // parameters: their drift would otherwise grow without bound.
+    const int nq = s.model.num_coordinates();
+    s.cq = v.head(nq);
+    s.cz = v.tail(v.size() - nq);
+    const double drift = normalize_joint_coordinates(s.model, s.cq);
+    const Projection p = project_onto_constraints(s.model, s.cq, s.cz);
+    s.constraint_error = std::max(s.constraint_error, p.error_before);
+    v.head(nq) = s.cq;
+    v.tail(v.size() - nq) = s.cz;
+    return drift;
+  }
   if (!s.notes) {
     auto q = v.head(s.model.num_coordinates());
     if (apply) return normalize_joint_coordinates(s.model, q);
@@ -235,6 +277,17 @@ double Dynamics::project(VectorX& v, bool apply) {
     if (apply) e /= norm;
   }
   return drift;
+}
+
+double Dynamics::constraint_error() const { return impl_->constraint_error; }
+
+const VectorX& Dynamics::constraint_multipliers() const {
+  static const VectorX none;
+  return impl_->constrained ? impl_->constrained->lambda() : none;
+}
+
+const ConstraintEquations* Dynamics::constraint_equations() const {
+  return impl_->constrained ? &impl_->constrained->equations() : nullptr;
 }
 
 std::string Dynamics::describe(int component, int* body) const {

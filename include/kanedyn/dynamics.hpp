@@ -11,6 +11,8 @@
 
 namespace kanedyn {
 
+class ConstraintEquations;
+
 enum class Route {
   /// Assemble [A] and {f} (Eqs. 37-38) block-sparse and solve Eq. (36) by the tree-ordered
   /// block LDL^T (src/tree_ldlt.cpp); O(N d^2) for a tree of depth d.
@@ -92,6 +94,13 @@ class Dynamics {
   void derivative(const VectorX& v, VectorX& dv);
   /// The largest | |e| - 1 | of v's Euler parameters; rescales them to unit norm when apply.
   double project(VectorX& v, bool apply);
+  /// With constraints: the largest holonomic constraint error that project() found before
+  /// projecting, over the object's life (0 without constraints).
+  double constraint_error() const;
+  /// With constraints: the rows' multipliers and the equations at the last evaluation (empty
+  /// and null without constraints); ConstraintEquations::force and moment give the reactions.
+  const VectorX& constraint_multipliers() const;
+  const ConstraintEquations* constraint_equations() const;
   /// "body 'NAME' (COLUMN)" for a component of v, COLUMN as the trajectory CSV names it;
   /// body (if not null) gets its index, -1 outside v.
   std::string describe(int component, int* body = nullptr) const;

@@ -1,0 +1,533 @@
+// Constraint equations, speed partitions, projection and constrained forward dynamics
+// (docs/theory.md, "Constraints").
+#include "kanedyn/constraints.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "kanedyn/analysis.hpp"
+#include "kanedyn/frames.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/kinematics.hpp"
+#include "kanedyn/terms.hpp"
+
+#include "joint_dynamics.hpp"
+
+namespace kanedyn {
+
+namespace {
+
+size_t at(int i) { return static_cast<size_t>(i); }
+
+
+// Two unit vectors normal to the unit n and to each other, (t1, t2, n) right-handed: fixed by
+// n alone, so the same at every state.
+void normal_pair(const Vector3& n, Vector3& t1, Vector3& t2) {
+  Eigen::Index least = 0;
+  n.cwiseAbs().minCoeff(&least);
+  t1 = n.cross(Vector3::Unit(least)).normalized();
+  t2 = n.cross(t1);
+}
+
+// A point fixed in body k (or the ground): where it is, how it moves, its Jacobian.
+struct PointMotion {
+  Vector3 r = Vector3::Zero();       // from O_K, inertial (ground: from the origin)
+  Vector3 p = Vector3::Zero();       // position
+  Vector3 v = Vector3::Zero();       // velocity
+  Vector3 a0 = Vector3::Zero();      // acceleration at z dot = 0
+  Vector3 w = Vector3::Zero();       // the body's angular velocity
+  Vector3 alpha0 = Vector3::Zero();  // its angular acceleration at z dot = 0
+};
+
+}  // namespace
+
+struct ConstraintEquations::Impl {
+  explicit Impl(const Model& m) : model(m), state(m) {
+    const int n = m.num_speeds();
+    for (const Constraint& c : m.constraints()) {
+      first.push_back(rows);
+      for (int i = 0; i < equation_count(c.type); ++i) {
+        const bool nonholonomic = c.type == ConstraintType::rolling_disc && i > 0;
+        holonomic.push_back(nonholonomic ? 0 : 1);
+        owner.push_back(static_cast<int>(first.size()) - 1);
+        if (!nonholonomic) ++holonomic_count;
+      }
+      rows += equation_count(c.type);
+      Perpendiculars p;
+      if (c.type == ConstraintType::hinge) normal_pair(c.other_axis, p.p1, p.p2);
+      if (c.type == ConstraintType::rolling_disc) normal_pair(c.plane_normal, p.p1, p.p2);
+      perpendiculars.push_back(p);
+    }
+    B.setZero(rows, n);
+    b.setZero(rows);
+    errors.setZero(rows);
+    points.assign(m.constraints().size(), Vector3::Zero());
+    bases.assign(m.constraints().size(), Matrix3::Identity());
+    Jv.resize(3, n);
+    Jw.resize(3, n);
+    const size_t bodies = at(m.num_bodies());
+    kin.R.assign(bodies, Matrix3::Identity());
+    kin.p_O.assign(bodies, Vector3::Zero());
+    kin.p_G = kin.v_O = kin.v_G = kin.qs_b = kin.p_O;
+    zero_rates = VectorX::Zero(n);
+  }
+
+  struct Perpendiculars {
+    Vector3 p1 = Vector3::Zero(), p2 = Vector3::Zero();
+  };
+
+  const Model& model;
+  int rows = 0, holonomic_count = 0;
+  std::vector<int> first, owner;
+  std::vector<char> holonomic;
+  std::vector<Perpendiculars> perpendiculars;
+  MatrixX B;
+  VectorX b, errors;
+  std::vector<Vector3> points;
+  // Per constraint: the directions of its first three rows (columns), inertial; a hinge's last
+  // two rows' moment directions in hinge_moment.
+  std::vector<Matrix3> bases;
+  std::vector<std::array<Vector3, 2>> hinge_moment;
+  State state;
+  Kinematics kin;
+  MatrixX Jv, Jw;
+  VectorX zero_rates;
+  const VectorX* q = nullptr;
+  const VectorX* z = nullptr;
+
+  // Jacobian rows of the point r (from O_K, inertial) of body k into (Jp, Jr), added with sign.
+  void add_jacobian(int k, const Vector3& r, double sign, Eigen::Ref<MatrixX> Jp,
+                    Eigen::Ref<MatrixX> Jr) {
+    if (k == kGround) return;
+    body_jacobian(model, k, *q, kin, Jv, Jw);
+    Jp += sign * (Jv - skew(r) * Jw);
+    Jr += sign * Jw;
+  }
+
+  PointMotion point_motion(int k, const Vector3& offset) {
+    PointMotion m;
+    if (k == kGround) {
+      m.p = offset;
+      m.r = offset;
+      return m;
+    }
+    const Matrix3& R = kin.R[at(k)];
+    m.r = R.transpose() * offset;
+    m.p = kin.p_O[at(k)] + m.r;
+    m.w = R.transpose() * state.angular_velocity(k);
+    m.v = kin.v_O[at(k)] + m.w.cross(m.r);
+    const FrameAcceleration a = body_acceleration(model, k, *q, *z, zero_rates, state, kin);
+    m.alpha0 = a.angular;
+    m.a0 = a.linear + a.angular.cross(m.r) + m.w.cross(m.w.cross(m.r));
+    return m;
+  }
+
+  void evaluate(const VectorX& qq, const VectorX& zz);
+};
+
+void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
+  q = &qq;
+  z = &zz;
+  joint_state(model, qq, zz, state);
+  compute_kinematics(model, state, kin);
+  B.setZero();
+  b.setZero();
+  errors.setZero();
+  hinge_moment.assign(model.constraints().size(), {Vector3::Zero(), Vector3::Zero()});
+  const int n = model.num_speeds();
+  MatrixX Jp(3, n), Jr(3, n);
+  for (size_t i = 0; i < model.constraints().size(); ++i) {
+    const Constraint& c = model.constraints()[i];
+    const int row = first[i];
+    const std::string where = "constraint '" + c.name + "'";
+    Jp.setZero();
+    Jr.setZero();
+    switch (c.type) {
+      case ConstraintType::ball:
+      case ConstraintType::hinge:
+      case ConstraintType::distance: {
+        const PointMotion p1 = point_motion(c.body, c.at);
+        const PointMotion p2 = point_motion(c.other, c.other_at);
+        add_jacobian(c.body, p1.r, 1.0, Jp, Jr);
+        add_jacobian(c.other, p2.r, -1.0, Jp, Jr);
+        points[i] = p1.p;
+        const Vector3 d = p1.p - p2.p, vrel = p1.v - p2.v, arel = p1.a0 - p2.a0;
+        if (c.type == ConstraintType::distance) {
+          const double length = d.norm();
+          if (!(length > 1e-12 * std::max(1.0, c.length)))
+            throw ConstraintError(where +
+                                  ": its two points coincide, so the direction "
+                                  "between them is undefined");
+          const Vector3 e = d / length;
+          B.row(row) = e.transpose() * Jp;
+          const double along = e.dot(vrel);
+          b[row] = (vrel.squaredNorm() - along * along) / length + e.dot(arel);
+          errors[row] = length - c.length;
+          bases[i].col(0) = e;
+          break;
+        }
+        B.middleRows(row, 3) = Jp;
+        b.segment<3>(row) = arel;
+        errors.segment<3>(row) = d;
+        bases[i].setIdentity();
+        if (c.type == ConstraintType::hinge) {
+          const Vector3 axis = kin.R[at(c.body)].transpose() * c.axis;
+          Vector3 e1 = perpendiculars[i].p1, e2 = perpendiculars[i].p2;
+          if (c.other != kGround) {
+            e1 = kin.R[at(c.other)].transpose() * e1;
+            e2 = kin.R[at(c.other)].transpose() * e2;
+          }
+          const Vector3 wrel = p1.w - p2.w, alpha_rel = p1.alpha0 - p2.alpha0;
+          const Vector3 axis_rate = p1.w.cross(axis);
+          int k = 0;
+          for (const Vector3& e : {e1, e2}) {
+            const Vector3 m = axis.cross(e);
+            const Vector3 e_rate = p2.w.cross(e);
+            B.row(row + 3 + k) = m.transpose() * Jr;
+            b[row + 3 + k] = alpha_rel.dot(m) + wrel.dot(axis_rate.cross(e) + axis.cross(e_rate));
+            errors[row + 3 + k] = axis.dot(e);
+            hinge_moment[i][at(k)] = m;
+            ++k;
+          }
+        }
+        break;
+      }
+      case ConstraintType::rolling_disc: {
+        const Matrix3& R = kin.R[at(c.body)];
+        const Vector3 a = R.transpose() * c.axis;
+        const Vector3& normal = c.plane_normal;
+        const Vector3 u = a.cross(normal);
+        const double s = u.norm();
+        if (!(s > 1e-9))
+          throw ConstraintError(where +
+                                ": the disc's axle is along the plane's normal, so its "
+                                "contact point is undefined");
+        const double an = a.dot(normal);
+        const Vector3 d = (a * an - normal) / s;  // from the centre to the contact, unit
+        const PointMotion centre = point_motion(c.body, c.at);
+        const Vector3 r_contact = centre.r + c.radius * d;  // from O_K
+        add_jacobian(c.body, r_contact, 1.0, Jp, Jr);
+        const Vector3 P = centre.p + c.radius * d;
+        points[i] = P;
+        // d moves over the disc: d dot from a dot = w x a (not w x d).
+        const Vector3 a_rate = centre.w.cross(a);
+        const Vector3 u_rate = a_rate.cross(normal);
+        const Vector3 d_rate =
+            (a_rate * an + a * a_rate.dot(normal)) / s - d * (u.dot(u_rate) / (s * s));
+        // d/dt of the disc point's velocity at the moving contact: a_C + alpha x (r d) +
+        // w x (r d dot).
+        const Vector3 acc =
+            centre.a0 + centre.alpha0.cross(c.radius * d) + centre.w.cross(c.radius * d_rate);
+        Matrix3 basis;
+        basis.col(0) = normal;
+        basis.col(1) = perpendiculars[i].p1;
+        basis.col(2) = perpendiculars[i].p2;
+        B.middleRows(row, 3) = basis.transpose() * Jp;
+        b.segment<3>(row) = basis.transpose() * acc;
+        errors[row] = normal.dot(P) - c.plane_offset;
+        bases[i] = basis;
+        break;
+      }
+    }
+  }
+}
+
+ConstraintEquations::ConstraintEquations(const Model& model)
+    : impl_(std::make_unique<Impl>(model)) {}
+ConstraintEquations::ConstraintEquations(const ConstraintEquations& other)
+    : impl_(std::make_unique<Impl>(other.impl_->model)) {}
+ConstraintEquations::~ConstraintEquations() = default;
+const Model& ConstraintEquations::model() const { return impl_->model; }
+int ConstraintEquations::rows() const { return impl_->rows; }
+int ConstraintEquations::holonomic_rows() const { return impl_->holonomic_count; }
+bool ConstraintEquations::holonomic(int row) const { return impl_->holonomic[at(row)] != 0; }
+int ConstraintEquations::first_row(int constraint) const { return impl_->first[at(constraint)]; }
+int ConstraintEquations::constraint_of_row(int row) const { return impl_->owner[at(row)]; }
+std::string ConstraintEquations::row_name(int row) const {
+  const int c = constraint_of_row(row);
+  return impl_->model.constraints()[at(c)].name + "." + std::to_string(row - first_row(c) + 1);
+}
+void ConstraintEquations::evaluate(const VectorX& q, const VectorX& z) { impl_->evaluate(q, z); }
+const MatrixX& ConstraintEquations::B() const { return impl_->B; }
+const VectorX& ConstraintEquations::b() const { return impl_->b; }
+const VectorX& ConstraintEquations::errors() const { return impl_->errors; }
+const Vector3& ConstraintEquations::point(int constraint) const {
+  return impl_->points[at(constraint)];
+}
+
+Vector3 ConstraintEquations::force(int constraint, const VectorX& lambda) const {
+  const Impl& s = *impl_;
+  const Constraint& c = s.model.constraints()[at(constraint)];
+  const int row = s.first[at(constraint)];
+  if (c.type == ConstraintType::distance) return lambda[row] * s.bases[at(constraint)].col(0);
+  return s.bases[at(constraint)] * lambda.segment<3>(row);
+}
+
+Vector3 ConstraintEquations::moment(int constraint, const VectorX& lambda) const {
+  const Impl& s = *impl_;
+  const Constraint& c = s.model.constraints()[at(constraint)];
+  if (c.type != ConstraintType::hinge || s.hinge_moment.empty()) return Vector3::Zero();
+  const int row = s.first[at(constraint)] + 3;
+  return s.hinge_moment[at(constraint)][0] * lambda[row] +
+         s.hinge_moment[at(constraint)][1] * lambda[row + 1];
+}
+
+// ---- Partition ----
+
+namespace {
+
+// Relative threshold of the rank decisions: a row or column whose pivot is below 1e-9 of the
+// largest counts as dependent. Round-off in [B] is about 1e-16 of its entries, so a genuinely
+// independent equation would need a conditioning of 1e9 to be taken for a redundant one.
+constexpr double kRankThreshold = 1e-9;
+
+}  // namespace
+
+SpeedPartition partition_speeds(const Model& model, const MatrixX& B) {
+  const int c = static_cast<int>(B.rows()), n = static_cast<int>(B.cols());
+  SpeedPartition p;
+  if (c == 0) {
+    for (int i = 0; i < n; ++i) p.independent.push_back(i);
+    return p;
+  }
+  // Independent rows: QR with column pivoting of [B]^T.
+  Eigen::ColPivHouseholderQR<MatrixX> rows_qr(B.transpose());
+  rows_qr.setThreshold(kRankThreshold);
+  p.rank = static_cast<int>(rows_qr.rank());
+  std::vector<char> kept(at(c), 0);
+  for (int i = 0; i < p.rank; ++i) kept[at(rows_qr.colsPermutation().indices()[i])] = 1;
+  for (int i = 0; i < c; ++i) (kept[at(i)] ? p.rows : p.redundant_rows).push_back(i);
+  MatrixX Br(p.rank, n);
+  for (int i = 0; i < p.rank; ++i) Br.row(i) = B.row(p.rows[at(i)]);
+  std::vector<char> dependent(at(n), 0);
+  if (!model.independent_speeds().empty()) {
+    std::vector<char> independent(at(n), 0);
+    for (const int i : model.independent_speeds()) independent[at(i)] = 1;
+    for (int i = 0; i < n; ++i)
+      if (!independent[at(i)]) dependent[at(i)] = 1;
+  } else {
+    Eigen::ColPivHouseholderQR<MatrixX> cols_qr(Br);
+    for (int i = 0; i < p.rank; ++i) dependent[at(cols_qr.colsPermutation().indices()[i])] = 1;
+  }
+  for (int i = 0; i < n; ++i) (dependent[at(i)] ? p.dependent : p.independent).push_back(i);
+  if (static_cast<int>(p.dependent.size()) != p.rank) {
+    std::ostringstream m;
+    m << "independent_speeds: " << p.independent.size() << " speeds given, but the " << p.rank
+      << " independent constraint equations leave " << n - p.rank << " speeds free";
+    throw ConstraintError(m.str());
+  }
+  if (p.rank > 0) {
+    MatrixX BD(p.rank, p.rank);
+    for (int j = 0; j < p.rank; ++j) BD.col(j) = Br.col(p.dependent[at(j)]);
+    Eigen::ColPivHouseholderQR<MatrixX> check(BD);
+    check.setThreshold(kRankThreshold);
+    if (check.rank() < p.rank)
+      throw ConstraintError(
+          "independent_speeds: the constraints do not determine the other speeds from "
+          "these (their columns of [B] are dependent); choose others");
+  }
+  return p;
+}
+
+// ---- Projection ----
+
+Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z, double tolerance) {
+  Projection out;
+  if (model.num_constraints() == 0) return out;
+  normalize_joint_coordinates(model, q);
+  ConstraintEquations eq(model);
+  const int n = model.num_speeds();
+  std::vector<int> hol;
+  eq.evaluate(q, z);
+  for (int i = 0; i < eq.rows(); ++i)
+    if (eq.holonomic(i)) hol.push_back(i);
+  const auto holonomic_error = [&](int* worst) {
+    double e = 0.0;
+    for (const int i : hol) {
+      if (std::abs(eq.errors()[i]) >= e) {
+        e = std::abs(eq.errors()[i]);
+        if (worst) *worst = i;
+      }
+    }
+    return e;
+  };
+  out.error_before = holonomic_error(nullptr);
+  const VectorX q0 = q;
+  if (!hol.empty()) {
+    // The dependent coordinates: pivot columns of the holonomic rows (d phi/dx = those rows of
+    // [B] at x = 0, as the tangent rates are the speeds).
+    MatrixX Bh(static_cast<Eigen::Index>(hol.size()), n);
+    for (size_t r = 0; r < hol.size(); ++r)
+      Bh.row(static_cast<Eigen::Index>(r)) = eq.B().row(hol[r]);
+    Eigen::ColPivHouseholderQR<MatrixX> qr(Bh);
+    qr.setThreshold(kRankThreshold);
+    const int rank = static_cast<int>(qr.rank());
+    std::vector<int> cols;
+    for (int i = 0; i < rank; ++i) cols.push_back(qr.colsPermutation().indices()[i]);
+    VectorX phi(static_cast<Eigen::Index>(hol.size()));
+    double previous = std::numeric_limits<double>::infinity();
+    for (;;) {
+      int worst = 0;
+      const double e = holonomic_error(&worst);
+      if (e <= tolerance) break;
+      if (out.iterations >= 50 || !(e < 1e6 * std::max(1.0, previous))) {
+        std::ostringstream m;
+        m << "constraint '" << model.constraints()[at(eq.constraint_of_row(worst))].name
+          << "': the projection onto the constraints did not converge (error " << e << " after "
+          << out.iterations << " Gauss-Newton steps); is the initial state near "
+          << "an assembly of the mechanism?";
+        throw ConstraintError(m.str());
+      }
+      previous = e;
+      MatrixX J(static_cast<Eigen::Index>(hol.size()), rank);
+      for (size_t r = 0; r < hol.size(); ++r) {
+        phi[static_cast<Eigen::Index>(r)] = eq.errors()[hol[r]];
+        for (int j = 0; j < rank; ++j)
+          J(static_cast<Eigen::Index>(r), j) = eq.B()(hol[r], cols[at(j)]);
+      }
+      const VectorX step = Eigen::CompleteOrthogonalDecomposition<MatrixX>(J).solve(-phi);
+      VectorX dx = VectorX::Zero(n);
+      for (int j = 0; j < rank; ++j) dx[cols[at(j)]] = step[j];
+      q = retract(model, q, dx);
+      ++out.iterations;
+      eq.evaluate(q, z);
+    }
+    out.coordinate_change = tangent_difference(model, q0, q).cwiseAbs().maxCoeff();
+  }
+  // Speeds: the least change with [B] z = 0.
+  const VectorX residual = eq.B() * z;
+  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(eq.B());
+  cod.setThreshold(kRankThreshold);
+  const VectorX dz = cod.solve(residual);
+  z -= dz;
+  out.speed_change = dz.size() ? dz.cwiseAbs().maxCoeff() : 0.0;
+  return out;
+}
+
+// ---- Constrained dynamics ----
+
+struct ConstrainedDynamics::Impl {
+  Impl(const Model& m, Method how)
+      : model(m), method(how), equations(m), terms(m), tree(m), n(m.num_speeds()) {
+    M.resize(n, n);
+    bias.resize(n);
+    lambda = VectorX::Zero(equations.rows());
+  }
+  const Model& model;
+  Method method;
+  ConstraintEquations equations;
+  Terms terms;
+  detail::JointDynamics tree;  // the unconstrained tree's O(N) route
+  int n;
+  MatrixX M;
+  VectorX bias, lambda;
+  Eigen::LLT<MatrixX> llt;
+  SpeedPartition partition;
+  bool partitioned = false;
+  int rank = 0;
+
+  void multipliers(const VectorX& q, const VectorX& z, const VectorX& u, Eigen::Ref<VectorX> zdot);
+  void projected(const VectorX& q, const VectorX& z, const VectorX& u, Eigen::Ref<VectorX> zdot);
+};
+
+void ConstrainedDynamics::Impl::multipliers(const VectorX& q, const VectorX& z, const VectorX& u,
+                                            Eigen::Ref<VectorX> zdot) {
+  const MatrixX& B = equations.B();
+  tree.set_inputs(u);
+  tree.evaluate(q, z, Route::recursive, zdot);  // the tree without the constraints, O(N)
+  terms.mass_matrix(q, M);
+  llt.compute(M);
+  const MatrixX Y = llt.solve(B.transpose());  // M^-1 B^T
+  const MatrixX S = B * Y;
+  const VectorX rhs = -(equations.b() + B * zdot);
+  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
+  cod.setThreshold(kRankThreshold);
+  lambda = cod.solve(rhs);
+  rank = static_cast<int>(cod.rank());
+  zdot += Y * lambda;
+}
+
+void ConstrainedDynamics::Impl::projected(const VectorX& q, const VectorX& z, const VectorX& u,
+                                          Eigen::Ref<VectorX> zdot) {
+  const MatrixX& B = equations.B();
+  if (!partitioned) {
+    partition = partition_speeds(model, B);
+    partitioned = true;
+  }
+  const int r = partition.rank, ni = n - r;
+  MatrixX BD(r, r), BI(r, ni);
+  VectorX br(r);
+  for (int i = 0; i < r; ++i) {
+    const int row = partition.rows[at(i)];
+    br[i] = equations.b()[row];
+    for (int j = 0; j < r; ++j) BD(i, j) = B(row, partition.dependent[at(j)]);
+    for (int j = 0; j < ni; ++j) BI(i, j) = B(row, partition.independent[at(j)]);
+  }
+  Eigen::ColPivHouseholderQR<MatrixX> lu(BD);
+  lu.setThreshold(kRankThreshold);
+  if (r > 0 && lu.rank() < r) {
+    // [B_D] singular here: choose the dependent speeds again (the motion does not depend on
+    // the choice).
+    partitioned = false;
+    projected(q, z, u, zdot);
+    return;
+  }
+  // [C_I]: identity on the independent speeds, -[B_D]^-1 [B_I] on the dependent ones; w the
+  // part of z dot that [B] z dot = -b needs beyond [C_I] z_I dot (Kane's [C_I dot] z_I).
+  MatrixX CI = MatrixX::Zero(n, ni);
+  VectorX w = VectorX::Zero(n);
+  const MatrixX DI = r > 0 ? MatrixX(lu.solve(BI)) : MatrixX(0, ni);
+  const VectorX wd = r > 0 ? VectorX(lu.solve(-br)) : VectorX(0);
+  for (int j = 0; j < ni; ++j) CI(partition.independent[at(j)], j) = 1.0;
+  for (int i = 0; i < r; ++i) {
+    CI.row(partition.dependent[at(i)]) = -DI.row(i);
+    w[partition.dependent[at(i)]] = wd[i];
+  }
+  terms.mass_matrix(q, M);
+  terms.bias_forces(q, z, bias, u.size() ? &u : nullptr);
+  const MatrixX Mhat = CI.transpose() * M * CI;
+  const VectorX fhat = -CI.transpose() * (bias + M * w);
+  const VectorX zi_dot = Mhat.llt().solve(fhat);
+  zdot = CI * zi_dot + w;
+  // The reactions from the dependent equations: [B]^T lambda = M z dot + b, least squares with
+  // the minimum norm over redundant rows.
+  const VectorX residual = M * zdot + bias;
+  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(B.transpose());
+  cod.setThreshold(kRankThreshold);
+  lambda = cod.solve(residual);
+  rank = r;
+}
+
+ConstrainedDynamics::ConstrainedDynamics(const Model& model, Method method)
+    : impl_(std::make_unique<Impl>(model, method)) {}
+ConstrainedDynamics::~ConstrainedDynamics() = default;
+ConstrainedDynamics::Method ConstrainedDynamics::method() const { return impl_->method; }
+
+void ConstrainedDynamics::evaluate(const VectorX& q, const VectorX& z, const VectorX& u,
+                                   Eigen::Ref<VectorX> zdot) {
+  Impl& s = *impl_;
+  s.equations.evaluate(q, z);
+  if (s.method == Method::multipliers)
+    s.multipliers(q, z, u, zdot);
+  else
+    s.projected(q, z, u, zdot);
+}
+
+const VectorX& ConstrainedDynamics::lambda() const { return impl_->lambda; }
+const ConstraintEquations& ConstrainedDynamics::equations() const { return impl_->equations; }
+const SpeedPartition& ConstrainedDynamics::partition() const {
+  Impl& s = *impl_;
+  if (!s.partitioned) {
+    s.partition = partition_speeds(s.model, s.equations.B());
+    s.partitioned = true;
+  }
+  return s.partition;
+}
+int ConstrainedDynamics::rank() const { return impl_->rank; }
+
+}  // namespace kanedyn

@@ -1,0 +1,206 @@
+// Constraints: the equations against finite differences, the two routes against each other,
+// projection, and mechanisms with known motions (docs/theory.md, "Constraints").
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "kanedyn/analysis.hpp"
+#include "kanedyn/constraints.hpp"
+#include "kanedyn/data.hpp"
+#include "kanedyn/dynamics.hpp"
+#include "kanedyn/energy.hpp"
+#include "kanedyn/joints.hpp"
+#include "kanedyn/simulate.hpp"
+
+namespace kanedyn {
+namespace {
+
+// A slender rod of length `length` along its body z, its centre at z = -length / 2.
+BodySpec rod(const std::string& name, int lower, double mass, double length, Vector3 joint) {
+  BodySpec b;
+  b.name = name;
+  b.lower_body = lower;
+  b.mass = mass;
+  const double side = mass * length * length / 12.0;
+  b.inertia = Vector3(side, side, 0.01 * side).asDiagonal();
+  b.com = Vector3(0, 0, -length / 2);
+  b.joint = joint;
+  return b;
+}
+
+Joint revolute_x() {
+  Joint j;
+  j.type = JointType::revolute;
+  j.axis = Vector3::UnitX();
+  return j;
+}
+
+const Vector3 kGravity(0, 0, -9.81);
+
+// The rod on a revolute joint about x at the ground's origin.
+Model revolute_pendulum() {
+  return Model({rod("rod", kGround, 2.0, 1.5, Vector3::Zero())}, kGravity, {}, "pendulum",
+               {revolute_x()});
+}
+
+// The same rod as a free body held by a hinge about x at its top end.
+Model hinged_pendulum() {
+  Constraint c;
+  c.name = "pin";
+  c.type = ConstraintType::hinge;
+  c.body = 0;
+  c.at = Vector3::Zero();
+  c.axis = Vector3::UnitX();
+  c.other = kGround;
+  c.other_at = Vector3::Zero();
+  c.other_axis = Vector3::UnitX();
+  return Model({rod("rod", kGround, 2.0, 1.5, Vector3::Zero())}, kGravity, {}, "hinged", {}, {}, {},
+               {c});
+}
+
+// The free rod's (q, z) turned by angle about x at the origin, turning at rate.
+void free_rod_state(double angle, double rate, VectorX& q, VectorX& z) {
+  q = VectorX::Zero(7);
+  z = VectorX::Zero(6);
+  // Euler parameters of the body relative to the ground: a turn by `angle` about x.
+  q.head<4>() << std::sin(angle / 2), 0, 0, std::cos(angle / 2);
+  z[0] = rate;  // w' about body x = inertial x
+}
+
+// Joint coordinates at the joints' zero: identity rotations, zero angles and translations.
+VectorX zero_coordinates(const Model& m) {
+  VectorX q = VectorX::Zero(m.num_coordinates());
+  for (int k = 0; k < m.num_bodies(); ++k) {
+    const JointType t = m.joint(k).type;
+    if (t == JointType::free || t == JointType::spherical) q[m.coordinate_offset(k) + 3] = 1.0;
+  }
+  return q;
+}
+
+// Random states of a model: random q (unit Euler parameters), z projected onto [B] z = 0.
+void random_consistent_state(const Model& m, std::mt19937& rng, VectorX& q, VectorX& z) {
+  std::normal_distribution<double> g(0.0, 1.0);
+  VectorX dx = VectorX::NullaryExpr(m.num_speeds(), [&] { return 0.3 * g(rng); });
+  q = retract(m, zero_coordinates(m), dx);
+  z = VectorX::NullaryExpr(m.num_speeds(), [&] { return g(rng); });
+}
+
+// [B] z is the time derivative of the holonomic errors, and {b} that of [B] z at z dot = 0:
+// central differences along the motion (q moved by z dt in tangent coordinates). Truncation
+// O(h^2) with h = 1e-5: about 1e-9 of the scale; round-off 1e-16 / 1e-5 = 1e-11.
+void check_equations_by_differences(const Model& m, const VectorX& q, const VectorX& z) {
+  ConstraintEquations eq(m);
+  eq.evaluate(q, z);
+  const MatrixX B = eq.B();
+  const VectorX b = eq.b(), phi = eq.errors();
+  const double h = 1e-5;
+  ConstraintEquations plus(m), minus(m);
+  const VectorX qp = retract(m, q, h * z), qm = retract(m, q, -h * z);
+  plus.evaluate(qp, z);
+  minus.evaluate(qm, z);
+  const VectorX rate = (plus.errors() - minus.errors()) / (2 * h);
+  const VectorX bz = B * z;
+  for (int i = 0; i < eq.rows(); ++i) {
+    if (!eq.holonomic(i)) continue;
+    EXPECT_NEAR(rate[i], bz[i], 1e-7 * std::max(1.0, std::abs(bz[i]))) << eq.row_name(i);
+  }
+  // d/dt ([B] z) at constant z: ([B(q+)] - [B(q-)]) z / 2h = [B dot] z = b.
+  const VectorX bdot = (plus.B() * z - minus.B() * z) / (2 * h);
+  for (int i = 0; i < eq.rows(); ++i)
+    EXPECT_NEAR(bdot[i], b[i], 1e-7 * std::max(1.0, std::abs(b[i]))) << eq.row_name(i);
+}
+
+TEST(ConstraintEquations, HingeRowsAreTheRatesOfTheirErrors) {
+  const Model m = hinged_pendulum();
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 5; ++trial) {
+    VectorX q, z;
+    random_consistent_state(m, rng, q, z);
+    check_equations_by_differences(m, q, z);
+  }
+}
+
+// The hinged free rod moves as the rod on a revolute joint: the same angle after 1 s, to the
+// integrators' tolerance (rtol 1e-10: differences of 1e-8 over a half swing).
+TEST(ConstrainedDynamics, HingedFreeBodyEqualsTheRevolutePendulum) {
+  const Model hinged = hinged_pendulum(), revolute = revolute_pendulum();
+  SimulationSettings s;
+  s.t_end = 1.0;  // about half a period (3 g / 2 L = 9.81 / s^2: 2.0 s)
+  s.dt_out = 1.0;
+  s.rtol = 1e-10;
+  s.atol = 1e-12;
+  VectorX q, z;
+  free_rod_state(0.7, 0.3, q, z);
+  double hinged_angle = 0.0, revolute_angle = 0.0;
+  simulate(hinged, q, z, s, [&](double t, const State&, const VectorX& qq, const VectorX&, Data&) {
+    if (t == s.t_end) hinged_angle = 2.0 * std::atan2(qq[0], qq[3]);
+  });
+  VectorX qr(1), zr(1);
+  qr << 0.7;
+  zr << 0.3;
+  simulate(revolute, qr, zr, s,
+           [&](double t, const State&, const VectorX& qq, const VectorX&, Data&) {
+             if (t == s.t_end) revolute_angle = qq[0];
+           });
+  EXPECT_NEAR(hinged_angle, revolute_angle, 1e-7);
+  EXPECT_GT(std::abs(revolute_angle - 0.7), 0.1);  // it did swing
+}
+
+// Both routes give the same z dot and the same multipliers at random consistent states, and
+// the multipliers balance: M z dot + b = [B]^T lambda.
+TEST(ConstrainedDynamics, ProjectedAndMultiplierRoutesAgree) {
+  const Model m = hinged_pendulum();
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 5; ++trial) {
+    VectorX q, z;
+    random_consistent_state(m, rng, q, z);
+    project_onto_constraints(m, q, z);
+    ConstrainedDynamics projected(m, ConstrainedDynamics::Method::projected);
+    ConstrainedDynamics multipliers(m, ConstrainedDynamics::Method::multipliers);
+    VectorX a(m.num_speeds()), b(m.num_speeds());
+    projected.evaluate(q, z, VectorX(), a);
+    multipliers.evaluate(q, z, VectorX(), b);
+    EXPECT_LE((a - b).cwiseAbs().maxCoeff(), 1e-10 * std::max(1.0, a.cwiseAbs().maxCoeff()));
+    // The hinge's 5 rows are independent: one set of multipliers.
+    EXPECT_LE((projected.lambda() - multipliers.lambda()).cwiseAbs().maxCoeff(),
+              1e-9 * std::max(1.0, multipliers.lambda().cwiseAbs().maxCoeff()));
+    // The constrained acceleration satisfies [B] z dot + b = 0.
+    const ConstraintEquations& eq = multipliers.equations();
+    EXPECT_LE((eq.B() * b + eq.b()).cwiseAbs().maxCoeff(), 1e-10 * std::max(1.0, b.norm()));
+  }
+}
+
+// At rest the hinge holds the rod's weight: the reaction force is m g up.
+TEST(ConstrainedDynamics, HingeReactionAtRestIsTheWeight) {
+  const Model m = hinged_pendulum();
+  VectorX q, z;
+  free_rod_state(0.0, 0.0, q, z);
+  ConstrainedDynamics d(m);
+  VectorX zdot(6);
+  d.evaluate(q, z, VectorX(), zdot);
+  EXPECT_LE(zdot.cwiseAbs().maxCoeff(), 1e-12);
+  const Vector3 f = d.equations().force(0, d.lambda());
+  EXPECT_NEAR(f.z(), 2.0 * 9.81, 1e-10);
+  EXPECT_NEAR(f.x(), 0.0, 1e-10);
+  EXPECT_NEAR(f.y(), 0.0, 1e-10);
+}
+
+// Projection moves a perturbed state back onto the constraints, changing the dependent
+// coordinates only, to the tolerance.
+TEST(Projection, BringsAPerturbedStateOntoTheConstraints) {
+  const Model m = hinged_pendulum();
+  VectorX q, z;
+  free_rod_state(0.4, 0.2, q, z);
+  q.tail<3>() << 0.01, -0.02, 0.015;  // O_K off the pin
+  z.tail<3>() << 0.1, 0.0, -0.1;      // and moving
+  const Projection p = project_onto_constraints(m, q, z);
+  EXPECT_GT(p.error_before, 0.01);
+  ConstraintEquations eq(m);
+  eq.evaluate(q, z);
+  EXPECT_LE(eq.errors().cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LE((eq.B() * z).cwiseAbs().maxCoeff(), 1e-13);
+}
+
+}  // namespace
+}  // namespace kanedyn
