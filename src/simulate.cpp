@@ -10,6 +10,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/joints.hpp"
@@ -261,7 +262,12 @@ class Run {
     }
     normalize_joint_coordinates(model, q_);
     const bool finite = q_.allFinite() && z0.allFinite();
-    dynamics_.pack(q_, z0, z_);
+    VectorX z_start = z0;
+    // With constraints the run starts on them (load_model_file has projected a file's state
+    // already, and reported the change).
+    if (finite && model.num_constraints() > 0) project_onto_constraints(model, q_, z_start);
+    dynamics_.pack(q_, z_start, z_);
+    z_state_ = z_start;
     if (finite) joint_state(model, q_, z_state_, work_);
     stats_.energy_initial =
         finite ? energy_of(work_, q_) : std::numeric_limits<double>::quiet_NaN();
@@ -408,6 +414,12 @@ class Run {
   void emit(double t, const VectorX& z) {
     if (observer_) {
       dynamics_.unpack(z, s_.project_euler_parameters, q_, z_state_, out_state_);
+      if (model_.num_constraints() > 0) {
+        // Dense output between steps lies off the constraints by the interpolation's error:
+        // the output is the state projected onto them, as the steps are.
+        project_onto_constraints(model_, q_, z_state_);
+        joint_state(model_, q_, z_state_, out_state_);
+      }
       if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
       if (drive_ != Drive::none) output_inputs(t);
       observer_(t, out_state_, q_, z_state_, data_);

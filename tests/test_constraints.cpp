@@ -2,6 +2,7 @@
 // projection, and mechanisms with known motions (docs/theory.md, "Constraints").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -11,6 +12,7 @@
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/joints.hpp"
+#include "kanedyn/rotation.hpp"
 #include "kanedyn/simulate.hpp"
 
 namespace kanedyn {
@@ -200,6 +202,95 @@ TEST(Projection, BringsAPerturbedStateOntoTheConstraints) {
   eq.evaluate(q, z);
   EXPECT_LE(eq.errors().cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_LE((eq.B() * z).cwiseAbs().maxCoeff(), 1e-13);
+}
+
+// A thin disc (radius r, mass m: I = m r^2 / 2 about the axle, body y, m r^2 / 4 about a
+// diameter) rolling on z = 0, upright, its centre moving at `speed` along x, with a lean rate.
+struct Disc {
+  Model model;
+  VectorX q, z;
+};
+
+Disc rolling_disc(double speed, double lean_rate) {
+  const double r = 0.3, m = 2.0;
+  BodySpec b;
+  b.name = "disc";
+  b.mass = m;
+  b.inertia = Vector3(m * r * r / 4, m * r * r / 2, m * r * r / 4).asDiagonal();
+  Constraint c;
+  c.name = "contact";
+  c.type = ConstraintType::rolling_disc;
+  c.body = 0;
+  c.axis = Vector3::UnitY();
+  c.radius = r;
+  Disc d{Model({b}, kGravity, {}, "disc", {}, {}, {}, {c}), VectorX::Zero(7), VectorX::Zero(6)};
+  d.q << 0, 0, 0, 1, 0, 0, r;
+  d.z << lean_rate, speed / r, 0, speed, 0, 0;
+  project_onto_constraints(d.model, d.q, d.z);
+  return d;
+}
+
+TEST(ConstraintEquations, RollingDiscRowsAreTheRatesOfTheirErrors) {
+  const Disc d = rolling_disc(1.0, 0.0);
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 5; ++trial) {
+    VectorX q, z;
+    random_consistent_state(d.model, rng, q, z);
+    q[6] += 0.3;  // the centre above the plane
+    check_equations_by_differences(d.model, q, z);
+  }
+}
+
+// Rolling without slip does no work: with no damping the energy is conserved, and the
+// constraints hold along a 10 s run (holonomic to 1e-10 after each step's projection,
+// nonholonomic to round-off in the speeds).
+TEST(ConstrainedDynamics, RollingDiscConservesEnergyAndKeepsItsConstraints) {
+  Disc d = rolling_disc(2.0, 0.5);
+  SimulationSettings s;
+  s.t_end = 10.0;
+  s.dt_out = 0.5;
+  s.rtol = 1e-10;
+  s.atol = 1e-12;
+  Data data(d.model);
+  const double e0 = total_energy(d.model, d.q, d.z, data);
+  double worst_energy = 0.0, worst_holonomic = 0.0, worst_speed = 0.0;
+  ConstraintEquations eq(d.model);
+  simulate(d.model, d.q, d.z, s,
+           [&](double, const State&, const VectorX& q, const VectorX& z, Data& out) {
+             worst_energy = std::max(worst_energy, std::abs(total_energy(d.model, q, z, out) - e0));
+             eq.evaluate(q, z);
+             worst_holonomic = std::max(worst_holonomic, std::abs(eq.errors()[0]));
+             worst_speed = std::max(worst_speed, (eq.B() * z).cwiseAbs().maxCoeff());
+           });
+  EXPECT_LE(worst_energy, 1e-7 * std::abs(e0));
+  EXPECT_LE(worst_holonomic, 1e-10);
+  EXPECT_LE(worst_speed, 1e-12);
+}
+
+// The upright thin disc is stable above sqrt(g r / 3) (1.0 m/s for r = 0.3): at twice that speed
+// a lean rate of 0.3 rad/s leaves it leaning less than 0.3 rad for 5 s; at half of it, it falls
+// past 0.5 rad.
+TEST(ConstrainedDynamics, UprightDiscIsStableAboveItsCriticalSpeed) {
+  const double critical = std::sqrt(9.81 * 0.3 / 3.0);
+  for (const double factor : {2.0, 0.5}) {
+    Disc d = rolling_disc(factor * critical, 0.3);
+    SimulationSettings s;
+    s.t_end = 5.0;
+    s.dt_out = 0.05;
+    double lean = 0.0;
+    simulate(d.model, d.q, d.z, s,
+             [&](double, const State&, const VectorX& q, const VectorX&, Data&) {
+               // The axle's tilt out of the ground plane.
+               const Vector4 e = q.head<4>();
+               const Matrix3 R = rotation_matrix(e);  // inertial -> body
+               const Vector3 axle = R.transpose() * Vector3::UnitY();
+               lean = std::max(lean, std::abs(std::asin(std::clamp(axle.z(), -1.0, 1.0))));
+             });
+    if (factor > 1.0)
+      EXPECT_LT(lean, 0.3) << "at " << factor << " times the critical speed";
+    else
+      EXPECT_GT(lean, 0.5) << "at " << factor << " times the critical speed";
+  }
 }
 
 }  // namespace
