@@ -24,6 +24,7 @@
 #include <new>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -31,6 +32,7 @@
 #include <vector>
 
 #include "direction.hpp"
+#include "kanedyn/constraint.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
@@ -1382,6 +1384,169 @@ std::vector<Input> read_inputs(const Reader& r, const Field& f, const BodiesSect
   return inputs;
 }
 
+/// The speeds' names in z's order, as the linearization names them (docs/model-format.md,
+/// "Linearization output"; tangent_state_names gives the same from a Model): derived from the
+/// bodies section here, where there is no Model yet.
+std::vector<std::string> speed_names(const BodiesSection& bodies) {
+  std::vector<std::string> names;
+  for (size_t k = 0; k < bodies.joints.size(); ++k) {
+    const std::string& body = bodies.names.names[k];
+    const JointType type = bodies.joints[k].type;
+    for (int c = 0; c < speed_count(type); ++c) {
+      if (type == JointType::free)
+        names.push_back(body + (c < 3 ? ".w" : ".sd") + std::to_string(c % 3 + 1));
+      else if (type == JointType::spherical)
+        names.push_back(body + ".w" + std::to_string(c + 1));
+      else
+        names.push_back(body + ".jd" + std::to_string(c + 1));
+    }
+  }
+  return names;
+}
+
+/// The keys of a constraint of `type`: the common three, then the type's own.
+std::span<const std::string_view> constraint_keys(ConstraintType type) {
+  static constexpr std::string_view disc[] = {"name", "type",   "body", "center",
+                                              "axis", "radius", "plane"};
+  static constexpr std::string_view ball[] = {"name", "type", "body", "at", "other", "other_at"};
+  static constexpr std::string_view hinge[] = {"name", "type",  "body",     "at",
+                                               "axis", "other", "other_at", "other_axis"};
+  static constexpr std::string_view distance[] = {"name",  "type",     "body",  "at",
+                                                  "other", "other_at", "length"};
+  switch (type) {
+    case ConstraintType::rolling_disc:
+      return disc;
+    case ConstraintType::ball:
+      return ball;
+    case ConstraintType::hinge:
+      return hinge;
+    case ConstraintType::distance:
+      return distance;
+  }
+  return {};
+}
+
+/// The `constraints` section (docs/model-format.md, "Constraints"): each entry checked here,
+/// where the place in the file is known, before the Model checks it again.
+std::vector<Constraint> read_constraints(const Reader& r, const Field& f, const BodyNames& bodies,
+                                         std::vector<Field>& items) {
+  static constexpr ConstraintType kTypes[] = {ConstraintType::rolling_disc, ConstraintType::ball,
+                                              ConstraintType::hinge, ConstraintType::distance};
+  std::vector<Constraint> constraints;
+  items = r.list(f, "constraint entries");
+  for (size_t i = 0; i < items.size(); ++i) {
+    const Mapping m = r.mapping(items[i]);
+    // Every type's keys first, so that a misspelt `type` is reported as the unknown key.
+    m.allow({"name", "type", "body", "center", "axis", "radius", "plane", "at", "other", "other_at",
+             "other_axis", "length"});
+    Constraint c;
+    const Field name_field = m.require("name");
+    const std::string_view name = r.text_view(name_field);
+    if (!valid_body_name(name))
+      r.fail(name_field,
+             "constraint name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
+    for (size_t j = 0; j < constraints.size(); ++j)
+      if (constraints[j].name == name)
+        r.fail(name_field, "duplicate constraint name " + quote(name) + " (already used by " +
+                               index_path("constraints", j) + ")");
+    c.name = std::string(name);
+    const std::string type = r.choice(
+        m.require("type"), {"rolling_disc", "ball", "hinge", "distance"}, "constraint type");
+    for (const ConstraintType t : kTypes)
+      if (type == to_string(t)) c.type = t;
+    const auto allowed = constraint_keys(c.type);
+    for (const std::string_view key :
+         {"center", "axis", "radius", "plane", "at", "other", "other_at", "other_axis", "length"}) {
+      const auto v = m.get(key);
+      if (!v || std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+      std::vector<std::string> owners;
+      for (const ConstraintType t : kTypes) {
+        const auto keys = constraint_keys(t);
+        if (std::find(keys.begin(), keys.end(), key) != keys.end()) owners.push_back(to_string(t));
+      }
+      r.fail(v->key_mark, v->path.str(),
+             "'" + std::string(key) + "' is refused on a " + type + " constraint; it is for " +
+                 join(owners) + "; allowed keys: " +
+                 join(std::vector<std::string>(allowed.begin(), allowed.end())));
+    }
+    const auto required = [&](std::string_view key, const std::string& what) {
+      if (const auto v = m.get(key)) return *v;
+      r.fail(items[i].mark, child_path(items[i].path.str(), key),
+             "missing required key '" + std::string(key) + "' (" + what + ") of a " + type +
+                 " constraint");
+    };
+    const Field body_field = m.require("body");
+    if (r.text_view(body_field) == "ground")
+      r.fail(body_field,
+             "a constraint acts on a body, not on the ground; name the body, and ground as "
+             "'other'");
+    c.body = body_reference(r, body_field, bodies);
+    if (c.type == ConstraintType::rolling_disc) {
+      if (const auto v = m.get("center")) c.at = r.vector3(*v);
+      c.axis = read_direction(r, required("axis", "the disc's axle, body-K components"),
+                              "the disc's axle");
+      c.radius = r.positive(required("radius", "the disc's radius, > 0"));
+      if (const auto v = m.get("plane")) {
+        const Mapping plane = r.mapping(*v);
+        plane.allow({"normal", "offset"});
+        if (const auto n = plane.get("normal"))
+          c.plane_normal = read_direction(r, *n, "the plane's normal");
+        if (const auto o = plane.get("offset")) c.plane_offset = r.number(*o);
+      }
+    } else {
+      if (const auto v = m.get("at")) c.at = r.vector3(*v);
+      if (const auto v = m.get("other")) {
+        c.other = r.text_view(*v) == "ground" ? kGround : body_reference(r, *v, bodies);
+        if (c.other == c.body)
+          r.fail(*v, "other is the constraint's own body " + quote(r.text_view(*v)) +
+                         "; name another body, or ground");
+      }
+      if (const auto v = m.get("other_at")) c.other_at = r.vector3(*v);
+      if (c.type == ConstraintType::hinge) {
+        c.axis = read_direction(r, required("axis", "body-K components"), "the hinge axis");
+        c.other_axis =
+            read_direction(r, required("other_axis", "in other's components, ground's inertial"),
+                           "the hinge's other_axis");
+      }
+      if (c.type == ConstraintType::distance)
+        c.length = r.positive(required("length", "the points' distance, > 0"));
+    }
+    constraints.push_back(std::move(c));
+  }
+  return constraints;
+}
+
+/// The `independent_speeds` section: speed names (speed_names) to indices into z, in the
+/// order given (the Model sorts them: the choice is a set).
+std::vector<int> read_independent_speeds(const Reader& r, const Field& f,
+                                         const BodiesSection& bodies, bool constrained) {
+  if (!constrained)
+    r.fail(f.key_mark, f.path.str(),
+           "independent speeds are chosen among the speeds that constraints tie together, and "
+           "the model has no constraints");
+  const std::vector<Field> items = r.list(f, "speed names");
+  if (items.empty())
+    r.fail(f,
+           "an empty list names no speed; leave 'independent_speeds' out to have them chosen at "
+           "the initial state");
+  const std::vector<std::string> names = speed_names(bodies);
+  std::vector<int> speeds;
+  for (size_t i = 0; i < items.size(); ++i) {
+    const std::string_view name = r.text_view(items[i]);
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end())
+      r.fail(items[i],
+             "unknown speed " + quote(name) + name_hint(name, names, names.size(), "; speeds: "));
+    const int index = static_cast<int>(it - names.begin());
+    for (size_t j = 0; j < speeds.size(); ++j)
+      if (speeds[j] == index)
+        r.fail(items[i], "speed " + quote(name) + " is named twice (already independent_speeds[" +
+                             std::to_string(j) + "])");
+    speeds.push_back(index);
+  }
+  return speeds;
+}
+
 SimulationSection read_simulation(const Reader& r, const Field& f) {
   const Mapping m = r.mapping(f);
   m.allow({"t_end", "dt_out", "integrator", "rtol", "atol", "step", "route", "method"});
@@ -1431,7 +1596,8 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
   if (const std::string f = r.text(format); f != kFormat)
     r.fail(format, "unsupported format " + quote(f) +
                        "; this version reads 'format: " + std::string(kFormat) + "'");
-  top.allow({"format", "name", "gravity", "bodies", "forces", "frames", "inputs", "simulation"});
+  top.allow({"format", "name", "gravity", "bodies", "forces", "frames", "inputs", "constraints",
+             "independent_speeds", "simulation"});
 
   const std::string name = top.has("name") ? r.text(*top.get("name")) : "";
   const Vector3 gravity = top.has("gravity") ? r.vector3(*top.get("gravity")) : Vector3::Zero();
@@ -1448,6 +1614,14 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
   if (const auto v = top.get("frames")) frames = read_frames(r, *v, names);
   std::vector<Input> inputs;
   if (const auto v = top.get("inputs")) inputs = read_inputs(r, *v, bodies);
+  std::vector<Constraint> constraints;
+  std::vector<Field> constraint_items;  // where the Model's messages about them point
+  if (const auto v = top.get("constraints"))
+    constraints = read_constraints(r, *v, names, constraint_items);
+  std::vector<int> independent_speeds;
+  const auto speeds_field = top.get("independent_speeds");
+  if (speeds_field)
+    independent_speeds = read_independent_speeds(r, *speeds_field, bodies, !constraints.empty());
 
   SimulationSection simulation;
   if (const auto v = top.get("simulation")) simulation = read_simulation(r, *v);
@@ -1467,7 +1641,8 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
 
   try {
     Model model(std::move(bodies.specs), gravity, std::move(forces), name, std::move(bodies.joints),
-                std::move(frames), std::move(inputs));
+                std::move(frames), std::move(inputs), std::move(constraints),
+                std::move(independent_speeds));
     ModelFile file{std::move(model), std::move(initial), std::move(simulation),
                    source_name,      VectorX(),          VectorX()};
     const Model& m = file.model;
@@ -1489,8 +1664,18 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
     return file;
   } catch (const ModelError& e) {
     // Everything the Model checks was checked above with a location; this is a safety net,
-    // and the Model's message names the body or force entry. One line, as every message.
-    r.fail(kNoPos, "", printable(e.what(), 400));
+    // and the Model's message names the body or force entry. One line, as every message. A
+    // message about a constraint ("constraint 2 'pin': ...") or the independent speeds
+    // points at that entry of the file, which the reader knows and the Model does not.
+    const std::string_view what = e.what();
+    if (const auto entry = detail::model_error_entry(what, "constraint");
+        entry && entry->first < constraint_items.size()) {
+      const Field& item = constraint_items[entry->first];
+      r.fail(item.mark, item.path.str(), printable(entry->second, 400));
+    }
+    if (speeds_field && what.starts_with("independent_speeds: "))
+      r.fail(*speeds_field, printable(what.substr(20), 400));
+    r.fail(kNoPos, "", printable(what, 400));
   }
 }
 
@@ -1817,6 +2002,21 @@ std::unique_ptr<YamlText> read_yaml(std::string text, const std::string& source_
   doc->text = std::string(doc->tree.text);
   doc->tree.text = doc->text;
   return doc;
+}
+
+std::optional<std::pair<size_t, std::string_view>> model_error_entry(std::string_view message,
+                                                                     std::string_view label) {
+  // "LABEL N 'NAME': PROBLEM", N counted from 1; names are [A-Za-z0-9_-]+, so the first "': "
+  // ends the name.
+  if (!message.starts_with(label) || message.substr(label.size(), 1) != " ") return std::nullopt;
+  const std::string_view rest = message.substr(label.size() + 1);
+  size_t n = 0;
+  const auto [end, error] = std::from_chars(rest.data(), rest.data() + rest.size(), n);
+  if (error != std::errc() || n == 0) return std::nullopt;
+  const std::string_view after = rest.substr(static_cast<size_t>(end - rest.data()));
+  const size_t close = after.find("': ");
+  if (!after.starts_with(" '") || close == std::string_view::npos) return std::nullopt;
+  return std::pair{n - 1, after.substr(close + 3)};
 }
 
 std::pair<int, int> line_column(std::string_view text, Pos pos) {

@@ -13,8 +13,10 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "kanedyn/io/model_file.hpp"
@@ -99,5 +101,11 @@ std::unique_ptr<YamlText> read_yaml(std::string text, const std::string& source_
                                     const std::string& kind);
 /// The 1-based line and column of position `pos` of `text` (0, 0 for kNoPos).
 std::pair<int, int> line_column(std::string_view text, Pos pos);
+
+/// The entry a Model's message is about, when it begins as the Model's messages about list
+/// entries do ("constraint 2 'pin': length must be > 0" for `label` "constraint"): the entry's
+/// 0-based index and the problem after the name; nothing for any other message.
+std::optional<std::pair<size_t, std::string_view>> model_error_entry(std::string_view message,
+                                                                     std::string_view label);
 
 }  // namespace kanedyn::io::detail

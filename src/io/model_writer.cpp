@@ -6,7 +6,10 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
+#include "kanedyn/analysis.hpp"
+#include "kanedyn/constraint.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/joints.hpp"
 
@@ -182,6 +185,39 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
       out << "    at: " << list(f.at) << "\n";
       if (!is_identity(f.rotation)) out << "    rotation: " << axis_angle(f.rotation) << "\n";
     }
+  }
+  if (!model.constraints().empty()) {
+    // Every key of the constraint's type, defaults too, so that the file says what it means.
+    out << "constraints:\n";
+    const auto body_name = [&](int k) {
+      return k == kGround ? std::string("ground") : name(model.body(k).name);
+    };
+    for (const Constraint& c : model.constraints()) {
+      out << "  - name: " << name(c.name) << "\n    type: " << to_string(c.type)
+          << "\n    body: " << body_name(c.body) << "\n";
+      if (c.type == ConstraintType::rolling_disc) {
+        out << "    center: " << list(c.at) << "\n    axis: " << list(c.axis)
+            << "\n    radius: " << yaml_float(c.radius)
+            << "\n    plane: {normal: " << list(c.plane_normal)
+            << ", offset: " << yaml_float(c.plane_offset) << "}\n";
+        continue;
+      }
+      out << "    at: " << list(c.at) << "\n";
+      if (c.type == ConstraintType::hinge) out << "    axis: " << list(c.axis) << "\n";
+      out << "    other: " << body_name(c.other) << "\n    other_at: " << list(c.other_at) << "\n";
+      if (c.type == ConstraintType::hinge) out << "    other_axis: " << list(c.other_axis) << "\n";
+      if (c.type == ConstraintType::distance) out << "    length: " << yaml_float(c.length) << "\n";
+    }
+  }
+  if (!model.independent_speeds().empty()) {
+    // The speeds by the linearization's names: the second half of the tangent state's.
+    const std::vector<std::string> names = tangent_state_names(model);
+    const size_t n = static_cast<size_t>(model.num_speeds());
+    out << "independent_speeds: [";
+    for (size_t i = 0; i < model.independent_speeds().size(); ++i)
+      out << (i > 0 ? ", " : "")
+          << name(names[n + static_cast<size_t>(model.independent_speeds()[i])]);
+    out << "]\n";
   }
   const SimulationSection& s = simulation;
   if (s.t_end || s.dt_out || s.integrator || s.rtol || s.atol || s.step || s.route) {
