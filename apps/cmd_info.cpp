@@ -104,6 +104,16 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
       out << "  " << f.name << " on " << (f.body == kGround ? "ground" : model.body(f.body).name)
           << " at [" << f.at.transpose() << "]\n";
   }
+  if (model.num_constraints() > 0) {
+    out << "constraints: " << constraint_summary(file) << "\n";
+    for (const Constraint& c : model.constraints())
+      out << "  " << c.name << ": " << to_string(c.type) << " on " << model.body(c.body).name
+          << (c.type == ConstraintType::rolling_disc
+                  ? std::string(", radius ") + std::to_string(c.radius)
+                  : std::string(" to ") +
+                        (c.other == kGround ? "ground" : model.body(c.other).name))
+          << "\n";
+  }
   if (model.inputs().empty()) return;
   out << "inputs: " << model.num_inputs() << " (u_1..u_m, in this order)\n";
   for (const Input& in : model.inputs()) {

@@ -193,6 +193,11 @@ void print_summary(const io::ModelFile& file, const SimulationSettings& s,
   std::printf("  energy: %.10g -> %.10g (%s change %.3g)\n", st.energy_initial, st.energy_final,
               st.energy_initial != 0.0 ? "relative" : "absolute", st.relative_energy_change());
   std::printf("  largest Euler-parameter drift before projection: %.3g\n", st.max_euler_drift);
+  if (model.num_constraints() > 0) {
+    std::printf("  constraints: %s\n", constraint_summary(file).c_str());
+    std::printf("  largest holonomic constraint error before projection: %.3g\n",
+                st.max_constraint_error);
+  }
   std::printf("  trajectory: %s (%s%ld rows of %ld columns)\n", where.c_str(),
               st.ok() ? "" : "incomplete: ", rows, columns);
   std::fflush(stdout);

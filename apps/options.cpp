@@ -3,10 +3,36 @@
 #include <charconv>
 #include <cmath>
 
+#include "kanedyn/analysis.hpp"
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/io/trajectory.hpp"
 
 namespace kanedyn::cli {
+
+std::string constraint_summary(const io::ModelFile& file) {
+  const Model& model = file.model;
+  const SpeedPartition& p = file.partition;
+  ConstraintEquations equations(model);
+  const std::vector<std::string> names = tangent_state_names(model);
+  const int n = model.num_speeds();
+  std::string text = std::to_string(model.num_constraints()) + " (" +
+                     std::to_string(equations.rows()) + " equations, " + std::to_string(p.rank) +
+                     " independent";
+  if (!p.redundant_rows.empty()) {
+    text += "; redundant:";
+    for (const int r : p.redundant_rows) text += " " + equations.row_name(r);
+  }
+  text += "); independent speeds (" +
+          std::string(model.independent_speeds().empty() ? "by pivoting" : "as the file says") +
+          "):";
+  for (const int i : p.independent) text += " " + names[static_cast<size_t>(n + i)];
+  char buffer[160];
+  std::snprintf(buffer, sizeof buffer,
+                "; initial state projected: coordinates moved by at most %.3g, speeds by %.3g",
+                file.projection.coordinate_change, file.projection.speed_change);
+  return text + buffer;
+}
 
 CLI::Validator decimal_number(bool positive) {
   return CLI::Validator(

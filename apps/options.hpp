@@ -25,6 +25,10 @@ std::string speed_label(int n, int i);
 /// a whole model stays O(N).
 std::string chain_text(const Model& model, int k);
 
+/// A model with constraints in one line: how many, their equations and rank, the redundant
+/// rows, the independent speeds and what projecting the initial state changed.
+std::string constraint_summary(const io::ModelFile& file);
+
 /// `--trajectory FILE.csv --t T`, each needing the other.
 struct StateChoice {
   std::string trajectory;

@@ -24,7 +24,6 @@ namespace {
 
 size_t at(int i) { return static_cast<size_t>(i); }
 
-
 // Two unit vectors normal to the unit n and to each other, (t1, t2, n) right-handed: fixed by
 // n alone, so the same at every state.
 void normal_pair(const Vector3& n, Vector3& t1, Vector3& t2) {
@@ -364,11 +363,20 @@ Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z, 
     MatrixX Bh(static_cast<Eigen::Index>(hol.size()), n);
     for (size_t r = 0; r < hol.size(); ++r)
       Bh.row(static_cast<Eigen::Index>(r)) = eq.B().row(hol[r]);
-    Eigen::ColPivHouseholderQR<MatrixX> qr(Bh);
-    qr.setThreshold(kRankThreshold);
-    const int rank = static_cast<int>(qr.rank());
+    // The coordinates of the dependent speeds when the model names the independent ones (the
+    // step is then the least-squares one in them); else the pivot columns.
     std::vector<int> cols;
-    for (int i = 0; i < rank; ++i) cols.push_back(qr.colsPermutation().indices()[i]);
+    if (!model.independent_speeds().empty()) {
+      std::vector<char> independent(at(n), 0);
+      for (const int i : model.independent_speeds()) independent[at(i)] = 1;
+      for (int i = 0; i < n; ++i)
+        if (!independent[at(i)]) cols.push_back(i);
+    } else {
+      Eigen::ColPivHouseholderQR<MatrixX> qr(Bh);
+      qr.setThreshold(kRankThreshold);
+      for (int i = 0; i < qr.rank(); ++i) cols.push_back(qr.colsPermutation().indices()[i]);
+    }
+    const int rank = static_cast<int>(cols.size());
     VectorX phi(static_cast<Eigen::Index>(hol.size()));
     double previous = std::numeric_limits<double>::infinity();
     for (;;) {

@@ -433,6 +433,7 @@ class Run {
     ++stats_.steps_accepted;
     stats_.t_reached = t;
     stats_.max_euler_drift = std::max(stats_.max_euler_drift, drift);
+    stats_.max_constraint_error = dynamics_.constraint_error();
   }
   bool keep_going(double t) { return !s_.on_step || s_.on_step(t); }
 

@@ -101,6 +101,8 @@ struct SimulationStats {
   double relative_energy_change() const;
   /// Largest | |eps_K| - 1 | found before a projection, over all steps and bodies.
   double max_euler_drift = 0.0;
+  /// With constraints: the largest holonomic constraint error found before a projection.
+  double max_constraint_error = 0.0;
   double wall_seconds = 0.0;
   int failed_body = -1;  ///< failures: the body at fault (index), -1 if none
   /// failures: the time and the body ("diverged in the step from t = 1.2 to t = 1.21:

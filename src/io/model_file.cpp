@@ -33,6 +33,7 @@
 
 #include "direction.hpp"
 #include "kanedyn/constraint.hpp"
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
@@ -1643,8 +1644,14 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
     Model model(std::move(bodies.specs), gravity, std::move(forces), name, std::move(bodies.joints),
                 std::move(frames), std::move(inputs), std::move(constraints),
                 std::move(independent_speeds));
-    ModelFile file{std::move(model), std::move(initial), std::move(simulation),
-                   source_name,      VectorX(),          VectorX()};
+    ModelFile file{std::move(model),
+                   std::move(initial),
+                   std::move(simulation),
+                   source_name,
+                   VectorX(),
+                   VectorX(),
+                   {},
+                   {}};
     const Model& m = file.model;
     file.q = VectorX::Zero(m.num_coordinates());
     file.z = VectorX::Zero(m.num_speeds());
@@ -1661,6 +1668,31 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
     // The notes' state of (q, z); a free body's slices are copied, so an all-free model's is
     // its `initial:` entries as read (the same numbers).
     joint_state(m, file.q, file.z, file.initial);
+    if (m.num_constraints() > 0) {
+      // The initial state onto the constraints (the spec's "Constraints"), and the
+      // independent speeds checked against [B] there; a failure points at its entry.
+      try {
+        file.projection = project_onto_constraints(m, file.q, file.z);
+        ConstraintEquations equations(m);
+        equations.evaluate(file.q, file.z);
+        file.partition = partition_speeds(m, equations.B());
+      } catch (const ConstraintError& e) {
+        const std::string_view what = e.what();
+        if (speeds_field && what.starts_with("independent_speeds: "))
+          r.fail(*speeds_field, printable(what.substr(20), 400));
+        for (size_t i = 0; i < m.constraints().size() && i < constraint_items.size(); ++i) {
+          const std::string prefix = "constraint '" + m.constraints()[i].name + "': ";
+          if (what.starts_with(prefix)) {
+            const Field& item = constraint_items[i];
+            r.fail(
+                item.mark, item.path.str(),
+                printable("at the initial state: " + std::string(what.substr(prefix.size())), 400));
+          }
+        }
+        r.fail(kNoPos, "", printable(what, 400));
+      }
+      joint_state(m, file.q, file.z, file.initial);
+    }
     return file;
   } catch (const ModelError& e) {
     // Everything the Model checks was checked above with a location; this is a safety net,

@@ -10,6 +10,7 @@
 #include <string_view>
 #include <utility>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/joints.hpp"
 #include "kanedyn/model.hpp"
 #include "kanedyn/simulate.hpp"
@@ -63,6 +64,10 @@ struct ModelFile {
   /// The initial state: joint coordinates q (`initial.joint`, and the v1 keys of free bodies)
   /// and speeds z (`initial.joint_rate`, v1 keys of free bodies), in the Model's layout.
   VectorX q, z;
+  /// With constraints: what projecting the file's initial state onto them changed (q and z
+  /// hold the projected state), and the independent speeds there.
+  Projection projection;
+  SpeedPartition partition;
   /// True when some joint is not free (the file has the mapping form of `joint`).
   bool jointed() const { return !model.all_free(); }
 };
