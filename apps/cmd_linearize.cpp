@@ -63,8 +63,19 @@ void print_summary(const io::ModelFile& file, const Linearization& lin, const Op
                    const Derivatives& derivatives, bool modes) {
   const double tol = zero_tolerance(lin);
   std::printf("linearization of %s at %s\n", io::printable(file.path).c_str(), op.where.c_str());
-  std::printf("  state: %d coordinates and %d speeds (tangent coordinates); %d inputs\n", lin.n,
-              lin.n, lin.m);
+  const int coordinates = static_cast<int>(lin.state.size()) - lin.n;
+  std::printf("  state: %d coordinates and %d speeds (tangent coordinates); %d inputs\n",
+              coordinates, lin.n, lin.m);
+  if (file.model.num_constraints() > 0)
+    std::printf(
+        "  constraints: the independent coordinates (those not fixed by holonomic constraints) "
+        "and the independent speeds: %s\n",
+        [&] {
+          std::string names;
+          for (const std::string& s : lin.state) names += (names.empty() ? "" : " ") + s;
+          return names;
+        }()
+            .c_str());
   std::printf("  derivatives: %s\n", derivatives.method().c_str());
   const double moving = lin.zdot.size() ? lin.zdot.cwiseAbs().maxCoeff() : 0.0;
   if (moving > tol)

@@ -46,9 +46,14 @@ io::Trajectory mode_trajectory(const io::ModelFile& file, const Options& o, std:
     throw std::runtime_error("--mode " + std::to_string(o.mode) + ": the linearization has " +
                              std::to_string(count) + " modes (1.." + std::to_string(count) +
                              "; kanedyn linearize lists them)");
-  const int n = lin.n;
+  // The mode in the full tangent state (dx; dz): with constraints the dependent coordinates
+  // and speeds follow the independent ones.
+  const int n = model.num_speeds();
   const std::complex<double> lambda = lin.eigenvalues[o.mode - 1];
-  const Eigen::VectorXcd v = lin.modes.col(o.mode - 1);
+  const Eigen::VectorXcd v = lin.full_state.size() > 0
+                                 ? Eigen::VectorXcd(lin.full_state.cast<std::complex<double>>() *
+                                                    lin.modes.col(o.mode - 1))
+                                 : Eigen::VectorXcd(lin.modes.col(o.mode - 1));
   const double shape = v.head(n).cwiseAbs().maxCoeff();
   if (!(shape > 0.0))
     throw std::runtime_error("--mode " + std::to_string(o.mode) +

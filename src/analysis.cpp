@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/joints.hpp"
@@ -166,8 +167,19 @@ struct Tables {
   // relative to J through them) and rotation (a constant force is inertial; a free body below
   // another body turns relative to it through [R_K][R_J]^T); else only E is formed.
   bool absolute_euler = false, absolute_rotation = false;
+  // Constraints: each one's two fixed directions (constraints.hpp), and the multipliers whose
+  // reactions count among the loads when `reactions` (the linearization about a constrained
+  // motion: Q - [B]^T lambda, lambda held).
+  std::vector<std::array<Vector3, 2>> constraint_directions;
+  int constraint_rows = 0;
+  bool reactions = false;
+  VectorX lambda;
 
   explicit Tables(const Model& model) {
+    for (const Constraint& c : model.constraints()) {
+      constraint_directions.push_back(constraint_fixed_directions(c));
+      constraint_rows += equation_count(c.type);
+    }
     for (int k = 0; k < model.num_bodies(); ++k) {
       for (int c = 0; c < speed_count(model.joint(k).type); ++c) speed_body.push_back(k);
       const Joint& jt = model.joint(k);
@@ -387,11 +399,212 @@ void body_loads(const Model& model, const Tables& tables, const S* u,
   }
 }
 
+// A body's motion in inertial components, over S: what the constraints need of it
+// (inverse_dynamics works in body axes).
+template <typename S>
+struct Motion {
+  M3<S> R;                  // [R_K]: inertial -> body K
+  V3<S> p, v, a, w, alpha;  // O_K's position, velocity, acceleration; w_K and alpha_K
+};
+
+// The constraints' part of an evaluation over S: every body's Motion, and the rows' velocity
+// residuals [B] z, acceleration residuals [B] z dot + {b} and position errors (c each, in this
+// order), as ConstraintEquations gives them in double.
+template <typename S>
+struct ConstraintWork {
+  std::vector<Motion<S>> motion;
+  std::vector<S> rows;
+};
+
+template <typename S>
+M3<S> transposed(const M3<S>& m) {
+  return {{m.a[0], m.a[3], m.a[6], m.a[1], m.a[4], m.a[7], m.a[2], m.a[5], m.a[8]}};
+}
+
+// After the outward pass (E, r, sd, w, alpha and a of every body; a holds the acceleration
+// less g, which stands for gravity).
+// Not inlined into the flattened dual passes: compiled once per number type, not once per pass
+// and target (the passes' compile time), and a small part of a constrained model's pass.
+template <typename S>
+__attribute__((noinline)) void absolute_motion(const Model& model,
+                                               const std::vector<Body<S>>& bodies,
+                                               std::vector<Motion<S>>& out) {
+  const V3<S> g = constant<S>(model.gravity());
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const Body<S>& b = bodies[at(k)];
+    const int j = model.lower_body(k);
+    Motion<S>& m = out[at(k)];
+    m.R = j == kGround ? b.E : product(b.E, out[at(j)].R);
+    m.w = eq::transpose_times(m.R, b.w);
+    m.alpha = eq::transpose_times(m.R, b.alpha);
+    m.a = eq::transpose_times(m.R, b.a) + g;
+    if (j == kGround) {
+      m.p = b.r;
+      m.v = b.sd;
+    } else {
+      const Motion<S>& l = out[at(j)];
+      const V3<S> r = eq::transpose_times(l.R, b.r);
+      m.p = l.p + r;
+      m.v = l.v + eq::cross(l.w, r) + eq::transpose_times(l.R, b.sd);
+    }
+  }
+}
+
+// A point fixed in body k (offset in body-K components) or in the ground (inertial).
+template <typename S>
+struct PointMotion {
+  V3<S> r, p, v, a;  // from O_K, position, velocity, acceleration (inertial)
+};
+
+template <typename S>
+PointMotion<S> point_motion(const std::vector<Motion<S>>& motion, int k, const Vector3& offset) {
+  const S zero{};
+  const V3<S> none{zero, zero, zero};
+  if (k == kGround) return {constant<S>(offset), constant<S>(offset), none, none};
+  const Motion<S>& b = motion[at(k)];
+  PointMotion<S> pm;
+  pm.r = eq::transpose_times(b.R, constant<S>(offset));
+  pm.p = b.p + pm.r;
+  pm.v = b.v + eq::cross(b.w, pm.r);
+  pm.a = b.a + eq::cross(b.alpha, pm.r) + eq::cross(b.w, eq::cross(b.w, pm.r));
+  return pm;
+}
+
+template <typename S>
+S norm_of(const V3<S>& v) {
+  using std::sqrt;
+  return sqrt(eq::dot(v, v));
+}
+
+// A load on body k: a force f at the point r from O_K and a moment m (inertial), added to its
+// resultants (at G_K, body-K components).
+template <typename S>
+void add_load(const Model& model, std::vector<Body<S>>& bodies,
+              const std::vector<Motion<S>>& motion, int k, const V3<S>& r, const V3<S>& f,
+              const V3<S>& m) {
+  if (k == kGround) return;
+  Body<S>& b = bodies[at(k)];
+  const M3<S>& R = motion[at(k)].R;
+  const V3<S> f_b = R * f;
+  V3<S> arm = R * r;
+  add_constant(arm, Vector3(-model.body(k).com));
+  b.load_force = b.load_force + f_b;
+  b.load_moment = b.load_moment + eq::cross(arm, f_b) + R * m;
+}
+
+// The constraints' rows at the motion (docs/theory.md, "Constraints"; the double version is
+// src/constraints.cpp), and with tables.reactions the loads of the multipliers tables.lambda
+// on the bodies.
+template <typename S>
+__attribute__((noinline)) void constraint_terms(const Model& model, const Tables& tables,
+                                                std::vector<Body<S>>& bodies,
+                                                ConstraintWork<S>& work) {
+  const S zero{};
+  const V3<S> none{zero, zero, zero};
+  const int rows = tables.constraint_rows;
+  S* vel = work.rows.data();
+  S* acc = vel + rows;
+  S* err = acc + rows;
+  const std::vector<Motion<S>>& motion = work.motion;
+  int row = 0;
+  for (size_t i = 0; i < model.constraints().size(); ++i) {
+    const Constraint& c = model.constraints()[i];
+    const auto& dirs = tables.constraint_directions[i];
+    const double* lambda = tables.reactions ? tables.lambda.data() + row : nullptr;
+    switch (c.type) {
+      case ConstraintType::ball:
+      case ConstraintType::hinge:
+      case ConstraintType::distance: {
+        const PointMotion<S> p1 = point_motion(motion, c.body, c.at);
+        const PointMotion<S> p2 = point_motion(motion, c.other, c.other_at);
+        const V3<S> d = p1.p - p2.p, vrel = p1.v - p2.v, arel = p1.a - p2.a;
+        V3<S> f = none, m = none;
+        if (c.type == ConstraintType::distance) {
+          const S length = norm_of(d);
+          const V3<S> e = (1.0 / length) * d;
+          const S along = eq::dot(e, vrel);
+          vel[row] = along;
+          acc[row] = (eq::dot(vrel, vrel) - along * along) / length + eq::dot(e, arel);
+          err[row] = length - c.length;
+          if (lambda) f = lambda[0] * e;
+        } else {
+          const S v3[3] = {vrel.x, vrel.y, vrel.z}, a3[3] = {arel.x, arel.y, arel.z},
+                  d3[3] = {d.x, d.y, d.z};
+          for (int r = 0; r < 3; ++r) {
+            vel[row + r] = v3[r];
+            acc[row + r] = a3[r];
+            err[row + r] = d3[r];
+          }
+          if (lambda) f = constant<S>(Vector3(lambda[0], lambda[1], lambda[2]));
+        }
+        if (c.type == ConstraintType::hinge) {
+          const Motion<S>& mb = motion[at(c.body)];
+          const V3<S> axis = eq::transpose_times(mb.R, constant<S>(c.axis));
+          const V3<S> w_other = c.other == kGround ? none : motion[at(c.other)].w;
+          const V3<S> alpha_other = c.other == kGround ? none : motion[at(c.other)].alpha;
+          const V3<S> wrel = mb.w - w_other, alpha_rel = mb.alpha - alpha_other;
+          const V3<S> axis_rate = eq::cross(mb.w, axis);
+          for (int k = 0; k < 2; ++k) {
+            const V3<S> e = c.other == kGround ? constant<S>(dirs[at(k)])
+                                               : eq::transpose_times(motion[at(c.other)].R,
+                                                                     constant<S>(dirs[at(k)]));
+            const V3<S> arm = eq::cross(axis, e);
+            const V3<S> e_rate = eq::cross(w_other, e);
+            vel[row + 3 + k] = eq::dot(wrel, arm);
+            acc[row + 3 + k] = eq::dot(alpha_rel, arm) +
+                               eq::dot(wrel, eq::cross(axis_rate, e) + eq::cross(axis, e_rate));
+            err[row + 3 + k] = eq::dot(axis, e);
+            if (lambda) m = m + lambda[3 + k] * arm;
+          }
+        }
+        if (lambda) {
+          add_load(model, bodies, motion, c.body, p1.r, f, m);
+          add_load(model, bodies, motion, c.other, p2.r, -f, -m);
+        }
+        break;
+      }
+      case ConstraintType::rolling_disc: {
+        const Motion<S>& mb = motion[at(c.body)];
+        const V3<S> a = eq::transpose_times(mb.R, constant<S>(c.axis));
+        const V3<S> n = constant<S>(c.plane_normal);
+        const V3<S> u = eq::cross(a, n);
+        const S s = norm_of(u);
+        const S an = eq::dot(a, n);
+        const V3<S> d = (1.0 / s) * (an * a - n);
+        const PointMotion<S> centre = point_motion(motion, c.body, c.at);
+        const V3<S> rd = c.radius * d;
+        const V3<S> r_contact = centre.r + rd;
+        const V3<S> P = centre.p + rd;
+        const V3<S> v = centre.v + eq::cross(mb.w, rd);
+        const V3<S> a_rate = eq::cross(mb.w, a);
+        const V3<S> u_rate = eq::cross(a_rate, n);
+        const V3<S> d_rate =
+            (1.0 / s) * (an * a_rate + eq::dot(a_rate, n) * a) - (eq::dot(u, u_rate) / (s * s)) * d;
+        const V3<S> acc_p = centre.a + eq::cross(mb.alpha, rd) + eq::cross(mb.w, c.radius * d_rate);
+        const Vector3 basis[3] = {c.plane_normal, dirs[0], dirs[1]};
+        for (int r = 0; r < 3; ++r) {
+          const V3<S> e = constant<S>(basis[r]);
+          vel[row + r] = eq::dot(e, v);
+          acc[row + r] = eq::dot(e, acc_p);
+          err[row + r] = r == 0 ? eq::dot(e, P) - c.plane_offset : zero;
+        }
+        if (lambda) {
+          const Vector3 f = basis[0] * lambda[0] + basis[1] * lambda[1] + basis[2] * lambda[2];
+          add_load(model, bodies, motion, c.body, r_contact, constant<S>(f), none);
+        }
+        break;
+      }
+    }
+    row += equation_count(c.type);
+  }
+}
+
 // Q = the generalized inertia forces minus the active forces at (q, z, zdot, u), over S
 // (src/terms.cpp's Newton-Euler in body axes; generic_dynamics.hpp).
 template <typename S>
 void inverse_dynamics(const Model& model, const Tables& tables, const S* q, const S* z,
-                      const double* zdot, const S* u, S* Q, std::vector<Body<S>>& bodies) {
+                      const double* zdot, const S* u, S* Q, std::vector<Body<S>>& bodies,
+                      ConstraintWork<S>* constraints = nullptr) {
   const int n = model.num_bodies();
   const S zero{};
   const V3<S> none{zero, zero, zero};
@@ -439,6 +652,10 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     b.moment = times(body.inertia, alpha) + eq::cross(b.w, times(body.inertia, b.w));
   }
   body_loads(model, tables, u, bodies);
+  if (constraints) {
+    absolute_motion(model, bodies, constraints->motion);
+    constraint_terms(model, tables, bodies, *constraints);
+  }
   for (auto& b : bodies) {
     b.force = b.force - b.load_force;
     b.moment = b.moment - b.load_moment;
@@ -502,11 +719,12 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
 #else
 #define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((flatten, target_clones("avx2", "default")))
 #endif
-#define KANEDYN_DUAL_PASS(N)                                                                  \
-  KANEDYN_DUAL_PASS_ATTRIBUTES void dual_inverse_dynamics_##N(                                \
-      const Model& model, const Tables& tables, const Dual<N>* q, const Dual<N>* z,           \
-      const double* zdot, const Dual<N>* u, Dual<N>* Q, std::vector<Body<Dual<N>>>& bodies) { \
-    inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies);                                \
+#define KANEDYN_DUAL_PASS(N)                                                                \
+  KANEDYN_DUAL_PASS_ATTRIBUTES void dual_inverse_dynamics_##N(                              \
+      const Model& model, const Tables& tables, const Dual<N>* q, const Dual<N>* z,         \
+      const double* zdot, const Dual<N>* u, Dual<N>* Q, std::vector<Body<Dual<N>>>& bodies, \
+      ConstraintWork<Dual<N>>* constraints) {                                               \
+    inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies, constraints);                 \
   }
 KANEDYN_DUAL_PASS(8)
 KANEDYN_DUAL_PASS(12)
@@ -516,18 +734,21 @@ KANEDYN_DUAL_PASS(16)
 
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<8>* q,
                            const Dual<8>* z, const double* zdot, const Dual<8>* u, Dual<8>* Q,
-                           std::vector<Body<Dual<8>>>& bodies) {
-  dual_inverse_dynamics_8(model, tables, q, z, zdot, u, Q, bodies);
+                           std::vector<Body<Dual<8>>>& bodies,
+                           ConstraintWork<Dual<8>>* constraints) {
+  dual_inverse_dynamics_8(model, tables, q, z, zdot, u, Q, bodies, constraints);
 }
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<12>* q,
                            const Dual<12>* z, const double* zdot, const Dual<12>* u, Dual<12>* Q,
-                           std::vector<Body<Dual<12>>>& bodies) {
-  dual_inverse_dynamics_12(model, tables, q, z, zdot, u, Q, bodies);
+                           std::vector<Body<Dual<12>>>& bodies,
+                           ConstraintWork<Dual<12>>* constraints) {
+  dual_inverse_dynamics_12(model, tables, q, z, zdot, u, Q, bodies, constraints);
 }
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<16>* q,
                            const Dual<16>* z, const double* zdot, const Dual<16>* u, Dual<16>* Q,
-                           std::vector<Body<Dual<16>>>& bodies) {
-  dual_inverse_dynamics_16(model, tables, q, z, zdot, u, Q, bodies);
+                           std::vector<Body<Dual<16>>>& bodies,
+                           ConstraintWork<Dual<16>>* constraints) {
+  dual_inverse_dynamics_16(model, tables, q, z, zdot, u, Q, bodies, constraints);
 }
 
 // Whether tangent entry c of body k is a rotation-vector entry (a free body's first three, a
@@ -706,6 +927,7 @@ struct Pass {
   // A body's seeded half rotation, and whether it has one (kept between passes: no allocation).
   std::vector<Eu<Dual<N>>> half;
   std::vector<char> turned;
+  ConstraintWork<Dual<N>> constraints;  // sized for a model with constraints
 
   explicit Pass(const Model& m)
       : bodies(at(m.num_bodies())),
@@ -714,19 +936,25 @@ struct Pass {
         u(at(m.num_inputs())),
         Q(at(m.num_speeds())),
         half(at(m.num_bodies())),
-        turned(at(m.num_bodies()), 0) {}
+        turned(at(m.num_bodies()), 0) {
+    if (m.num_constraints() == 0) return;
+    constraints.motion.resize(at(m.num_bodies()));
+    int rows = 0;
+    for (const Constraint& c : m.constraints()) rows += equation_count(c.type);
+    constraints.rows.resize(at(3 * rows));
+  }
 
   // dQ along the directions dirs[first..first+N) into out's columns of the same index:
   // direction d < n the tangent of q, n <= d < 2n z, 2n + i input i.
   void run(const Model& model, const Tables& tables, const VectorX& q0, const VectorX& z0,
            const VectorX& zdot, const VectorX& u0, const std::vector<int>& dirs, size_t first,
-           Eigen::Ref<MatrixX> out);
+           Eigen::Ref<MatrixX> out, MatrixX* rows_out = nullptr);
 };
 
 template <int N>
 void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, const VectorX& z0,
                   const VectorX& zdot, const VectorX& u0, const std::vector<int>& dirs,
-                  size_t first, Eigen::Ref<MatrixX> out) {
+                  size_t first, Eigen::Ref<MatrixX> out, MatrixX* rows_out) {
   using D = Dual<N>;
   const int n = model.num_speeds();
   const size_t count = std::min(dirs.size() - first, static_cast<size_t>(N));
@@ -760,10 +988,16 @@ void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, c
     const Eu<D> e = compose(constant_euler<D>(q0.segment<4>(o)), half[at(k)]);
     for (int i = 0; i < 4; ++i) q[at(o + i)] = e.e[i];
   }
-  dual_inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u.data(), Q.data(), bodies);
+  dual_inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u.data(), Q.data(), bodies,
+                        rows_out ? &constraints : nullptr);
   for (size_t s = 0; s < count; ++s)
     for (int row = 0; row < n; ++row)
       out(row, dirs[first + s]) = Q[at(row)].derivative(static_cast<int>(s));
+  if (rows_out)
+    for (size_t s = 0; s < count; ++s)
+      for (Eigen::Index row = 0; row < rows_out->rows(); ++row)
+        (*rows_out)(row, dirs[first + s]) =
+            constraints.rows[static_cast<size_t>(row)].derivative(static_cast<int>(s));
 }
 
 struct Derivatives::Impl {
@@ -799,8 +1033,10 @@ struct Derivatives::Impl {
 
   // dQ along every direction: columns 0..n-1 the tangent of q, n..2n-1 z, 2n..2n+m-1 u, into
   // out (n x (2n + m)).
+  // With rows_out (3c x (2n + m)), also the derivatives of the constraints' rows (velocity,
+  // acceleration and position residuals: ConstraintWork).
   void inverse_directions(const VectorX& q0, const VectorX& z0, const VectorX& zdot,
-                          const VectorX& u0, Eigen::Ref<MatrixX> out);
+                          const VectorX& u0, Eigen::Ref<MatrixX> out, MatrixX* rows_out = nullptr);
   // Central differences of F in tangent coordinates (a model with an element of another type).
   void forward_differences(const VectorX& q0, const VectorX& z0, const VectorX& u0,
                            Eigen::Ref<MatrixX> out);
@@ -808,8 +1044,9 @@ struct Derivatives::Impl {
 
 void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
                                            const VectorX& zdot, const VectorX& u0,
-                                           Eigen::Ref<MatrixX> out) {
+                                           Eigen::Ref<MatrixX> out, MatrixX* rows_out) {
   const int n = model.num_speeds();
+  if (rows_out) rows_out->setZero();
   dirs.clear();
   for (int d = 0; d < 2 * n; ++d) dirs.push_back(d);
   // A joint input on a joint other than free adds u to one generalized force: its column of dQ
@@ -830,13 +1067,13 @@ void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
   // of 12, 6.4x in one of 16), and each width is compiled twice (AVX2 and baseline).
   for (size_t first = 0; first < dirs.size();) {
     if (dirs.size() - first > 12) {
-      pass(pass16).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      pass(pass16).run(model, tables, q0, z0, zdot, u0, dirs, first, out, rows_out);
       first += 16;
     } else if (dirs.size() - first > 8) {
-      pass(pass12).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      pass(pass12).run(model, tables, q0, z0, zdot, u0, dirs, first, out, rows_out);
       first += 12;
     } else {
-      pass(pass8).run(model, tables, q0, z0, zdot, u0, dirs, first, out);
+      pass(pass8).run(model, tables, q0, z0, zdot, u0, dirs, first, out, rows_out);
       first += 8;
     }
   }
@@ -948,6 +1185,27 @@ void Derivatives::inverse(const VectorX& q, const VectorX& z, const VectorX& zdo
   du = all.rightCols(m);
 }
 
+void Derivatives::constrained(const VectorX& q, const VectorX& z, const VectorX& zdot,
+                              const VectorX& u, const VectorX& lambda, Eigen::Ref<MatrixX> dQ,
+                              MatrixX& drows) {
+  Impl& s = *impl_;
+  if (!s.tables.supported)
+    throw std::logic_error(
+        "Derivatives::constrained: a force element of a type the library does not define");
+  const int n = s.model.num_speeds();
+  const int m = s.model.num_inputs();
+  check_size("Derivatives: q", q.size(), s.model.num_coordinates());
+  check_size("Derivatives: z", z.size(), n);
+  check_size("Derivatives: zdot", zdot.size(), n);
+  check_size("Derivatives: u", u.size(), m);
+  check_size("Derivatives: lambda", lambda.size(), s.tables.constraint_rows);
+  drows.resize(3 * s.tables.constraint_rows, 2 * n + m);
+  s.tables.reactions = true;
+  s.tables.lambda = lambda;
+  s.inverse_directions(q, z, zdot, u, dQ, &drows);
+  s.tables.reactions = false;
+}
+
 // ---- Linearization and eigenvalues ----
 
 // Below this size Eigen's solver is used: LAPACK's (OpenBLAS's) would wake its threads for a
@@ -969,14 +1227,55 @@ Eigen::VectorXcd sorted_eigenvalues(const MatrixX& a, Eigen::MatrixXcd* vectors)
   if (!a.allFinite()) throw std::invalid_argument("sorted_eigenvalues: a matrix with NaN or inf");
   VectorX wr(n), wi(n);
   Eigen::MatrixXcd raw;
-  if (n <= kSmallEigenproblem) {
-    // Eigen's EigenSolver: a few microseconds at this size, with no threads to wake.
-    const Eigen::EigenSolver<MatrixX> solver(a, vectors != nullptr);
+  if (n <= kSmallEigenproblem && !vectors) {
+    // Eigenvalues isolated by permutations first, as dgebal's first step does: a row or column
+    // zero off the diagonal (among the rows and columns left) gives its diagonal entry exactly,
+    // and the others are those of the matrix without it. The ignorable coordinates of a
+    // linearization (a rolling vehicle's position and heading) are such: isolated, their zeros
+    // are exact and the QR iteration does not see their Jordan blocks, which would perturb the
+    // other eigenvalues by up to sqrt(eps).
+    std::vector<int> left(at(n));
+    for (int i = 0; i < n; ++i) left[at(i)] = i;
+    int found = 0;
+    for (bool again = true; again;) {
+      again = false;
+      for (size_t j = 0; j < left.size(); ++j) {
+        const int c = left[j];
+        bool column = true, row = true;
+        for (const int i : left) {
+          if (i == c) continue;
+          column = column && a(i, c) == 0.0;
+          row = row && a(c, i) == 0.0;
+        }
+        if (!column && !row) continue;
+        wr[found] = a(c, c);
+        wi[found] = 0.0;
+        ++found;
+        left.erase(left.begin() + static_cast<std::ptrdiff_t>(j));
+        again = true;
+        break;
+      }
+    }
+    if (!left.empty()) {
+      MatrixX rest(static_cast<Eigen::Index>(left.size()), static_cast<Eigen::Index>(left.size()));
+      for (size_t i = 0; i < left.size(); ++i)
+        for (size_t j = 0; j < left.size(); ++j)
+          rest(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = a(left[i], left[j]);
+      // Eigen's EigenSolver: a few microseconds at this size, with no threads to wake.
+      const Eigen::EigenSolver<MatrixX> solver(rest, false);
+      if (solver.info() != Eigen::Success)
+        throw std::runtime_error("eigenvalues: the QR iteration did not converge");
+      wr.tail(n - found) = solver.eigenvalues().real();
+      wi.tail(n - found) = solver.eigenvalues().imag();
+    }
+  } else if (n <= kSmallEigenproblem) {
+    // With the vectors, of the whole matrix (LAPACK's path isolates as above itself).
+    const Eigen::EigenSolver<MatrixX> solver(a, true);
     if (solver.info() != Eigen::Success)
       throw std::runtime_error("eigenvalues: the QR iteration did not converge");
     wr = solver.eigenvalues().real();
     wi = solver.eigenvalues().imag();
-    if (vectors) raw = solver.eigenvectors();
+    raw = solver.eigenvectors();
   } else {
     // LAPACK's dgeevx (Hessenberg reduction and the multishift QR, blocked): a general matrix
     // of 1,000 rows in under a second where Eigen's EigenSolver takes twenty. Balanced by
@@ -1051,6 +1350,167 @@ ModeReading read_eigenvalue(std::complex<double> lambda, double tolerance) {
   return r;
 }
 
+namespace {
+
+// The tangent coordinates' rates to first order about the nominal motion: d(r)/dt = (w - w0)
+// - w0 x r for a rotation vector (the spec's "Linearization output"), the speed's deviation for
+// every other entry: d(dx)/dt = [K] dx + dz, [K] the -[w0~] blocks. Also whether a free body
+// turns (the linear system is then periodic).
+MatrixX rotation_rate_block(const Model& model, const VectorX& z, bool* periodic) {
+  const int n = model.num_speeds();
+  MatrixX K = MatrixX::Zero(n, n);
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    if (type != JointType::free && type != JointType::spherical) continue;
+    const int p = model.speed_offset(k);
+    const Vector3 w0 = z.segment<3>(p);
+    K.block<3, 3>(p, p) = -skew(w0);
+    if (type == JointType::free && !w0.isZero(0.0) && periodic) *periodic = true;
+  }
+  return K;
+}
+
+// The linearization of a model with constraints (docs/theory.md, "Linearization with
+// constraints", after Peterson, Gede and Hubbard 2015): the state is the independent
+// coordinates dx_I and the independent speeds dz_I. The dependent coordinates follow from the
+// holonomic constraints to first order (Phi dx = 0), the dependent speeds from the velocity
+// constraints ([B] dz + d([B] z)/dx dx = 0), and the accelerations and the multipliers' change
+// from the linearized equations of motion and acceleration constraints,
+//   [M -B^T; B 0] (dzdot; dlambda) = -(d(Q - B^T lambda) dx + ... ; d([B] zdot + b) ...).
+Linearization linearize_constrained(const Model& model, const VectorX& q_in, const VectorX& z_in,
+                                    const VectorX& u, bool modes) {
+  const int n = model.num_speeds();
+  const int m = model.num_inputs();
+  Linearization lin;
+  lin.m = m;
+  for (const Input& in : model.inputs()) lin.inputs.push_back(in.name);
+  VectorX q = q_in, z = z_in;
+  project_onto_constraints(model, q, z);
+  lin.q = q;
+  lin.z = z;
+  lin.u = u;
+  ConstrainedDynamics dynamics(model);
+  VectorX zdot(n);
+  dynamics.evaluate(q, z, u, zdot);
+  lin.zdot = zdot;
+  const ConstraintEquations& eq = dynamics.equations();
+  const int c = eq.rows();
+  Derivatives derivatives(model);
+  if (!derivatives.analytic())
+    throw std::invalid_argument(
+        "linearize: a model with constraints and a force element of a type the library does "
+        "not define (its derivatives would be central differences, too coarse here)");
+  MatrixX dQ(n, 2 * n + m), drows;
+  derivatives.constrained(q, z, zdot, u, dynamics.lambda(), dQ, drows);
+  const auto dvel = drows.topRows(c), dacc = drows.middleRows(c, c), derr = drows.bottomRows(c);
+
+  // Independent coordinates: all but the pivot columns of the holonomic rows' d(error)/dx.
+  std::vector<int> holonomic;
+  for (int i = 0; i < c; ++i)
+    if (eq.holonomic(i)) holonomic.push_back(i);
+  MatrixX Phi(static_cast<Eigen::Index>(holonomic.size()), n);
+  for (size_t i = 0; i < holonomic.size(); ++i)
+    Phi.row(static_cast<Eigen::Index>(i)) = derr.row(holonomic[i]).leftCols(n);
+  std::vector<char> dependent_q(at(n), 0);
+  if (Phi.rows() > 0) {
+    Eigen::ColPivHouseholderQR<MatrixX> qr(Phi);
+    qr.setThreshold(1e-9);
+    for (int i = 0; i < qr.rank(); ++i) dependent_q[at(qr.colsPermutation().indices()[i])] = 1;
+  }
+  std::vector<int> qi, qd;
+  for (int i = 0; i < n; ++i) (dependent_q[at(i)] ? qd : qi).push_back(i);
+  const int nqi = static_cast<int>(qi.size());
+  // dx = Tx dx_I.
+  MatrixX Tx = MatrixX::Zero(n, nqi);
+  for (int j = 0; j < nqi; ++j) Tx(qi[at(j)], j) = 1.0;
+  if (!qd.empty()) {
+    MatrixX PD(Phi.rows(), static_cast<Eigen::Index>(qd.size())), PI(Phi.rows(), nqi);
+    for (size_t j = 0; j < qd.size(); ++j) PD.col(static_cast<Eigen::Index>(j)) = Phi.col(qd[j]);
+    for (int j = 0; j < nqi; ++j) PI.col(j) = Phi.col(qi[at(j)]);
+    const MatrixX X = Eigen::CompleteOrthogonalDecomposition<MatrixX>(PD).solve(-PI);
+    for (size_t j = 0; j < qd.size(); ++j) Tx.row(qd[j]) = X.row(static_cast<Eigen::Index>(j));
+  }
+
+  // Independent speeds: dz = Tz dz_I + Szx dx_I from the independent velocity rows.
+  const SpeedPartition& part = dynamics.partition();
+  const int r = part.rank, nzi = n - r;
+  MatrixX Br(r, n), Vx(r, n);
+  for (int i = 0; i < r; ++i) {
+    Br.row(i) = eq.B().row(part.rows[at(i)]);
+    Vx.row(i) = dvel.row(part.rows[at(i)]).leftCols(n);
+  }
+  MatrixX BD(r, r), BI(r, nzi);
+  for (int j = 0; j < r; ++j) BD.col(j) = Br.col(part.dependent[at(j)]);
+  for (int j = 0; j < nzi; ++j) BI.col(j) = Br.col(part.independent[at(j)]);
+  const Eigen::PartialPivLU<MatrixX> lu_d(BD);
+  MatrixX Tz = MatrixX::Zero(n, nzi), Szx = MatrixX::Zero(n, nqi);
+  for (int j = 0; j < nzi; ++j) Tz(part.independent[at(j)], j) = 1.0;
+  if (r > 0) {
+    const MatrixX dz_dzi = lu_d.solve(-BI);
+    const MatrixX dz_dx = lu_d.solve(-(Vx * Tx));
+    for (int i = 0; i < r; ++i) {
+      Tz.row(part.dependent[at(i)]) = dz_dzi.row(i);
+      Szx.row(part.dependent[at(i)]) = dz_dx.row(i);
+    }
+  }
+
+  // Accelerations: [M -Br^T; Br 0] (dzdot; dlambda) = -(dQ; dacc) along (dx_I, dz_I, du).
+  MatrixX M(n, n);
+  Terms(model).mass_matrix(q, M);
+  MatrixX kkt = MatrixX::Zero(n + r, n + r);
+  kkt.topLeftCorner(n, n) = M;
+  kkt.topRightCorner(n, r) = -Br.transpose();
+  kkt.bottomLeftCorner(r, n) = Br;
+  const int cols = nqi + nzi + m;
+  MatrixX rhs(n + r, cols);
+  const auto Qx = dQ.leftCols(n), Qz = dQ.middleCols(n, n), Qu = dQ.rightCols(m);
+  MatrixX Ax(r, n), Az(r, n);
+  for (int i = 0; i < r; ++i) {
+    Ax.row(i) = dacc.row(part.rows[at(i)]).leftCols(n);
+    Az.row(i) = dacc.row(part.rows[at(i)]).middleCols(n, n);
+  }
+  const MatrixX dx_of_xi = Tx, dz_of_xi = Szx;
+  rhs.topLeftCorner(n, nqi) = -(Qx * dx_of_xi + Qz * dz_of_xi);
+  rhs.bottomLeftCorner(r, nqi) = -(Ax * dx_of_xi + Az * dz_of_xi);
+  rhs.block(0, nqi, n, nzi) = -(Qz * Tz);
+  rhs.block(n, nqi, r, nzi) = -(Az * Tz);
+  if (m > 0) {
+    rhs.topRightCorner(n, m) = -Qu;
+    rhs.bottomRightCorner(r, m).setZero();
+  }
+  const MatrixX sol = kkt.partialPivLu().solve(rhs);
+  const auto dzdot = sol.topRows(n);
+
+  // The state's rates: coordinates d(dx)/dt = [K] dx + dz, rows qi; speeds rows of the
+  // independent speeds.
+  const MatrixX K = rotation_rate_block(model, z, &lin.periodic);
+  const MatrixX xrate_xi = K * Tx + Szx;
+  lin.n = nzi;
+  lin.A = MatrixX::Zero(nqi + nzi, nqi + nzi);
+  lin.B = MatrixX::Zero(nqi + nzi, m);
+  for (int i = 0; i < nqi; ++i) {
+    lin.A.row(i).head(nqi) = xrate_xi.row(qi[at(i)]);
+    lin.A.row(i).tail(nzi) = Tz.row(qi[at(i)]);
+  }
+  for (int i = 0; i < nzi; ++i) {
+    const int row = part.independent[at(i)];
+    lin.A.row(nqi + i).head(nqi) = dzdot.row(row).head(nqi);
+    lin.A.row(nqi + i).tail(nzi) = dzdot.row(row).segment(nqi, nzi);
+    if (m > 0) lin.B.row(nqi + i) = dzdot.row(row).tail(m);
+  }
+  lin.full_state = MatrixX::Zero(2 * n, nqi + nzi);
+  lin.full_state.topLeftCorner(n, nqi) = Tx;
+  lin.full_state.bottomLeftCorner(n, nqi) = Szx;
+  lin.full_state.bottomRightCorner(n, nzi) = Tz;
+  const std::vector<std::string> names = tangent_state_names(model);
+  for (const int i : qi) lin.state.push_back(names[at(i)]);
+  for (const int i : part.independent) lin.state.push_back(names[at(n + i)]);
+  lin.eigenvalues = sorted_eigenvalues(lin.A, modes ? &lin.modes : nullptr);
+  return lin;
+}
+
+}  // namespace
+
 Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, const VectorX& u,
                         bool modes) {
   const int n = model.num_speeds();
@@ -1058,6 +1518,7 @@ Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, 
   check_size("linearize: q", q.size(), model.num_coordinates());
   check_size("linearize: z", z.size(), n);
   check_size("linearize: u", u.size(), m);
+  if (model.num_constraints() > 0) return linearize_constrained(model, q, z, u, modes);
   Linearization lin;
   lin.n = n;
   lin.m = m;

@@ -57,10 +57,8 @@ struct ConstraintEquations::Impl {
         if (!nonholonomic) ++holonomic_count;
       }
       rows += equation_count(c.type);
-      Perpendiculars p;
-      if (c.type == ConstraintType::hinge) normal_pair(c.other_axis, p.p1, p.p2);
-      if (c.type == ConstraintType::rolling_disc) normal_pair(c.plane_normal, p.p1, p.p2);
-      perpendiculars.push_back(p);
+      const auto directions = constraint_fixed_directions(c);
+      perpendiculars.push_back({directions[0], directions[1]});
     }
     B.setZero(rows, n);
     b.setZero(rows);
@@ -274,6 +272,13 @@ Vector3 ConstraintEquations::moment(int constraint, const VectorX& lambda) const
   const int row = s.first[at(constraint)] + 3;
   return s.hinge_moment[at(constraint)][0] * lambda[row] +
          s.hinge_moment[at(constraint)][1] * lambda[row + 1];
+}
+
+std::array<Vector3, 2> constraint_fixed_directions(const Constraint& c) {
+  Vector3 t1 = Vector3::Zero(), t2 = Vector3::Zero();
+  if (c.type == ConstraintType::hinge) normal_pair(c.other_axis, t1, t2);
+  if (c.type == ConstraintType::rolling_disc) normal_pair(c.plane_normal, t1, t2);
+  return {t1, t2};
 }
 
 // ---- Partition ----

@@ -4,7 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <vector>
 
+#include "kanedyn/analysis.hpp"
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -13,6 +18,8 @@
 
 namespace kanedyn {
 namespace {
+
+size_t at(Eigen::Index i) { return static_cast<size_t>(i); }
 
 const char* const kBicycle = KANEDYN_SOURCE_DIR "/examples/bicycle.yaml";
 
@@ -101,6 +108,98 @@ TEST(Bicycle, FallsOverAtTwoMetresPerSecond) {
     largest = std::max(largest, std::abs(roll(qq)));
   });
   EXPECT_GT(largest, 0.3);
+}
+
+// Upright straight running at v: the file's configuration, no roll rate, each wheel spinning
+// at v / r.
+void straight_running(const io::ModelFile& f, double v, VectorX& q, VectorX& z) {
+  q = f.q;
+  z = VectorX::Zero(f.model.num_speeds());
+  z[3] = v;
+  z[f.model.speed_offset(1)] = v / 0.3;
+  z[f.model.speed_offset(3)] = v / 0.35;
+}
+
+nlohmann::json published() {
+  std::ifstream in(KANEDYN_SOURCE_DIR "/tests/data/meijaard2007.json");
+  return nlohmann::json::parse(in);
+}
+
+// The linearization about straight running in the independent coordinates and speeds: 7
+// coordinates (roll, yaw, the rear frame's x and y, the three joint angles: the rear frame's
+// height and pitch are fixed by the contacts) and 3 speeds (roll rate, the rear wheel's spin,
+// the steer rate). Its 10 eigenvalues are the paper's 4 of roll and steer (Table 2, at 1e-12 of
+// their size, and of 1/s for the small ones: double-precision results, as the paper's are; the
+// capsize root near its crossing, -0.004/s at 6 m/s, carries the round-off of the whole matrix,
+// 4e-13/s) and 6 zeros for the ignorable coordinates and the forward speed (isolated by
+// sorted_eigenvalues before its QR iteration: exact, or the round-off of A's entries, 1e-16).
+TEST(Bicycle, LinearizationGivesThePublishedEigenvalues) {
+  const io::ModelFile f = io::load_model_file(kBicycle);
+  const nlohmann::json paper = published();
+  int speeds = 0;
+  for (const auto& entry : paper["eigenvalues_published"]) {
+    const double v = entry["v"].get<double>();
+    VectorX q, z;
+    straight_running(f, v, q, z);
+    const Linearization lin = linearize(f.model, q, z, VectorX());
+    ASSERT_EQ(lin.state.size(), 10u);
+    EXPECT_EQ(lin.n, 3);
+    std::vector<std::complex<double>> ours(lin.eigenvalues.data(),
+                                           lin.eigenvalues.data() + lin.eigenvalues.size());
+    for (const auto& pair : entry["eigenvalues"]) {
+      const std::complex<double> expected(pair[0].get<double>(), pair[1].get<double>());
+      auto nearest = std::min_element(ours.begin(), ours.end(), [&](auto a, auto b) {
+        return std::abs(a - expected) < std::abs(b - expected);
+      });
+      EXPECT_LE(std::abs(*nearest - expected), 1e-12 * std::max(1.0, std::abs(expected)))
+          << "v = " << v << ": " << expected << " against " << *nearest;
+      ours.erase(nearest);
+    }
+    ASSERT_EQ(ours.size(), 6u);
+    for (const auto& zero : ours) EXPECT_LE(std::abs(zero), 1e-12) << "v = " << v;
+    ++speeds;
+  }
+  EXPECT_EQ(speeds, 11);
+}
+
+// The largest real part among the eigenvalues of the roll and steer block of A (roll, steer and
+// their rates: the other states do not act on them), oscillating ones (weave) or real ones
+// (capsize), at v.
+double growth(const io::ModelFile& f, double v, bool weave) {
+  VectorX q, z;
+  straight_running(f, v, q, z);
+  const Linearization lin = linearize(f.model, q, z, VectorX());
+  std::vector<Eigen::Index> block;
+  for (const char* name : {"rear_frame.r1", "front_frame.j1", "rear_frame.w1", "front_frame.jd1"})
+    block.push_back(std::find(lin.state.begin(), lin.state.end(), name) - lin.state.begin());
+  MatrixX a(4, 4);
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) a(i, j) = lin.A(block[at(i)], block[at(j)]);
+  const Eigen::VectorXcd values = sorted_eigenvalues(a);
+  double largest = -1e300;
+  for (Eigen::Index i = 0; i < values.size(); ++i)
+    if ((std::abs(values[i].imag()) > 0.0) == weave) largest = std::max(largest, values[i].real());
+  return largest;
+}
+
+// The weave speed (the oscillating pair crosses the imaginary axis) and the capsize speed (a
+// real root crosses zero), by bisection on v to 1e-12 m/s, against the paper's 4.29238253634111
+// and 6.02426201538837 (its characteristic speeds, given to 15 digits): within 1e-10.
+TEST(Bicycle, WeaveAndCapsizeSpeedsFollow) {
+  const io::ModelFile f = io::load_model_file(kBicycle);
+  const nlohmann::json paper = published()["characteristic_speeds_published"];
+  const auto bisect = [&](double lo, double hi, bool weave) {
+    // Growing at lo, decaying at hi (weave); decaying at lo, growing at hi (capsize).
+    const double sign_lo = growth(f, lo, weave);
+    while (hi - lo > 1e-12) {
+      const double mid = 0.5 * (lo + hi);
+      ((growth(f, mid, weave) > 0) == (sign_lo > 0) ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+  };
+  const double v_w = bisect(4.0, 5.0, true), v_c = bisect(6.0, 6.5, false);
+  EXPECT_NEAR(v_w, std::stod(paper["v_w"].get<std::string>()), 1e-10);
+  EXPECT_NEAR(v_c, std::stod(paper["v_c"].get<std::string>()), 1e-10);
 }
 
 }  // namespace

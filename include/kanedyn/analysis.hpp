@@ -59,6 +59,13 @@ class Derivatives {
   /// Analytic models only (throws std::logic_error otherwise).
   void inverse(const VectorX& q, const VectorX& z, const VectorX& zdot, const VectorX& u,
                Eigen::Ref<MatrixX> dq, Eigen::Ref<MatrixX> dz, Eigen::Ref<MatrixX> du);
+  /// With constraints (constraints.hpp): the derivatives along (q tangent, z, u), columns as
+  /// in inverse() side by side (n + n + m), of Q - [B]^T lambda with the multipliers lambda
+  /// held (dQ, n rows), and of the constraints' rows (drows, 3c rows): the velocity residuals
+  /// [B] z, the acceleration residuals [B] z dot + {b} at this z dot, the position errors.
+  /// Analytic models only (throws std::logic_error otherwise).
+  void constrained(const VectorX& q, const VectorX& z, const VectorX& zdot, const VectorX& u,
+                   const VectorX& lambda, Eigen::Ref<MatrixX> dQ, MatrixX& drows);
 
  private:
   struct Impl;
@@ -68,19 +75,25 @@ class Derivatives {
 /// The linearized motion about the nominal motion through (q, z, u) (docs/model-format.md,
 /// "Linearization output"): the state is the tangent deviation of q, then the deviation of z.
 struct Linearization {
-  int n = 0;                        ///< speeds
-  int m = 0;                        ///< inputs
-  std::vector<std::string> state;   ///< 2n names (tangent_state_names)
+  int n = 0;  ///< speeds (with constraints: the independent ones)
+  int m = 0;  ///< inputs
+  /// 2n names (tangent_state_names); with constraints the independent coordinates (those
+  /// not fixed by holonomic constraints), then the independent speeds.
+  std::vector<std::string> state;
   std::vector<std::string> inputs;  ///< m names
   VectorX q, z, u;                  ///< the operating point
   VectorX zdot;                     ///< z dot there (zero at an equilibrium)
-  MatrixX A;                        ///< d(state rate)/d(state), 2n x 2n
-  MatrixX B;                        ///< d(state rate)/du, 2n x m
+  MatrixX A;                        ///< d(state rate)/d(state), square, state's size
+  MatrixX B;                        ///< d(state rate)/du, state's size x m
   /// The eigenvalues of A, sorted by decreasing real part, then decreasing imaginary part.
   Eigen::VectorXcd eigenvalues;
   /// With modes: column i is the eigenvector of eigenvalues[i], scaled so that its largest
   /// entry is 1 (real and positive); empty otherwise.
   Eigen::MatrixXcd modes;
+  /// With constraints: the full tangent deviation (dx; dz) (2 x num_speeds()) of a state
+  /// deviation, to first order: the dependent coordinates and speeds follow the independent
+  /// ones. Empty without constraints (the state is (dx; dz) itself).
+  MatrixX full_state;
   /// True when a free body turns at the operating point (w0 != 0): the linear system is then
   /// periodic, and its eigenvalues at one instant do not decide stability.
   bool periodic = false;

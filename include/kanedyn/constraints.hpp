@@ -4,6 +4,7 @@
 // constraints, and the forward dynamics with the reactions.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -64,6 +65,11 @@ class ConstraintEquations {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// The two unit directions a constraint keeps fixed: a hinge's p1, p2 normal to `other_axis`
+/// (in other's components), a rolling disc's t1, t2 in the plane (inertial); (t1, t2, n)
+/// right-handed. Zero for the other types.
+std::array<Vector3, 2> constraint_fixed_directions(const Constraint& c);
 
 /// The independent speeds z_I and the dependent z_D of [B] at a state: y = [C][C_I]z_I
 /// (docs/theory.md, "Constraints").
