@@ -1,7 +1,9 @@
 // `kanedyn inspect MODEL [--json] [--body K|NAME]... [--quantity NAME]...`: every quantity
 // of the notes at the model's initial state, per body: [R_K], positions, velocities, the
 // partial velocity matrices in the notes' block notation (symbolically and numerically), their
-// rates, the resultants and each body's share of the generalized forces.
+// rates, the resultants and each body's share of the generalized forces; for a model with
+// constraints, the constraints at that state (their equations, the speed partition, the
+// constrained motion and the reactions).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
