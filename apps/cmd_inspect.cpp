@@ -1,17 +1,22 @@
 // `kanedyn inspect MODEL [--json] [--body K|NAME]... [--quantity NAME]...`: every quantity
 // of the notes at the model's initial state, per body: [R_K], positions, velocities, the
 // partial velocity matrices in the notes' block notation (symbolically and numerically), their
-// rates, the resultants and each body's share of the generalized forces.
+// rates, the resultants and each body's share of the generalized forces; for a model with
+// constraints, the constraints at that state (their equations, the speed partition, the
+// constrained motion and the reactions).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "kanedyn/analysis.hpp"
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/inspect.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
@@ -101,6 +106,159 @@ Json joints_json(const JointInspection& j) {
 
 std::string v3(const Vector3& v);
 
+/// The constraints at the inspected state (docs/cli.md, "Models with constraints"): the
+/// equations, the speed partition and [C_I], and the constrained motion with its reactions.
+/// The notes' per-body quantities stay the tree's; this is the motion the model really has.
+struct ConstraintReport {
+  std::vector<std::string> rows, speeds;  // row names; the speeds' names (z order)
+  std::vector<char> holonomic;
+  MatrixX B, C_I;
+  VectorX b, errors, zdot, lambda;
+  SpeedPartition partition;
+  struct Reaction {
+    std::string name, type;
+    Vector3 point, force, moment;
+  };
+  std::vector<Reaction> reactions;
+};
+
+ConstraintReport constraint_report(const Model& model, const VectorX& q, const VectorX& z,
+                                   const VectorX& u) {
+  ConstraintReport r;
+  const int n = model.num_speeds();
+  ConstrainedDynamics dynamics(model);
+  r.zdot.resize(n);
+  dynamics.evaluate(q, z, u, r.zdot);
+  const ConstraintEquations& eq = dynamics.equations();
+  r.B = eq.B();
+  r.b = eq.b();
+  r.errors = eq.errors();
+  r.lambda = dynamics.lambda();
+  for (int i = 0; i < eq.rows(); ++i) {
+    r.rows.push_back(eq.row_name(i));
+    r.holonomic.push_back(eq.holonomic(i) ? 1 : 0);
+  }
+  const std::vector<std::string> names = tangent_state_names(model);
+  r.speeds.assign(names.begin() + n, names.end());
+  // The partition at this state (the model's independent_speeds when it names them), and
+  // [C_I]: z = [C_I] z_I solves the independent rows of [B] z = 0 for the dependent speeds.
+  r.partition = partition_speeds(model, r.B);
+  const SpeedPartition& p = r.partition;
+  const int rank = p.rank, free = n - rank;
+  MatrixX BD(rank, rank), BI(rank, free);
+  for (int i = 0; i < rank; ++i) {
+    for (int j = 0; j < rank; ++j)
+      BD(i, j) = r.B(p.rows[static_cast<size_t>(i)], p.dependent[static_cast<size_t>(j)]);
+    for (int j = 0; j < free; ++j)
+      BI(i, j) = r.B(p.rows[static_cast<size_t>(i)], p.independent[static_cast<size_t>(j)]);
+  }
+  r.C_I = MatrixX::Zero(n, free);
+  for (int j = 0; j < free; ++j) r.C_I(p.independent[static_cast<size_t>(j)], j) = 1.0;
+  if (rank > 0) {
+    const MatrixX D = BD.colPivHouseholderQr().solve(BI);
+    for (int i = 0; i < rank; ++i) r.C_I.row(p.dependent[static_cast<size_t>(i)]) = -D.row(i);
+  }
+  for (int c = 0; c < model.num_constraints(); ++c) {
+    const Constraint& k = model.constraints()[static_cast<size_t>(c)];
+    r.reactions.push_back(
+        {k.name, to_string(k.type), eq.point(c), eq.force(c, r.lambda), eq.moment(c, r.lambda)});
+  }
+  return r;
+}
+
+/// The "constraints" object of inspect --json (docs/cli.md).
+Json constraints_json(const ConstraintReport& r) {
+  const auto names = [](const std::vector<std::string>& all, const std::vector<int>& which) {
+    Json a = Json::array();
+    for (const int i : which) a.push_back(all[static_cast<size_t>(i)]);
+    return a;
+  };
+  Json o;
+  o["rows"] = r.rows;
+  Json hol = Json::array();
+  for (const char h : r.holonomic) hol.push_back(h != 0);
+  o["holonomic"] = std::move(hol);
+  o["B"] = mat(r.B);
+  o["b"] = vec(r.b);
+  o["errors"] = vec(r.errors);
+  o["rank"] = r.partition.rank;
+  o["redundant_rows"] = names(r.rows, r.partition.redundant_rows);
+  o["independent_speeds"] = names(r.speeds, r.partition.independent);
+  o["dependent_speeds"] = names(r.speeds, r.partition.dependent);
+  o["C_I"] = mat(r.C_I);
+  o["zdot"] = vec(r.zdot);
+  o["lambda"] = vec(r.lambda);
+  o["reactions"] = Json::array();
+  for (const ConstraintReport::Reaction& x : r.reactions) {
+    Json e;
+    e["name"] = x.name;
+    e["type"] = x.type;
+    e["point"] = vec(x.point);
+    e["force"] = vec(x.force);
+    if (x.type == "hinge") e["moment"] = vec(x.moment);
+    o["reactions"].push_back(std::move(e));
+  }
+  return o;
+}
+
+void print_wrapped(const std::string& line, size_t indent);
+
+/// The constraints' block of the text output: the same numbers as constraints_json.
+void print_constraints_text(const ConstraintReport& r) {
+  const SpeedPartition& p = r.partition;
+  const auto list = [](const std::vector<std::string>& all, const std::vector<int>& which) {
+    std::string s;
+    for (const int i : which) s += (s.empty() ? "" : ", ") + all[static_cast<size_t>(i)];
+    return s.empty() ? std::string("none") : s;
+  };
+  std::printf(
+      "\nconstraints: %d equations, rank %d; [B]{z} = 0, [B]{z dot} + {b} = 0 (the notes' "
+      "quantities\nabove are the tree's without them; z dot here is the constrained motion)\n",
+      static_cast<int>(r.rows.size()), p.rank);
+  print_wrapped("redundant rows: " + list(r.rows, p.redundant_rows), 2);
+  print_wrapped("independent speeds: " + list(r.speeds, p.independent), 2);
+  print_wrapped("dependent speeds: " + list(r.speeds, p.dependent), 2);
+  std::printf("  %-22s %-9s %17s %17s %17s\n", "row", "holonomic", "error", "b", "lambda");
+  for (size_t i = 0; i < r.rows.size(); ++i) {
+    const auto e = static_cast<Eigen::Index>(i);
+    std::printf("  %-22s %-9s % .10e % .10e % .10e\n", io::printable(r.rows[i], 22).c_str(),
+                r.holonomic[i] ? "yes" : "no", r.errors[e], r.b[e], r.lambda[e]);
+    std::string line = "[B] = ";
+    std::string terms;
+    for (Eigen::Index j = 0; j < r.B.cols(); ++j) {
+      if (r.B(e, j) == 0.0) continue;
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "% .6g ", r.B(e, j));
+      terms += (terms.empty() ? "" : ", ") + std::string(buf) + r.speeds[static_cast<size_t>(j)];
+    }
+    print_wrapped(line + (terms.empty() ? "0" : terms), 4);
+  }
+  std::printf("  [C_I]: z = [C_I] z_I, each dependent speed from the independent ones\n");
+  for (const int d : p.dependent) {
+    std::string terms;
+    for (size_t j = 0; j < p.independent.size(); ++j) {
+      const double v = r.C_I(d, static_cast<Eigen::Index>(j));
+      if (v == 0.0) continue;
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "% .6g ", v);
+      terms += (terms.empty() ? "" : ", ") + std::string(buf) +
+               r.speeds[static_cast<size_t>(p.independent[j])];
+    }
+    print_wrapped(r.speeds[static_cast<size_t>(d)] + " = " + (terms.empty() ? "0" : terms), 4);
+  }
+  std::printf("  %-22s %17s\n", "speed", "z dot");
+  for (size_t i = 0; i < r.speeds.size(); ++i)
+    std::printf("  %-22s % .10e\n", io::printable(r.speeds[i], 22).c_str(),
+                r.zdot[static_cast<Eigen::Index>(i)]);
+  std::printf("  reactions on each constraint's body, inertial components:\n");
+  for (const ConstraintReport::Reaction& x : r.reactions) {
+    std::printf("    %s (%s) at %s\n", io::printable(x.name).c_str(), x.type.c_str(),
+                v3(x.point).c_str());
+    std::printf("      force  %s\n", v3(x.force).c_str());
+    if (x.type == "hinge") std::printf("      moment %s\n", v3(x.moment).c_str());
+  }
+}
+
 void print_joints_text(const JointInspection& j, const Inspection& in) {
   std::printf(
       "\njoints: y = [C] z, n = %d independent speeds; [C]^T [A] [C] {z dot} = "
@@ -125,7 +283,8 @@ void print_joints_text(const JointInspection& j, const Inspection& in) {
   for (int i = 0; i < j.n; ++i) std::printf("  z%-5d % .10e % .10e\n", i + 1, j.f_z[i], j.zdot[i]);
 }
 
-void print_json(const Inspection& in, const std::set<std::string>& wanted) {
+void print_json(const Inspection& in, const std::set<std::string>& wanted,
+                const ConstraintReport* constraints) {
   Json out;
   out["N"] = in.N;
   out["t"] = in.t;
@@ -135,6 +294,7 @@ void print_json(const Inspection& in, const std::set<std::string>& wanted) {
   out["bodies"] = Json::array();
   for (const BodyInspection& b : in.bodies) out["bodies"].push_back(body_json(b, wanted));
   if (in.joints) out["joints"] = joints_json(*in.joints);
+  if (constraints) out["constraints"] = constraints_json(*constraints);
   std::cout << out.dump() << "\n";
 }
 
@@ -389,11 +549,20 @@ void add_inspect(CLI::App& app) {
       return;
     }
     const std::set<std::string> wanted(opt->quantities.begin(), opt->quantities.end());
+    std::optional<ConstraintReport> constraints;
+    if (file.model.num_constraints() > 0) {
+      constraints = constraint_report(file.model, q, z, u);
+      if (!constraints->zdot.allFinite() || !constraints->lambda.allFinite() ||
+          !constraints->B.allFinite() || !constraints->C_I.allFinite())
+        throw std::runtime_error(opt->path +
+                                 ": the constraints' quantities at this state are not finite");
+    }
     if (opt->json) {
-      print_json(in, wanted);
+      print_json(in, wanted, constraints ? &*constraints : nullptr);
     } else {
       print_text(file, in, where, wanted);
       if (in.joints) print_joints_text(*in.joints, in);
+      if (constraints) print_constraints_text(*constraints);
     }
   });
 }

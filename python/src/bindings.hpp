@@ -198,6 +198,7 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
 void register_view(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_control(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 void register_analysis(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
+void register_constraints(py::class_<PyModel, std::shared_ptr<PyModel>>& cls);
 
 /// Raises kanedyn.ModelError for a model-file error (with its parts as attributes).
 [[noreturn]] void raise_model_error(const io::ModelFileError& e);

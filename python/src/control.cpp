@@ -145,7 +145,9 @@ void register_terms(py::class_<PyModel, std::shared_ptr<PyModel>>& cls) {
            "Forward dynamics with inputs, as Pinocchio's aba(q, v, tau) with u for tau: "
            "forward(state, u) or forward(q, z, u) -> zdot (n), the rates of the speeds z at the "
            "state with the inputs at u (None: all 0). The articulated-body recursion (the fused "
-           "pass of the notes for an all-free model), the Euler parameters as given.");
+           "pass of the notes for an all-free model), the Euler parameters as given. For a model "
+           "with constraints, the constrained z dot ([B]{z dot} + {b} = 0, what simulate() "
+           "integrates; constrained_forward() adds the multipliers and reactions).");
 }
 
 // --- kanedyn.Simulator --------------------------------------------------------------------

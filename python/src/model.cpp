@@ -19,7 +19,9 @@ namespace kanedyn::python {
 
 PyModel::Workspace::Workspace(const Model& model)
     : data(model, DataOptions::recursive_only()), state(model) {
-  if (model.all_free()) return;
+  // An all-free model runs the notes' kernels, unless constraints join its bodies: the free
+  // tree does not know them, Dynamics does.
+  if (model.all_free() && model.num_constraints() == 0) return;
   dynamics = std::make_unique<Dynamics>(model, Route::recursive);
   v.resize(dynamics->size());
   dv.resize(dynamics->size());

@@ -253,4 +253,5 @@ PYBIND11_MODULE(_kanedyn, m) {
   register_view(model);
   register_control(m, model);
   register_analysis(model);
+  register_constraints(model);
 }

@@ -38,6 +38,38 @@ std::string sizes(const char* what, int n, int per_body) {
 /// (it costs about 0.1 us).
 constexpr int kReleaseGilBodies = 32;
 
+/// The notes' rates of an all-free model at work.state, into work.data.xdot and ydot. The
+/// notes' O(N) kernel, except for a model with constraints: the free tree knows nothing of
+/// them, so its rates go through Dynamics (the constrained dynamics), (q, z) body by body
+/// mapped to and from the layout of Eq. (1).
+void notes_rates(const PyModel& m, PyModel::Workspace& work) {
+  const Model& model = m.model();
+  if (model.num_constraints() == 0) {
+    forward_dynamics(model, work.state, work.data, Route::recursive);
+    return;
+  }
+  const int n = m.N();
+  VectorX q(7 * n), z(6 * n);
+  for (int k = 0; k < n; ++k) {
+    q.segment<4>(7 * k) = work.state.euler_parameters(k);
+    q.segment<3>(7 * k + 4) = work.state.translation(k);
+    z.segment<3>(6 * k) = work.state.angular_velocity(k);
+    z.segment<3>(6 * k + 3) = work.state.translation_rate(k);
+  }
+  Dynamics& dynamics = *work.dynamics;
+  dynamics.set_inputs(work.data.inputs);
+  dynamics.pack(q, z, work.v);
+  dynamics.derivative(work.v, work.dv);
+  VectorX& xdot = work.data.xdot;
+  VectorX& ydot = work.data.ydot;
+  for (int k = 0; k < n; ++k) {
+    xdot.segment<4>(4 * k) = work.dv.segment<4>(7 * k);
+    xdot.segment<3>(4 * n + 3 * k) = work.dv.segment<3>(7 * k + 4);
+    ydot.segment<3>(3 * k) = work.dv.segment<3>(7 * n + 6 * k);
+    ydot.segment<3>(3 * n + 3 * k) = work.dv.segment<3>(7 * n + 6 * k + 3);
+  }
+}
+
 /// The rates of a model with joints at its checked state (q, z): what simulate() integrates
 /// (Dynamics::derivative), by the recursive route.
 py::tuple joint_rates(const PyModel& m, const VectorX& q, const VectorX& z, py::handle u) {
@@ -64,7 +96,7 @@ py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t, py
       PyModel::Lease work(m);
       work->use_inputs(m, u);
       work->state = state;
-      forward_dynamics(m.model(), work->state, work->data, Route::recursive);
+      notes_rates(m, *work);
       return py::make_tuple(to_numpy(work->data.xdot), to_numpy(work->data.ydot));
     }
     VectorX q, z;
@@ -97,9 +129,9 @@ py::tuple derivatives(const PyModel& m, py::handle x, py::handle y, double t, py
   if (!problem.empty()) throw py::value_error(problem);
   if (n >= kReleaseGilBodies) {
     py::gil_scoped_release release;
-    forward_dynamics(m.model(), work->state, work->data, Route::recursive);
+    notes_rates(m, *work);
   } else {
-    forward_dynamics(m.model(), work->state, work->data, Route::recursive);
+    notes_rates(m, *work);
   }
   return py::make_tuple(to_numpy(work->data.xdot), to_numpy(work->data.ydot));
 }
@@ -168,7 +200,9 @@ PyMethodDef derivatives_method = {
     "the derivative simulate() integrates. Either as two float64 arrays (or sequences of "
     "numbers), finite, with unit Euler parameters, or as one kanedyn.State. t is the time, for "
     "the signature f(t, x, y) of ODE solvers: the model's force laws do not depend on it. u: "
-    "the values of the model's inputs (Model.inputs; None: all 0)."};
+    "the values of the model's inputs (Model.inputs; None: all 0). A model with constraints: "
+    "the constrained rates (those simulate() integrates, [B]{z dot} + {b} = 0), not the free "
+    "tree's."};
 
 /// An output array of derivatives_batch(out=...): float64, C-contiguous, writeable, of the
 /// shape given, sharing no memory with the inputs.
@@ -299,7 +333,7 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::ob
         if (lease->dynamics) lease->dynamics->set_inputs(lease->data.inputs);
       }
       if (notes) {
-        forward_dynamics(m.model(), lease->state, lease->data, Route::recursive);
+        notes_rates(m, *lease);
         std::copy_n(lease->data.xdot.data(), nx, x_out + r * nx);
         std::copy_n(lease->data.ydot.data(), ny, y_out + r * ny);
       } else {
@@ -965,7 +999,9 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
            "(q dot, z dot) of a jointed model at its joint coordinates q and independent speeds "
            "z (default: the initial ones; model.joint_layout gives each body's slices): the "
            "kinematic equations and the projected equations, by route 'recursive' (O(N)) or "
-           "'assembled'; u: the inputs' values (None: all 0).")
+           "'assembled'; u: the inputs' values (None: all 0). With constraints, the constrained "
+           "z dot (multipliers on 'recursive', Kane's equations in the independent speeds on "
+           "'assembled'), as constrained_forward() gives it.")
       .def("_time_derivatives", &time_derivatives, py::arg("state"), py::arg("calls"));
   (void)m;
 }
