@@ -13,6 +13,7 @@
 #include "file_support.hpp"
 #include "kanedyn/analysis.hpp"
 #include "kanedyn/constraint.hpp"
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/model_writer.hpp"
 
@@ -26,7 +27,15 @@ using test::locate;
 using test::Location;
 
 // A bicycle-like tree: a free frame, a fork on a revolute joint, two wheels on revolute
-// joints, and an arm on a spherical joint; every constraint type, with every key given.
+// joints, an arm on a spherical joint, and a free lever; every constraint type, with every key
+// given. Every constraint holds at the initial state, each closing its own loop: the rear
+// wheel touches the plane (its centre 0.395 + 0.03 high, radius 0.3: the plane at 0.125); the
+// fork's point and the arm's meet at the frame's [1, 0, 0], off the fork's stationary angle;
+// the lever, turned a quarter turn about z, has its point at [1, 0, 0] and its x axis along
+// the ground's y; the front wheel's point and the frame's origin are 1.2 apart (0.72, 0,
+// -0.96). The independent speeds are the frame's rotation and the rear wheel's (the rolling
+// contact leaves those), the arm's spin, and the lever's turn about the hinge. The frame's
+// initial speeds are not on the constraints: the loader projects them.
 const std::string kBase = R"(format: kanedyn-model/1
 gravity: [0, 0, -9.81]
 bodies:
@@ -34,12 +43,14 @@ bodies:
     parent: ground
     mass: 10.0
     inertia: [1, 1, 1]
-    joint: [0, 0, 0.5]
+    joint: [0, 0, 0.395]
+    initial: {angular_velocity: [0.1, 0.2, 0.3], translation_rate: [1, 0, 0.05]}
   - name: rear_wheel
     parent: frame
     mass: 2.0
     inertia: [0.1, 0.2, 0.1]
     joint: {at: [-0.5, 0, 0], type: revolute, axis: [0, 1, 0]}
+    initial: {joint_rate: [-3.0]}
   - name: fork
     parent: frame
     mass: 1.0
@@ -54,7 +65,13 @@ bodies:
     parent: frame
     mass: 1.0
     inertia: [0.1, 0.1, 0.1]
-    joint: {at: [0, 0, 0.3], type: spherical}
+    joint: {at: [1.0, -0.2, -0.4], type: spherical}
+  - name: lever
+    parent: ground
+    mass: 1.0
+    inertia: [0.1, 0.1, 0.1]
+    joint: [1.0, -0.25, 0]
+    initial: {rotation: {axis: [0, 0, 1], angle: 1.5707963267948966}}
 constraints:
   - name: rear_contact
     type: rolling_disc
@@ -68,10 +85,10 @@ constraints:
     body: fork
     at: [0.5, 0, 0]
     other: arm
-    other_at: [0, 0, 0.4]
+    other_at: [0, 0.2, 0.4]
   - name: axle
     type: hinge
-    body: arm
+    body: lever
     at: [0.25, 0, 0]
     axis: [1, 0, 0]
     other: ground
@@ -80,12 +97,15 @@ constraints:
   - name: rod
     type: distance
     body: front_wheel
-    at: [0, 0, -1]
+    at: [0.22, 0, -0.96]
     other: frame
     other_at: [0, 0, 0]
     length: 1.2
-independent_speeds: [frame.w1, fork.jd1, rear_wheel.jd1, arm.w3, frame.sd2]
+independent_speeds: [frame.w1, frame.w2, rear_wheel.jd1, arm.w3, lever.w1, frame.w3]
 )";
+
+/// kBase's independent speeds, as written there.
+const std::string kSpeeds = "[frame.w1, frame.w2, rear_wheel.jd1, arm.w3, lever.w1, frame.w3]";
 
 const Constraint& named(const Model& m, const std::string& name) {
   const int i = m.constraint_index(name);
@@ -114,11 +134,11 @@ TEST(ModelFileConstraints, EveryTypeWithEveryKey) {
   EXPECT_EQ(pin.body, m.body_index("fork"));
   EXPECT_EQ(pin.at, Vector3(0.5, 0, 0));
   EXPECT_EQ(pin.other, m.body_index("arm"));
-  EXPECT_EQ(pin.other_at, Vector3(0, 0, 0.4));
+  EXPECT_EQ(pin.other_at, Vector3(0, 0.2, 0.4));
 
   const Constraint& axle = named(m, "axle");
   EXPECT_EQ(axle.type, ConstraintType::hinge);
-  EXPECT_EQ(axle.body, m.body_index("arm"));
+  EXPECT_EQ(axle.body, m.body_index("lever"));
   EXPECT_EQ(axle.at, Vector3(0.25, 0, 0));
   EXPECT_EQ(axle.axis, Vector3(1, 0, 0));
   EXPECT_EQ(axle.other, kGround);
@@ -128,41 +148,134 @@ TEST(ModelFileConstraints, EveryTypeWithEveryKey) {
   const Constraint& rod = named(m, "rod");
   EXPECT_EQ(rod.type, ConstraintType::distance);
   EXPECT_EQ(rod.body, m.body_index("front_wheel"));
-  EXPECT_EQ(rod.at, Vector3(0, 0, -1));
+  EXPECT_EQ(rod.at, Vector3(0.22, 0, -0.96));
   EXPECT_EQ(rod.other, m.body_index("frame"));
   EXPECT_EQ(rod.other_at, Vector3(0, 0, 0));
   EXPECT_EQ(rod.length, 1.2);
 
   // z: frame w1..3 sd1..3 (0-5), rear_wheel jd1 (6), fork jd1 (7), front_wheel jd1 (8),
-  // arm w1..3 (9-11). A set: the order given does not matter.
-  EXPECT_EQ(m.independent_speeds(), (std::vector<int>{0, 4, 6, 7, 11}));
+  // arm w1..3 (9-11), lever w1..3 sd1..3 (12-17). A set: the order given does not matter.
+  EXPECT_EQ(m.independent_speeds(), (std::vector<int>{0, 1, 2, 6, 11, 12}));
+  // 12 independent equations (3 + 3 + 5 + 1) leave these 6 free, and the others follow.
+  EXPECT_EQ(file.partition.rank, 12);
+  EXPECT_TRUE(file.partition.redundant_rows.empty());
+  EXPECT_EQ(file.partition.independent, m.independent_speeds());
 }
+
+// Mechanisms of one degree of freedom in which every speed moves, so that each speed alone is
+// a valid choice of the independent speeds: a free body hinged to the ground on a skew axis
+// (its speeds w1..3, sd1..3), a crank and a link on revolute joints with the link's end at a
+// fixed distance from a ground point (jd1), and a body on a spherical joint with one of its
+// points held by a ball (w1..3; the ball's third row is redundant there).
+const std::vector<std::string> kOneFreeSpeed = {
+    R"(format: kanedyn-model/1
+bodies:
+  - {name: frame, parent: ground, mass: 1, inertia: [1, 1, 1], joint: [0.1, 0.2, 0.3]}
+constraints:
+  - {name: h, type: hinge, body: frame, at: [0.3, -0.2, 0.5], axis: [1, 2, 3],
+     other_at: [0.4, 0, 0.8], other_axis: [1, 2, 3]}
+)",
+    R"(format: kanedyn-model/1
+bodies:
+  - {name: crank, parent: ground, mass: 1, inertia: [1, 1, 1],
+     joint: {type: revolute, axis: [0, 0, 1]}}
+  - {name: link, parent: crank, mass: 1, inertia: [1, 1, 1],
+     joint: {at: [1, 0, 0], type: revolute, axis: [0, 0, 1]}}
+constraints:
+  - {name: d, type: distance, body: link, at: [1, 0, 0], other_at: [1.4, 0.8, 0], length: 1}
+)",
+    R"(format: kanedyn-model/1
+bodies:
+  - {name: arm, parent: ground, mass: 1, inertia: [1, 1, 1], joint: {type: spherical}}
+constraints:
+  - {name: b, type: ball, body: arm, at: [1, 2, 3], other_at: [1, 2, 3]}
+)"};
 
 TEST(ModelFileConstraints, SpeedNamesAreTheLinearizationsAndMapToTheirIndex) {
-  const ModelFile file = parse_model_file(kBase, "bike.yaml");
-  const std::vector<std::string> state = tangent_state_names(file.model);
-  const int n = file.model.num_speeds();
-  ASSERT_EQ(state.size(), static_cast<size_t>(2 * n));
-  for (int i = 0; i < n; ++i) {
-    const std::string& speed = state[static_cast<size_t>(n + i)];
-    SCOPED_TRACE(speed);
-    const std::string text =
-        edit(kBase, "[frame.w1, fork.jd1, rear_wheel.jd1, arm.w3, frame.sd2]", "[" + speed + "]");
-    EXPECT_EQ(parse_model_file(text, "bike.yaml").model.independent_speeds(), std::vector<int>{i});
+  std::vector<std::string> seen;
+  for (const std::string& base : kOneFreeSpeed) {
+    const ModelFile file = parse_model_file(base, "one.yaml");
+    ASSERT_EQ(file.partition.independent.size(), 1u) << base;
+    const std::vector<std::string> state = tangent_state_names(file.model);
+    const int n = file.model.num_speeds();
+    ASSERT_EQ(state.size(), static_cast<size_t>(2 * n));
+    for (int i = 0; i < n; ++i) {
+      const std::string& speed = state[static_cast<size_t>(n + i)];
+      SCOPED_TRACE(speed);
+      seen.push_back(speed);
+      const ModelFile chosen =
+          parse_model_file(base + "independent_speeds: [" + speed + "]\n", "one.yaml");
+      EXPECT_EQ(chosen.model.independent_speeds(), std::vector<int>{i});
+      EXPECT_EQ(chosen.partition.independent, std::vector<int>{i});
+    }
   }
+  // Every kind of speed name: a free body's, a 1-DOF joint's, a spherical joint's.
+  EXPECT_EQ(seen, (std::vector<std::string>{"frame.w1", "frame.w2", "frame.w3", "frame.sd1",
+                                            "frame.sd2", "frame.sd3", "crank.jd1", "link.jd1",
+                                            "arm.w1", "arm.w2", "arm.w3"}));
 }
 
+TEST(ModelFileConstraints, IndependentSpeedsOfTheWrongCountAreRefusedAtTheKey) {
+  expect_refused({"one speed",
+                  edit(kBase, kSpeeds, "[frame.w1]"),
+                  "independent_speeds: ^[frame.w1]",
+                  "independent_speeds",
+                  {"1 speeds given, but the 12 independent constraint equations leave 6 speeds "
+                   "free"}});
+  expect_refused({"seven speeds",
+                  edit(kBase, kSpeeds,
+                       "[frame.w1, frame.w2, frame.w3, frame.sd1, rear_wheel.jd1, "
+                       "arm.w3, lever.w1]"),
+                  "independent_speeds: ^[frame.w1",
+                  "independent_speeds",
+                  {"7 speeds given, but the 12 independent constraint equations leave 6 speeds "
+                   "free"}});
+  // In a mechanism of one degree of freedom, two speeds are one too many.
+  expect_refused({"two of one",
+                  kOneFreeSpeed[0] + "independent_speeds: [frame.w1, frame.sd1]\n",
+                  "independent_speeds: ^[frame.w1",
+                  "independent_speeds",
+                  {"2 speeds given, but the 5 independent constraint equations leave 1 speeds "
+                   "free"}});
+}
+
+TEST(ModelFileConstraints, IndependentSpeedsThatLeaveTheOthersUndeterminedAreRefused) {
+  // With the arm's w1 kept instead of its w3, the pin's rows would have to be solved for the
+  // fork's rate and the arm's w2 and w3; the point the pin holds is at (0, 0.2, 0.4) on the arm,
+  // and turning the arm about its x or z axis both move it along x only.
+  expect_refused(
+      {"arm.w1 for arm.w3",
+       edit(kBase, "arm.w3,", "arm.w1,"),
+       "independent_speeds: ^[frame.w1",
+       "independent_speeds",
+       {"the constraints do not determine the other speeds from these", "choose others"}});
+  // The rod holds the front wheel's angle: its rate cannot be independent.
+  expect_refused({"the front wheel's",
+                  edit(kBase, "lever.w1,", "front_wheel.jd1,"),
+                  "independent_speeds: ^[frame.w1",
+                  "independent_speeds",
+                  {"the constraints do not determine the other speeds from these"}});
+}
+
+// Each constraint with its optional keys left out, on bodies placed where it holds: a disc of
+// radius 0.5 centred 0.5 above the default plane z = 0, one 2.5 high over the plane z = 2 (b
+// is 2 above a), one 0.5 from the plane x = 0; d and e at the origin, where the ball and the
+// hinge put them; f 2 from the origin.
 const std::string kDefaults = R"(format: kanedyn-model/1
 bodies:
-  - {name: a, parent: ground, mass: 1, inertia: [1, 1, 1]}
-  - {name: b, parent: a, mass: 1, inertia: [1, 1, 1], joint: [1, 0, 0]}
+  - {name: a, parent: ground, mass: 1, inertia: [1, 1, 1], joint: [0, 0, 0.5]}
+  - {name: b, parent: a, mass: 1, inertia: [1, 1, 1], joint: [0, 0, 2]}
+  - {name: c, parent: ground, mass: 1, inertia: [1, 1, 1], joint: [0.5, 0, 0]}
+  - {name: d, parent: ground, mass: 1, inertia: [1, 1, 1]}
+  - {name: e, parent: ground, mass: 1, inertia: [1, 1, 1]}
+  - {name: f, parent: ground, mass: 1, inertia: [1, 1, 1], joint: [2, 0, 0]}
 constraints:
   - {name: disc, type: rolling_disc, body: a, axis: [0, 1, 0], radius: 0.5}
   - {name: disc2, type: rolling_disc, body: b, axis: [0, 1, 0], radius: 0.5, plane: {offset: 2}}
-  - {name: disc3, type: rolling_disc, body: b, axis: [0, 1, 0], radius: 0.5, plane: {normal: [1, 0, 0]}}
-  - {name: ball, type: ball, body: b}
-  - {name: hinge, type: hinge, body: b, axis: [0, 0, 1], other_axis: [0, 0, 1]}
-  - {name: rod, type: distance, body: a, length: 2}
+  - {name: disc3, type: rolling_disc, body: c, axis: [0, 1, 0], radius: 0.5, plane: {normal: [1, 0, 0]}}
+  - {name: ball, type: ball, body: d}
+  - {name: hinge, type: hinge, body: e, axis: [0, 0, 1], other_axis: [0, 0, 1]}
+  - {name: rod, type: distance, body: f, length: 2}
 )";
 
 TEST(ModelFileConstraints, Defaults) {
@@ -184,8 +297,13 @@ TEST(ModelFileConstraints, Defaults) {
     EXPECT_EQ(c.other, kGround);
     EXPECT_EQ(c.other_at, Vector3::Zero());
   }
-  EXPECT_EQ(m.independent_speeds(),
-            std::vector<int>{0});  // crank.jd1  // chosen later, by pivoting
+  // None named: the Model keeps none, and the loader chose them at the initial state by
+  // pivoting, n - r of them (36 speeds, 3 + 3 + 3 + 3 + 5 + 1 equations).
+  EXPECT_TRUE(m.independent_speeds().empty());
+  EXPECT_EQ(file.partition.rank, 18);
+  EXPECT_EQ(file.partition.independent.size(), 18u);
+  // Already on the constraints: the projection changed nothing.
+  EXPECT_EQ(file.projection.coordinate_change, 0.0);
   // No constraints: the sections are optional.
   const ModelFile none = parse_model_file(
       "format: kanedyn-model/1\nbodies:\n  - {name: a, parent: ground, mass: 1, inertia: [1, 1, "
@@ -325,8 +443,8 @@ std::vector<BadCase> bad_cases() {
        "constraints[2].at",
        {"expected a list of 3 numbers"}},
       {"bad other_at",
-       base_with("other_at: [0, 0, 0.4]", "other_at: [0, 0, .inf]"),
-       "other_at: [0, 0, ^.inf]",
+       base_with("other_at: [0, 0.2, 0.4]", "other_at: [0, 0.2, .inf]"),
+       "other_at: [0, 0.2, ^.inf]",
        "constraints[1].other_at[2]",
        {"non-finite number"}},
       {"distance without length",
@@ -351,7 +469,7 @@ std::vector<BadCase> bad_cases() {
        "constraints[0]",
        {"expected a mapping"}},
       {"unknown speed",
-       base_with("fork.jd1,", "fork.jd2,"),
+       base_with("frame.w2,", "fork.jd2,"),
        "^fork.jd2",
        "independent_speeds[1]",
        {"unknown speed 'fork.jd2'", "speeds: frame.w1, frame.w2, frame.w3, frame.sd1"}},
@@ -361,17 +479,17 @@ std::vector<BadCase> bad_cases() {
        "independent_speeds[0]",
        {"unknown speed 'frame.jd1'"}},
       {"speed named twice",
-       base_with("arm.w3,", "fork.jd1,"),
-       "rear_wheel.jd1, ^fork.jd1",
+       base_with("arm.w3,", "frame.w2,"),
+       "rear_wheel.jd1, ^frame.w2",
        "independent_speeds[3]",
-       {"speed 'fork.jd1' is named twice", "independent_speeds[1]"}},
+       {"speed 'frame.w2' is named twice", "independent_speeds[1]"}},
       {"speeds not a list",
-       base_with("[frame.w1, fork.jd1, rear_wheel.jd1, arm.w3, frame.sd2]", "frame.w1"),
+       base_with(kSpeeds, "frame.w1"),
        "independent_speeds: ^frame.w1",
        "independent_speeds",
        {"expected a list of speed names"}},
       {"empty speeds",
-       base_with("[frame.w1, fork.jd1, rear_wheel.jd1, arm.w3, frame.sd2]", "[]"),
+       base_with(kSpeeds, "[]"),
        "independent_speeds: ^[]",
        "independent_speeds",
        {"an empty list names no speed"}},
@@ -402,6 +520,51 @@ TEST(ModelFileConstraints, AFileWithoutConstraintsRefusesIndependentSpeedsEvenWh
                            "independent_speeds: [frame.w1]\n";
   expect_refused(
       {"empty constraints", text, "^independent_speeds", "independent_speeds", {"no constraints"}});
+}
+
+TEST(ModelFileConstraints, ConstraintsThatCannotBeAssembledAreRefusedAtTheirEntry) {
+  // The rod's front-wheel point is 0.985 from the front wheel's joint, which is 0.5 from the
+  // frame's origin: no turn of the fork or the wheel puts it 2 from there.
+  expect_refused({"rod too long",
+                  edit(kBase, "length: 1.2", "length: 2"),
+                  "  - ^name: rod",
+                  "constraints[3]",
+                  {"at the initial state: the projection onto the constraints did not converge",
+                   "Gauss-Newton steps"}});
+  // Nor can the pin's two points meet when the arm's is 3.007 from the arm's joint: the fork's
+  // point is never more than 0.67 + 0.5 from there.
+  expect_refused({"pin out of reach",
+                  edit(kBase, "other_at: [0, 0.2, 0.4]", "other_at: [0, 0.2, 3]"),
+                  "  - ^name: pin",
+                  "constraints[1]",
+                  {"at the initial state: the projection onto the constraints did not converge"}});
+}
+
+TEST(ModelFileConstraints, TheInitialStateIsOnTheConstraints) {
+  // kBase's frame starts with speeds the rolling contact does not allow; the edited files start
+  // off the constraints by millimetres (the plane, the rod), centimetres (the pin) or metres
+  // (the hinge's point on the free lever).
+  const std::vector<std::string> texts = {
+      kBase,
+      edit(kBase, "offset: 0.125", "offset: 0.12"),
+      edit(kBase, "length: 1.2", "length: 1.203"),
+      edit(kBase, "other_at: [0, 0.2, 0.4]", "other_at: [0, 0.2, 0.45]"),
+      edit(kBase, "at: [0.25, 0, 0]", "at: [0.25, 2, -1]"),
+      kDefaults};
+  for (const std::string& text : texts) {
+    SCOPED_TRACE(text);
+    const ModelFile file = parse_model_file(text, "bike.yaml");
+    ConstraintEquations equations(file.model);
+    equations.evaluate(file.q, file.z);
+    ASSERT_GT(equations.rows(), 0);
+    EXPECT_LE(equations.errors().cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_LE((equations.B() * file.z).cwiseAbs().maxCoeff(), 1e-12);
+  }
+  // kBase's coordinates were on the constraints already; its speeds were not.
+  const ModelFile base = parse_model_file(kBase, "bike.yaml");
+  EXPECT_LE(base.projection.error_before, 1e-12);
+  EXPECT_LE(base.projection.coordinate_change, 1e-12);
+  EXPECT_GT(base.projection.speed_change, 0.1);
 }
 
 // What the reader does not check itself the Model does; its messages about a constraint are
@@ -456,14 +619,17 @@ void expect_same_constraints(const Model& a, const Model& b) {
 }
 
 TEST(ModelFileConstraints, RoundTripThroughTheWriter) {
-  // Numbers that need every digit, and axes that are not along a coordinate axis.
+  // Numbers that need every digit, and axes that are not along a coordinate axis; the
+  // constraints can still be assembled from there (the lever is free: its point goes where the
+  // hinge's is; the lever's quarter turn takes its (1, 1, 1) to (-1, 1, 1), a few hundredths of
+  // a degree from the ground's axis; the rod's length is off by one unit in the last place).
   std::string text = edit(kBase, "radius: 0.3", "radius: 0.30000000000000004");
   text = edit(text, "axis: [0, 2, 0]", "axis: [0.1, 2, -0.3]");
   text = edit(text, "normal: [0, 0, 3], offset: 0.125", "normal: [0.2, 0.1, 3], offset: -1e-7");
   text = edit(text, "at: [0.25, 0, 0]", "at: [0.1234567890123, -1e-300, 7]");
   text = edit(text, "axis: [1, 0, 0]", "axis: [1, 1, 1]");
-  text = edit(text, "other_axis: [0, 1, 0]", "other_axis: [0, 1, 1e-3]");
-  text = edit(text, "length: 1.2", "length: 0.1");
+  text = edit(text, "other_axis: [0, 1, 0]", "other_axis: [-1, 1, 1.001]");
+  text = edit(text, "length: 1.2", "length: 1.2000000000000002");
   const ModelFile file = parse_model_file(text, "bike.yaml");
   const ModelFile back = round_trip(file);
   expect_same_constraints(file.model, back.model);
@@ -485,8 +651,8 @@ TEST(ModelFileConstraints, WrittenSectionsFollowTheFormat) {
       << text;
   EXPECT_NE(text.find("    other: ground\n"), std::string::npos) << text;
   // In z's order: the Model keeps the choice as a set.
-  EXPECT_NE(text.find("independent_speeds: [\"frame.w1\", \"frame.sd2\", \"rear_wheel.jd1\", "
-                      "\"fork.jd1\", \"arm.w3\"]\n"),
+  EXPECT_NE(text.find("independent_speeds: [\"frame.w1\", \"frame.w2\", \"frame.w3\", "
+                      "\"rear_wheel.jd1\", \"arm.w3\", \"lever.w1\"]\n"),
             std::string::npos)
       << text;
 }
@@ -504,17 +670,22 @@ TEST(ModelFileConstraints, AStudyChangesNumbersInsideConstraints) {
   const auto length = doc.find_number("constraints[3].length");
   const auto other_at = doc.find_number("constraints[1].other_at[2]");
   EXPECT_EQ(other_at.value, 0.4);
+  // Changes the loader can still assemble: the frame drops 0.575 onto the plane, the front
+  // wheel turns to lengthen the rod, the fork and the arm turn to meet again.
   const std::vector<std::pair<uint32_t, double>> changes{
-      {radius.node, 0.35}, {offset.node, -0.5}, {length.node, 1.5}, {other_at.node, 0.45}};
+      {radius.node, 0.35}, {offset.node, -0.5}, {length.node, 1.25}, {other_at.node, 0.45}};
   const ModelFile built = doc.build(changes);
   std::string text = edit(kBase, "radius: 0.3", "radius: 0.35");
   text = edit(text, "offset: 0.125", "offset: -0.5");
-  text = edit(text, "length: 1.2", "length: 1.5");
-  text = edit(text, "other_at: [0, 0, 0.4]", "other_at: [0, 0, 0.45]");
+  text = edit(text, "length: 1.2", "length: 1.25");
+  text = edit(text, "other_at: [0, 0.2, 0.4]", "other_at: [0, 0.2, 0.45]");
   const ModelFile edited = parse_model_file(text, "bike.yaml");
   expect_same_constraints(built.model, edited.model);
   EXPECT_EQ(named(built.model, "rear_contact").radius, 0.35);
-  EXPECT_EQ(named(built.model, "rod").length, 1.5);
+  EXPECT_EQ(named(built.model, "rod").length, 1.25);
+  // Both were assembled anew, the same way.
+  EXPECT_EQ(built.q, edited.q);
+  EXPECT_EQ(built.z, edited.z);
   // The document is unchanged.
   EXPECT_EQ(named(doc.build({}).model, "rear_contact").radius, 0.3);
   // A value the reader refuses is refused at its number.
