@@ -3,6 +3,9 @@
 // by the articulated-body route (joints_recursive) and the block-sparse projected route
 // (joints_assembled, O(N d^2): only the shorter chains), and the jointed human figure of
 // examples/human_jointed.yaml (a free torso, revolute, universal and spherical joints) by both.
+// With constraints: the Whipple bicycle of examples/bicycle.yaml by both routes against its four
+// bodies without the contacts (joints_*/bicycle-tree), and the 512-link chain closed to the
+// ground at its tip (joints_recursive/chain-512-closed) against the open one.
 // The counter `per_body` is the time per evaluation divided by N: flat in N for the recursive
 // route. Run e.g.
 //   build/bench/kanedyn_bench_joints --benchmark_repetitions=3
@@ -24,6 +27,7 @@
 #include <vector>
 
 #include "kanedyn/analysis.hpp"
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/frames.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -73,6 +77,49 @@ JointedChain arm() {
   std::mt19937 rng(2);
   std::uniform_real_distribution<double> rate(-1.0, 1.0);
   c.z = VectorX::NullaryExpr(c.model->num_speeds(), [&] { return rate(rng); });
+  return c;
+}
+
+// The Whipple bicycle of examples/bicycle.yaml at its initial state (rolling at 5 m/s), and the
+// same four bodies without the contacts (the unconstrained tree the constraints cost is
+// measured against).
+JointedChain bicycle(bool contacts) {
+  io::ModelFile f = io::load_model_file(KANEDYN_SOURCE_DIR "/examples/bicycle.yaml");
+  JointedChain c;
+  const Model& m = f.model;
+  std::vector<Joint> joints;
+  for (int k = 0; k < m.num_bodies(); ++k) joints.push_back(m.joint(k));
+  c.model = contacts ? std::make_unique<Model>(std::move(f.model))
+                     : std::make_unique<Model>(m.bodies(), m.gravity(), m.forces(), m.name(),
+                                               joints, m.frames(), m.inputs());
+  c.q = f.q;
+  c.z = f.z;
+  return c;
+}
+
+// The revolute chain with its tip held at its initial place by a ball to the ground (3 rows,
+// 2 independent: the chain is planar).
+JointedChain closed_chain(int n) {
+  JointedChain open = revolute_chain(n);
+  const Model& m = *open.model;
+  State state(m);
+  Data data(m, DataOptions::recursive_only());
+  joint_state(m, open.q, open.z, state);
+  compute_kinematics(m, state, data);
+  Constraint tip;
+  tip.name = "tip";
+  tip.type = ConstraintType::ball;
+  tip.body = n - 1;
+  tip.other = kGround;
+  tip.other_at = data.kinematics.p_O[static_cast<size_t>(n - 1)];
+  std::vector<Joint> joints;
+  for (int k = 0; k < n; ++k) joints.push_back(m.joint(k));
+  JointedChain c;
+  c.model = std::make_unique<Model>(m.bodies(), m.gravity(), m.forces(), m.name(), joints,
+                                    m.frames(), m.inputs(), std::vector<Constraint>{tip});
+  c.q = open.q;
+  c.z = open.z;
+  project_onto_constraints(*c.model, c.q, c.z);
   return c;
 }
 
@@ -168,6 +215,13 @@ void register_all() {
   for (const int n : {64, 512}) chain(Route::assembled, n);
   for (const Route route : {Route::recursive, Route::assembled})
     add(route, "human_jointed", human_jointed);
+  // Constraints: the bicycle against its four bodies without the contacts, and the 512-link
+  // chain closed at its tip against the open one (joints_recursive/chain-512).
+  for (const Route route : {Route::recursive, Route::assembled}) {
+    add(route, "bicycle", [] { return bicycle(true); });
+    add(route, "bicycle-tree", [] { return bicycle(false); });
+  }
+  add(Route::recursive, "chain-512-closed", [] { return closed_chain(512); });
 
   const auto term = [](const char* name, Term t, const std::string& model, auto make) {
     benchmark::RegisterBenchmark((std::string("terms/") + name + "/" + model).c_str(),
