@@ -67,6 +67,9 @@ struct ConstraintEquations::Impl {
     bases.assign(m.constraints().size(), Matrix3::Identity());
     Jv.resize(3, n);
     Jw.resize(3, n);
+    Jp.resize(3, n);
+    Jr.resize(3, n);
+    hinge_moment.assign(m.constraints().size(), {Vector3::Zero(), Vector3::Zero()});
     const size_t bodies = at(m.num_bodies());
     kin.R.assign(bodies, Matrix3::Identity());
     kin.p_O.assign(bodies, Vector3::Zero());
@@ -92,7 +95,7 @@ struct ConstraintEquations::Impl {
   std::vector<std::array<Vector3, 2>> hinge_moment;
   State state;
   Kinematics kin;
-  MatrixX Jv, Jw;
+  MatrixX Jv, Jw, Jp, Jr;
   VectorX zero_rates;
   const VectorX* q = nullptr;
   const VectorX* z = nullptr;
@@ -135,13 +138,11 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
   B.setZero();
   b.setZero();
   errors.setZero();
-  hinge_moment.assign(model.constraints().size(), {Vector3::Zero(), Vector3::Zero()});
-  const int n = model.num_speeds();
-  MatrixX Jp(3, n), Jr(3, n);
+  for (auto& m : hinge_moment) m = {Vector3::Zero(), Vector3::Zero()};
   for (size_t i = 0; i < model.constraints().size(); ++i) {
     const Constraint& c = model.constraints()[i];
     const int row = first[i];
-    const std::string where = "constraint '" + c.name + "'";
+    const auto where = [&c] { return "constraint '" + c.name + "'"; };
     Jp.setZero();
     Jr.setZero();
     switch (c.type) {
@@ -157,7 +158,7 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
         if (c.type == ConstraintType::distance) {
           const double length = d.norm();
           if (!(length > 1e-12 * std::max(1.0, c.length)))
-            throw ConstraintError(where +
+            throw ConstraintError(where() +
                                   ": its two points coincide, so the direction "
                                   "between them is undefined");
           const Vector3 e = d / length;
@@ -201,7 +202,7 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
         const Vector3 u = a.cross(normal);
         const double s = u.norm();
         if (!(s > 1e-9))
-          throw ConstraintError(where +
+          throw ConstraintError(where() +
                                 ": the disc's axle is along the plane's normal, so its "
                                 "contact point is undefined");
         const double an = a.dot(normal);
@@ -437,9 +438,9 @@ struct ConstrainedDynamics::Impl {
   Terms terms;
   detail::JointDynamics tree;  // the unconstrained tree's O(N) route
   int n;
-  MatrixX M;
-  VectorX bias, lambda;
-  Eigen::LLT<MatrixX> llt;
+  MatrixX M, Y, S;
+  VectorX bias, lambda, rhs;
+  Eigen::LLT<MatrixX> llt, s_llt;
   SpeedPartition partition;
   bool partitioned = false;
   int rank = 0;
@@ -455,14 +456,29 @@ void ConstrainedDynamics::Impl::multipliers(const VectorX& q, const VectorX& z, 
   tree.evaluate(q, z, Route::recursive, zdot);  // the tree without the constraints, O(N)
   terms.mass_matrix(q, M);
   llt.compute(M);
-  const MatrixX Y = llt.solve(B.transpose());  // M^-1 B^T
-  const MatrixX S = B * Y;
-  const VectorX rhs = -(equations.b() + B * zdot);
-  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
-  cod.setThreshold(kRankThreshold);
-  lambda = cod.solve(rhs);
-  rank = static_cast<int>(cod.rank());
-  zdot += Y * lambda;
+  Y = B.transpose();
+  llt.solveInPlace(Y);  // M^-1 B^T
+  S.noalias() = B * Y;
+  rhs = -equations.b();
+  rhs.noalias() -= B * zdot;
+  // Independent rows (the usual case): S is positive definite and its Cholesky factor gives
+  // lambda; redundant rows make it singular, and the complete orthogonal decomposition gives
+  // the minimum-norm lambda.
+  s_llt.compute(S);
+  const double smallest = s_llt.info() == Eigen::Success && S.rows() > 0
+                              ? s_llt.matrixLLT().diagonal().minCoeff()
+                              : 0.0;
+  const double largest = S.rows() > 0 ? std::sqrt(S.diagonal().maxCoeff()) : 0.0;
+  if (S.rows() > 0 && smallest > 1e-6 * largest) {
+    lambda = s_llt.solve(rhs);
+    rank = static_cast<int>(S.rows());
+  } else {
+    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
+    cod.setThreshold(kRankThreshold);
+    lambda = cod.solve(rhs);
+    rank = static_cast<int>(cod.rank());
+  }
+  zdot.noalias() += Y * lambda;
 }
 
 void ConstrainedDynamics::Impl::projected(const VectorX& q, const VectorX& z, const VectorX& u,
