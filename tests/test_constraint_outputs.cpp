@@ -14,6 +14,7 @@
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/io/study.hpp"
 #include "kanedyn/io/trajectory.hpp"
 #include "kanedyn/simulate.hpp"
 
@@ -333,6 +334,38 @@ TEST(ConstraintColumns, SimulateWarnsOnceWhenTheWheelWouldLift) {
   const auto lifted_rows = read_csv(dir / "disc.csv");
   ASSERT_EQ(lifted_rows.size(), 12u);
   EXPECT_NEAR(parse(lifted_rows.back().back()), 2.0 * kG - 60.0, 1e-9);
+}
+
+// A sweep's run of the four-bar with the crank's mass at the file's own value: its kept
+// trajectory is the tool's file byte for byte, reaction columns included, and an output reads
+// a reaction column.
+TEST(ConstraintColumns, ASweepKeepsAndReadsThem) {
+  const fs::path dir = temp_dir("constraint_sweep");
+  const test::ToolRun r = test::run_in(
+      dir, "simulate '" + test::kExamples + "/four_bar.yaml' --t-end 0.3 --dt-out 0.1 -o fb.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const io::Study study = io::parse_study(R"(format: kanedyn-study/1
+model: four_bar.yaml
+vary:
+  - key: bodies[crank].mass
+    grid: [1.0]
+simulate: {t_end: 0.3, dt_out: 0.1}
+outputs:
+  - max: closure.f2
+trajectories: all
+)",
+                                          "s.yaml", test::kExamples);
+  const io::StudyRun run = io::run_study_run(study, 0);
+  ASSERT_EQ(run.status, "ok");
+  EXPECT_EQ(run.trajectory, test::slurp(dir / "fb.csv"));
+  const auto rows = read_csv(dir / "fb.csv");
+  const size_t f2 = rows[0].size() - 5;
+  ASSERT_EQ(rows[0][f2], "closure.f2");
+  double max = -1e300;
+  for (size_t i = 1; i < rows.size(); ++i) max = std::max(max, parse(rows[i][f2]));
+  const auto fields = test::split(run.row, ',');
+  ASSERT_EQ(fields.size(), 5u);  // run, the mass, the output, status, wall_s
+  EXPECT_EQ(parse(fields[2]), max);
 }
 
 }  // namespace
