@@ -245,6 +245,18 @@ void warn_disk_space(const io::ModelFile& file, const SimulationSettings& s,
          " GB free in '" + folder.string() + "'; a larger --dt-out writes fewer rows");
 }
 
+/// After the run: a rolling disc whose normal force became negative would have lifted off its
+/// plane; the run held it there.
+void warn_lift(const Model& model, const SimulationStats& stats) {
+  for (size_t k = 0; k < stats.normal_force_negative_at.size(); ++k) {
+    const double t = stats.normal_force_negative_at[k];
+    if (std::isnan(t)) continue;
+    warn("constraint '" + model.constraints()[k].name +
+         "': the normal force becomes negative at t = " + format("%.10g", t) +
+         " (the wheel would lift); the run goes on as if it held");
+  }
+}
+
 /// Watches the progress of the run: a step size that has collapsed far below dt_out for
 /// seconds of wall time means a stiff model that will take very long. Says so once.
 /// A wall time for people: "40 s", "12 min", "3.5 h", "9.1 days".
@@ -345,7 +357,7 @@ int run(const Options& o) {
   };
   const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
                                 Data& data) {
-    if (!o.no_output) open_writer().write_row(t, state, q, z, &data.inputs);
+    if (!o.no_output) open_writer().write_row(t, state, q, z, &data.inputs, &data.reactions);
   };
   const auto kept = [&](bool with_time, double t) {
     if (!writer)
@@ -367,6 +379,7 @@ int run(const Options& o) {
     throw std::runtime_error(std::string(e.what()) + "; " + kept(false, 0.0));
   }
   progress.clear();
+  warn_lift(model, stats);
   const long columns = static_cast<long>(io::trajectory_columns(model).size());
   const long rows = writer ? writer->rows() : 0;
   if (stats.ok()) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 #include "kanedyn/analysis.hpp"
 #include "kanedyn/frames.hpp"
@@ -280,6 +281,27 @@ std::array<Vector3, 2> constraint_fixed_directions(const Constraint& c) {
   if (c.type == ConstraintType::hinge) normal_pair(c.other_axis, t1, t2);
   if (c.type == ConstraintType::rolling_disc) normal_pair(c.plane_normal, t1, t2);
   return {t1, t2};
+}
+
+int reaction_count(const Model& model) {
+  int count = 0;
+  for (const Constraint& c : model.constraints()) count += reaction_count(c.type);
+  return count;
+}
+
+void constraint_reactions(const ConstraintEquations& equations, const VectorX& lambda,
+                          Eigen::Ref<VectorX> out) {
+  const Model& model = equations.model();
+  if (out.size() != reaction_count(model))
+    throw std::invalid_argument("constraint_reactions: out is not the model's reaction count");
+  Eigen::Index i = 0;
+  for (int k = 0; k < model.num_constraints(); ++k) {
+    out.segment<3>(i) = equations.force(k, lambda);
+    i += 3;
+    if (model.constraints()[static_cast<size_t>(k)].type != ConstraintType::hinge) continue;
+    out.segment<3>(i) = equations.moment(k, lambda);
+    i += 3;
+  }
 }
 
 // ---- Partition ----

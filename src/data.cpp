@@ -1,5 +1,7 @@
 #include "kanedyn/data.hpp"
 
+#include "kanedyn/constraints.hpp"
+
 #include "recursive/fused.hpp"
 #include "workspace.hpp"
 
@@ -76,6 +78,7 @@ Data::Data(const Model& model, const DataOptions& opts)
     partials.vO_w_dot = partials.vO_s_dot = partials.vG_w_dot = partials.vG_s_dot = partials.vO_w;
   }
   inputs = VectorX::Zero(model.num_inputs());
+  reactions = VectorX::Zero(reaction_count(model));
   ydot = VectorX::Zero(m);
   xdot = VectorX::Zero(7 * static_cast<Eigen::Index>(n));
   if (options_.kane_terms) {
@@ -102,6 +105,7 @@ Data::Data(const Data& other)
       loads(other.loads),
       kane(other.kane),
       inputs(other.inputs),
+      reactions(other.reactions),
       ydot(other.ydot),
       xdot(other.xdot),
       options_(other.options_),
@@ -126,7 +130,7 @@ std::size_t Data::memory_bytes() const {
        {&partials.vO_w, &partials.vO_s, &partials.vG_w, &partials.vG_s, &partials.vO_w_dot,
         &partials.vO_s_dot, &partials.vG_w_dot, &partials.vG_s_dot})
     total += bytes(*v);
-  for (const auto* v : {&kane.F_y, &kane.f, &ydot, &xdot}) total += bytes(*v);
+  for (const auto* v : {&kane.F_y, &kane.f, &reactions, &ydot, &xdot}) total += bytes(*v);
   total += bytes(kane.A) + bytes(w.load_sum) + bytes(w.a_O) + bytes(w.alpha_b);
   const detail::AssembledScratch& a = w.assembled;
   total += bytes(a.A_blocks) + a.factor.memory_bytes() + bytes(a.bias_O) + bytes(a.h_b) +

@@ -234,6 +234,8 @@ int equation_count(ConstraintType type) {
   return 0;
 }
 
+int reaction_count(ConstraintType type) { return type == ConstraintType::hinge ? 6 : 3; }
+
 void Model::set_up_inputs() {
   const int n = num_bodies();
   std::unordered_set<std::string> input_names;

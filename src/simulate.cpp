@@ -113,6 +113,9 @@ constexpr double kMaxSteps = 1e15;
 constexpr double kRk4StabilityBound = 2.8284271247461903;  // 2 sqrt(2)
 /// Output rows written between two calls of on_step when one step spans many output times.
 constexpr long kRowsBetweenPolls = 64;
+/// A rolling disc's normal force counts as negative below -kLiftTolerance times the size of
+/// the forces at play: the multipliers carry round-off of about 1e-15 of them.
+constexpr double kLiftTolerance = 1e-9;
 
 /// Index of the first component of z that is not finite or exceeds kStateBound, else -1.
 /// One comparison per component: !(|z_i| <= bound) also catches NaN.
@@ -271,6 +274,12 @@ class Run {
     if (finite) joint_state(model, q_, z_state_, work_);
     stats_.energy_initial =
         finite ? energy_of(work_, q_) : std::numeric_limits<double>::quiet_NaN();
+    if (model.num_constraints() > 0) {
+      reactions_ = std::make_unique<ConstrainedDynamics>(model);
+      zdot_out_ = VectorX::Zero(model.num_speeds());
+      stats_.normal_force_negative_at.assign(static_cast<size_t>(model.num_constraints()),
+                                             std::numeric_limits<double>::quiet_NaN());
+    }
   }
 
   SimulationStats run() {
@@ -412,21 +421,50 @@ class Run {
   bool outputs_done() const { return done_outputs_; }
 
   void emit(double t, const VectorX& z) {
-    if (observer_) {
+    // With constraints every output state is evaluated, observer or not: the lift of a
+    // rolling disc is reported in the stats.
+    const bool constrained = model_.num_constraints() > 0;
+    if (observer_ || constrained) {
       dynamics_.unpack(z, s_.project_euler_parameters, q_, z_state_, out_state_);
-      if (model_.num_constraints() > 0) {
+      if (constrained) {
         // Dense output between steps lies off the constraints by the interpolation's error:
         // the output is the state projected onto them, as the steps are.
         project_onto_constraints(model_, q_, z_state_);
         joint_state(model_, q_, z_state_, out_state_);
       }
-      if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
       if (drive_ != Drive::none) output_inputs(t);
-      observer_(t, out_state_, q_, z_state_, data_);
+      if (constrained) output_reactions(t);
+      if (observer_) {
+        if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
+        observer_(t, out_state_, q_, z_state_, data_);
+      }
     }
     ++stats_.outputs;
     if (t >= s_.t_end) done_outputs_ = true;
     ++next_output_;
+  }
+
+  /// The reactions at the output state (q_, z_state_, with the inputs in force at t) into
+  /// data_.reactions, and the first time a rolling disc's normal force is negative. They are
+  /// computed here, once per output, and not by the writers: the output state is the projected
+  /// one, which no evaluation of the integrator has seen, the run must know of a lift to report
+  /// it, and every observer (the CSV writers, a sweep's reducer, Python) gets the same numbers.
+  void output_reactions(double t) {
+    const VectorX& u = drive_ != Drive::none ? u_out_ : u_;
+    reactions_->evaluate(q_, z_state_, u, zdot_out_);
+    constraint_reactions(reactions_->equations(), reactions_->lambda(), data_.reactions);
+    Eigen::Index column = 0;
+    for (int k = 0; k < model_.num_constraints(); ++k) {
+      const Constraint& c = model_.constraints()[static_cast<size_t>(k)];
+      const Vector3 f = data_.reactions.segment<3>(column);
+      column += reaction_count(c.type);
+      double& lifted = stats_.normal_force_negative_at[static_cast<size_t>(k)];
+      if (c.type != ConstraintType::rolling_disc || !std::isnan(lifted)) continue;
+      // Negative beyond round-off of the forces at play (the reaction and the disc's weight),
+      // so that a disc pressed by nothing (no gravity along n) does not count as lifting.
+      const double scale = f.norm() + model_.body(c.body).mass * model_.gravity().norm();
+      if (c.plane_normal.dot(f) < -kLiftTolerance * scale) lifted = t;
+    }
   }
 
   void step_done(double t, double drift) {
@@ -628,6 +666,8 @@ class Run {
     double t;
     std::string what;
   };
+  std::unique_ptr<ConstrainedDynamics> reactions_;  ///< with constraints: the outputs' reactions
+  VectorX zdot_out_;                                ///< its z dot (not used)
   Drive drive_ = Drive::none;
   VectorX u_, u_out_;       ///< the inputs the derivative uses; those at an output time
   VectorX cq_, cz_;         ///< the state handed to the controller

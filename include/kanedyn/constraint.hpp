@@ -41,4 +41,8 @@ struct Constraint {
 /// Number of equations of a constraint of this type (3, 3, 5, 1).
 int equation_count(ConstraintType type);
 
+/// Number of reaction columns a constraint of this type has in the trajectory CSV: its force
+/// on `body` (3), and for a hinge its moment too (6).
+int reaction_count(ConstraintType type);
+
 }  // namespace kanedyn

@@ -71,6 +71,16 @@ class ConstraintEquations {
 /// right-handed. Zero for the other types.
 std::array<Vector3, 2> constraint_fixed_directions(const Constraint& c);
 
+/// The reactions' columns of the trajectory CSV for the whole model: reaction_count summed over
+/// its constraints.
+int reaction_count(const Model& model);
+
+/// The constraints' reactions from the rows' multipliers lambda at the equations' last
+/// evaluate(), in the order of the trajectory CSV's columns: per constraint its force on `body`
+/// (force()), then a hinge's moment (moment()). out has reaction_count(model) entries.
+void constraint_reactions(const ConstraintEquations& equations, const VectorX& lambda,
+                          Eigen::Ref<VectorX> out);
+
 /// The independent speeds z_I and the dependent z_D of [B] at a state: y = [C][C_I]z_I
 /// (docs/theory.md, "Constraints").
 struct SpeedPartition {

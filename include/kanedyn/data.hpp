@@ -110,6 +110,11 @@ class Data {
   /// u: the inputs' values (model.num_inputs(), zero at first), read by every evaluation that
   /// works in this Data (compute_resultants, forward_dynamics, Dynamics).
   VectorX inputs;
+  /// The constraints' reactions at an output of simulate() (reaction_count(model) entries,
+  /// zero at first): per constraint the force on its body, then a hinge's moment, inertial
+  /// components, in the order of the trajectory CSV's columns (constraints.hpp,
+  /// constraint_reactions). simulate() fills them for its observer; nothing else reads them.
+  VectorX reactions;
   VectorX ydot;  ///< 6N: {y dot}, the solution of Eq. (36)
   VectorX xdot;  ///< 7N: {x dot}, Eqs. (39)-(40)
 

@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
@@ -65,8 +66,9 @@ struct SimulationSettings {
 /// Called at each output time with the model's state there: its notes' state (x, y), its joint
 /// coordinates q and speeds z (for an all-free model, the same numbers body by body), and data
 /// holding the inputs in force then (data.inputs) and the kinematics of that state (R, p_O, p_G,
-/// v_O, v_G: compute_kinematics; unless settings.observer_kinematics is false), which may be used
-/// as scratch (e.g. to call total_energy). Exceptions thrown by the observer leave simulate().
+/// v_O, v_G: compute_kinematics; unless settings.observer_kinematics is false), and for a model
+/// with constraints their reactions at that state and those inputs (data.reactions), which may be
+/// used as scratch (e.g. to call total_energy). Exceptions thrown by the observer leave simulate().
 using Observer = std::function<void(double t, const State& state, const VectorX& q,
                                     const VectorX& z, Data& data)>;
 
@@ -103,6 +105,11 @@ struct SimulationStats {
   double max_euler_drift = 0.0;
   /// With constraints: the largest holonomic constraint error found before a projection.
   double max_constraint_error = 0.0;
+  /// With constraints: per constraint (the model's order), the first output time at which a
+  /// rolling disc's normal force n . f (its reaction along the plane normal) was negative: the
+  /// wheel would lift there, and the run went on as if the constraint held. NaN for the other
+  /// constraints and for a disc whose normal force stayed >= 0. Empty without constraints.
+  std::vector<double> normal_force_negative_at;
   double wall_seconds = 0.0;
   int failed_body = -1;  ///< failures: the body at fault (index), -1 if none
   /// failures: the time and the body ("diverged in the step from t = 1.2 to t = 1.21:

@@ -25,7 +25,11 @@ class Result:
     `kanedyn simulate` writes. A jointed model's result also has q (T, nq) and z (T, nz), the
     joint coordinates and independent speeds of each row (model.joint_layout gives each
     body's slices), and its columns NAME.j1.. and NAME.jd1.. (r["thigh.j1"]). A model with
-    inputs adds u (T, m), the inputs' values in force at each row, its columns input.NAME.
+    inputs adds u (T, m), the inputs' values in force at each row, its columns input.NAME. A
+    model with constraints adds reactions (T, r), each constraint's force on its body (NAME.f1..f3)
+    and a hinge's moment (NAME.m1..m3), inertial components, in the order of r.columns; stats
+    then has normal_force_negative_at, the rolling discs whose normal force became negative (the
+    wheel would lift) and the first output time it did.
     """
 
     def __init__(
@@ -41,6 +45,7 @@ class Result:
         q: Optional[np.ndarray] = None,
         z: Optional[np.ndarray] = None,
         u: Optional[np.ndarray] = None,
+        reactions: Optional[np.ndarray] = None,
     ) -> None:
         self.model = model
         self.t = t
@@ -54,11 +59,18 @@ class Result:
         self.z = z  #: jointed models: the independent speeds of each row, else None
         #: models with inputs: the inputs' values in force at each row (T, m), else None
         self.u = u
+        #: models with constraints: the reactions at each row (T, r), else None
+        self.reactions = reactions
 
     @property
     def columns(self) -> List[str]:
         """The trajectory CSV's columns, in order."""
         return list(self.model.columns)
+
+    @property
+    def reaction_columns(self) -> List[str]:
+        """The constraints' reaction columns (NAME.f1.., a hinge's NAME.m1..), the CSV's last."""
+        return _reaction_columns(self.model)
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
@@ -77,6 +89,11 @@ class Result:
             if self.u is None:
                 raise KeyError(f"column {name!r}: this result holds no input values")
             return self.u, (slice(None), inputs.index(name[len("input.") :]))
+        reactions = self.reaction_columns
+        if name in reactions:
+            if self.reactions is None:
+                raise KeyError(f"column {name!r}: this result holds no constraint reactions")
+            return self.reactions, (slice(None), reactions.index(name))
         body, _, suffix = name.rpartition(".")
         n = self.model.N
         layout = self.model.joint_layout
@@ -123,7 +140,7 @@ class Result:
     def table(self) -> np.ndarray:
         """Every column of the CSV, (T, 2 + 16N) (more with joint columns), in the order of
         r.columns."""
-        if self.model.jointed or self.model.inputs:
+        if self.model.jointed or self.model.inputs or self.reaction_columns:
             return np.column_stack([self[c] for c in self.columns])
         n = self.model.N
         T = len(self)
@@ -144,7 +161,7 @@ class Result:
         number that is not finite, Euler parameters not of unit norm (within 1e-6), times out
         of order or no rows at all raise ValueError naming the array, row and column, and no
         file is created (the tool's reader would refuse such a file)."""
-        self.model._write_csv(path, self.t, self.x, self.y, self.energy, self.q, self.z, self.u)
+        self.model._write_csv(path, self.t, self.x, self.y, self.energy, self.q, self.z, self.u, self.reactions)
 
     def view(self, path: Union[str, bytes, os.PathLike, None] = None) -> Union[str, bytes]:
         """Writes the web page of `kanedyn view` for this trajectory (docs/viewer.md): one
@@ -170,8 +187,11 @@ class Result:
         path = os.fsdecode(path)
         n = model.N
         rows = table.shape[0]
-        q = z = u = None
+        q = z = u = reactions = None
         index = {c: i for i, c in enumerate(model.columns)}
+        reaction_columns = _reaction_columns(model)
+        if reaction_columns:
+            reactions = np.ascontiguousarray(table[:, [index[c] for c in reaction_columns]])
         energy = np.ascontiguousarray(table[:, index["energy"]])
         if model.inputs:
             u = np.ascontiguousarray(table[:, [index[f"input.{name}"] for name in model.inputs]])
@@ -205,7 +225,14 @@ class Result:
             q,
             z,
             u,
+            reactions,
         )
+
+
+def _reaction_columns(model: Any) -> List[str]:
+    """The columns after energy and the inputs: the constraints' reactions."""
+    columns = list(model.columns)
+    return columns[columns.index("energy") + 1 + len(model.inputs) :]
 
 
 class ProgressBar:

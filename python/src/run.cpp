@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
@@ -506,6 +507,14 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
   d["failed_body"] =
       st.failed_body >= 0 ? py::object(py::str(model.body(st.failed_body).name)) : py::none();
   d["message"] = st.message;
+  if (model.num_constraints() > 0) {
+    // The rolling discs that would have lifted: constraint name -> first output time.
+    py::dict lifted;
+    for (size_t k = 0; k < st.normal_force_negative_at.size(); ++k)
+      if (!std::isnan(st.normal_force_negative_at[k]))
+        lifted[py::str(model.constraints()[k].name)] = st.normal_force_negative_at[k];
+    d["normal_force_negative_at"] = lifted;
+  }
   return d;
 }
 
@@ -544,7 +553,7 @@ py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj
 /// The rows simulate() keeps: t, x, y, the mass centres and the energy of each output state
 /// (and q, z of a jointed model).
 struct Rows {
-  std::vector<double> t, x, y, p_G, energy, q, z, u;
+  std::vector<double> t, x, y, p_G, energy, q, z, u, reactions;
 };
 
 /// simulate(controller=f): f(t, state) -> u called from the run, which holds no GIL. Its
@@ -687,6 +696,7 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
                                                  Eigen::Ref<VectorX> u) { (*c)(t, q, z, u); };
   }
   const int m_inputs = model.num_inputs();
+  const int m_reactions = reaction_count(model);
   SimulationStats stats;
   // The rows of a model with joints also keep q and z (the CSV's joint columns).
   const bool keep_joints = !m.notes_layout();
@@ -706,11 +716,13 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
   const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
                                 Data& data) {
     if (!out.empty())
-      open_writer().write_row(t, state, q, z, m_inputs > 0 ? &data.inputs : nullptr);
+      open_writer().write_row(t, state, q, z, m_inputs > 0 ? &data.inputs : nullptr,
+                              &data.reactions);
     if (!store) return;
     keep(t, state, data);
     rows.energy.push_back(total_energy_of_kinematics(model, state, q, data));
     rows.u.insert(rows.u.end(), data.inputs.begin(), data.inputs.end());
+    rows.reactions.insert(rows.reactions.end(), data.reactions.begin(), data.reactions.end());
     if (!keep_joints) return;
     rows.q.insert(rows.q.end(), q.begin(), q.end());
     rows.z.insert(rows.z.end(), z.begin(), z.end());
@@ -753,12 +765,15 @@ py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& 
       z = adopt(std::move(rows.z), {T, model.num_speeds()});
     }
     if (m_inputs > 0) u = adopt(std::move(rows.u), {T, m_inputs});
+    py::object reactions = py::none();
+    if (m_reactions > 0) reactions = adopt(std::move(rows.reactions), {T, m_reactions});
     result = py::module_::import("kanedyn._result")
                  .attr("Result")(
                      self, adopt(std::move(rows.t), {T}), adopt(std::move(rows.x), {T, 7 * n}),
                      adopt(std::move(rows.y), {T, 6 * n}), adopt(std::move(rows.p_G), {T, n, 3}),
                      adopt(std::move(rows.energy), {T}), stats_out,
-                     out.empty() ? py::object(py::none()) : py::object(path_str(out)), q, z, u);
+                     out.empty() ? py::object(py::none()) : py::object(path_str(out)), q, z, u,
+                     reactions);
   }
   if (!stats.ok()) {
     const std::string message =
@@ -890,7 +905,7 @@ void check_rows(const PyModel& m, const py::array& t, const py::array& x, const 
 /// The rows are checked first (check_rows): the file is written whole or not at all.
 void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::handle x_obj,
                py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj,
-               py::handle u_obj) {
+               py::handle u_obj, py::handle reactions_obj) {
   const Model& model = m.model();
   const int n = m.N();
   const std::string path = path_argument(path_obj, "path");
@@ -918,6 +933,21 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
     });
     if (!problem.empty()) throw py::value_error("to_csv: " + problem + "; nothing was written");
   }
+  // A model with constraints has reaction columns: the stored reactions of each row (they are
+  // the run's, at its output states; there is no default).
+  const int nr = reaction_count(model);
+  py::array ra;
+  if (nr > 0) {
+    if (reactions_obj.is_none())
+      throw py::value_error(
+          "to_csv: this model has constraints and the result holds no reactions; nothing was "
+          "written");
+    ra = float64_array(reactions_obj, "reactions", {rows, nr}, "(T, " + std::to_string(nr) + ")");
+    const std::string problem = first_non_finite(ra, "reactions", rows, nr, [&](py::ssize_t) {
+      return std::string("a constraint reaction");
+    });
+    if (!problem.empty()) throw py::value_error("to_csv: " + problem + "; nothing was written");
+  }
   io::check_output_path(path, {m.file().path});
   io::TrajectoryWriter writer(model, path);
   Data data(model, DataOptions::recursive_only());
@@ -933,6 +963,8 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
       for (int i = 0; i < nu; ++i)
         data.inputs[i] = doubles(ua)[r * stride(ua, 0) + i * stride(ua, 1)];
     }
+    for (int i = 0; i < nr; ++i)
+      data.reactions[i] = doubles(ra)[r * stride(ra, 0) + i * stride(ra, 1)];
     writer.write_row(doubles(t)[r * stride(t, 0)], state, data,
                      doubles(energy)[r * stride(energy, 0)], tree ? &q : nullptr,
                      tree ? &z : nullptr);
@@ -993,7 +1025,7 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
       .def("_read_csv", &read_csv, py::arg("path"))
       .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),
            py::arg("energy"), py::arg("q") = py::none(), py::arg("z") = py::none(),
-           py::arg("u") = py::none())
+           py::arg("u") = py::none(), py::arg("reactions") = py::none())
       .def("joint_derivatives", &joint_derivatives, py::arg("q") = py::none(),
            py::arg("z") = py::none(), py::arg("route") = "recursive", py::arg("u") = py::none(),
            "(q dot, z dot) of a jointed model at its joint coordinates q and independent speeds "

@@ -21,6 +21,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/kinematics.hpp"
@@ -103,6 +104,11 @@ std::vector<std::string> trajectory_columns(const Model& model, const Model* joi
   }
   columns.emplace_back("energy");
   for (const Input& in : model.inputs()) columns.push_back("input." + in.name);
+  for (const Constraint& c : model.constraints()) {
+    for (const char* f : {".f1", ".f2", ".f3"}) columns.push_back(c.name + f);
+    if (c.type == ConstraintType::hinge)
+      for (const char* m : {".m1", ".m2", ".m3"}) columns.push_back(c.name + m);
+  }
   return columns;
 }
 }  // namespace
@@ -114,11 +120,12 @@ TrajectoryWriter::TrajectoryWriter(const Model& model, std::string path)
     throw std::invalid_argument("TrajectoryWriter: the joint tree is not the model's");
   check_output_path(path_);
   fd_ = create_partial_file(partial_path());
-  // A row holds 2 + 16N numbers (and the joint columns, 7 a body at most), each followed by
-  // ',' or the newline.
-  const size_t row_bytes = (kMaxNumberChars + 1) *
-                           (2 + (16 + (joints ? 7 : 0)) * static_cast<size_t>(model.num_bodies()) +
-                            static_cast<size_t>(model.num_inputs()));
+  // A row holds 2 + 16N numbers (and the joint columns, 7 a body at most, the inputs and the
+  // reactions), each followed by ',' or the newline.
+  const size_t row_bytes =
+      (kMaxNumberChars + 1) *
+      (2 + (16 + (joints ? 7 : 0)) * static_cast<size_t>(model.num_bodies()) +
+       static_cast<size_t>(model.num_inputs()) + static_cast<size_t>(reaction_count(model)));
   buffer_ = std::make_unique_for_overwrite<char[]>(kFlushBytes + row_bytes);
   std::string header;
   const auto columns = trajectory_columns(model);
@@ -150,6 +157,9 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
     throw std::invalid_argument(
         "TrajectoryWriter: a jointed row needs the joint coordinates "
         "and speeds of the joint tree");
+  if (data.reactions.size() != reaction_count(model_))
+    throw std::invalid_argument(
+        "TrajectoryWriter: data.reactions is not the size of the model's reaction columns");
   if (used_ >= kFlushBytes) flush();  // only after a flush that threw: retry (or throw again)
   // Fewer than kFlushBytes are buffered now, so the row fits (see the constructor).
   char* const row = buffer_.get() + used_;
@@ -175,6 +185,7 @@ void TrajectoryWriter::write_row(double t, const State& state, const Data& data,
   *p++ = ',';
   p = put_number(p, energy);
   if (model_.num_inputs() > 0) put(data.inputs);
+  put(data.reactions);
   *p++ = '\n';
   // A row with "nan" or "inf" is no result: refuse it (the file keeps the rows before it).
   // Checked on the text, where a non-finite number is the only one holding 'n'.
@@ -251,6 +262,7 @@ struct BackgroundTrajectoryWriter::Impl {
         nq(model.all_free() ? 0 : static_cast<size_t>(model.num_coordinates())),
         nz(model.all_free() ? 0 : static_cast<size_t>(model.num_speeds())),
         nu(static_cast<size_t>(model.num_inputs())),
+        nr(static_cast<size_t>(reaction_count(model))),
         q(VectorX::Zero(static_cast<Eigen::Index>(nq))),
         z(VectorX::Zero(static_cast<Eigen::Index>(nz))) {
     const size_t slot_bytes = sizeof(double) * slot_size();
@@ -273,8 +285,9 @@ struct BackgroundTrajectoryWriter::Impl {
     }
   }
 
-  /// A slot of the ring: t, then {x}, then {y}, then (jointed) q and z, then the inputs.
-  size_t slot_size() const { return 1 + nx + ny + nq + nz + nu; }
+  /// A slot of the ring: t, then {x}, then {y}, then (jointed) q and z, then the inputs, then
+  /// the constraints' reactions.
+  size_t slot_size() const { return 1 + nx + ny + nq + nz + nu + nr; }
   double* slot(size_t i) { return ring.data() + i * slot_size(); }
 
   /// The thread: block signals (they are for the program's own threads), then write rows.
@@ -314,6 +327,7 @@ struct BackgroundTrajectoryWriter::Impl {
         std::copy_n(p + 1 + nx, ny, state.y.data());
         compute_kinematics(model, state, data);
         std::copy_n(p + 1 + nx + ny + nq + nz, nu, data.inputs.data());
+        std::copy_n(p + 1 + nx + ny + nq + nz + nu, nr, data.reactions.data());
         if (writer.joints()) {
           std::copy_n(p + 1 + nx + ny, nq, q.data());
           std::copy_n(p + 1 + nx + ny + nq, nz, z.data());
@@ -369,7 +383,7 @@ struct BackgroundTrajectoryWriter::Impl {
   TrajectoryWriter writer;
   Data data;    // the thread's kinematics
   State state;  // the thread's copy of the row being written
-  size_t nx, ny, nq, nz, nu;
+  size_t nx, ny, nq, nz, nu, nr;
   VectorX q, z;  // the thread's copy of the row's joint coordinates and speeds
   size_t capacity = 0, wake_at = 0;
   std::vector<double> ring;  // capacity slots
@@ -397,16 +411,18 @@ BackgroundTrajectoryWriter::~BackgroundTrajectoryWriter() {
   }
 }
 
-void BackgroundTrajectoryWriter::write_row(double t, const State& state, const VectorX* inputs) {
+void BackgroundTrajectoryWriter::write_row(double t, const State& state, const VectorX* inputs,
+                                           const VectorX* reactions) {
   if (impl_->writer.joints())
     throw std::invalid_argument(
         "BackgroundTrajectoryWriter: a jointed model's rows need their joint coordinates");
   static const VectorX none;
-  queue(t, state, none, none, inputs);
+  queue(t, state, none, none, inputs, reactions);
 }
 
 void BackgroundTrajectoryWriter::write_row(double t, const State& state, const VectorX& jq,
-                                           const VectorX& jz, const VectorX* inputs) {
+                                           const VectorX& jz, const VectorX* inputs,
+                                           const VectorX* reactions) {
   const Model& model = impl_->writer.model();
   if (jq.size() != model.num_coordinates() || jz.size() != model.num_speeds())
     throw std::invalid_argument(
@@ -414,17 +430,23 @@ void BackgroundTrajectoryWriter::write_row(double t, const State& state, const V
   // An all-free model's rows are its notes' state: (q, z) hold the same numbers.
   static const VectorX none;
   if (impl_->writer.joints())
-    queue(t, state, jq, jz, inputs);
+    queue(t, state, jq, jz, inputs, reactions);
   else
-    queue(t, state, none, none, inputs);
+    queue(t, state, none, none, inputs, reactions);
 }
 
 void BackgroundTrajectoryWriter::queue(double t, const State& state, const VectorX& jq,
-                                       const VectorX& jz, const VectorX* inputs) {
+                                       const VectorX& jz, const VectorX* inputs,
+                                       const VectorX* reactions) {
   Impl& q = *impl_;
   if (q.closed) throw std::logic_error("BackgroundTrajectoryWriter: write_row after close");
   if (inputs && static_cast<size_t>(inputs->size()) != q.nu)
     throw std::invalid_argument("BackgroundTrajectoryWriter: the inputs are not the model's size");
+  // Reactions are no default: zeros would read as a constraint that carries nothing.
+  if (q.nr > 0 && (!reactions || static_cast<size_t>(reactions->size()) != q.nr))
+    throw std::invalid_argument(
+        "BackgroundTrajectoryWriter: a model with constraints needs their reactions, of the "
+        "model's size (Data::reactions)");
   if (static_cast<size_t>(state.x.size()) != q.nx || static_cast<size_t>(state.y.size()) != q.ny)
     throw std::invalid_argument("BackgroundTrajectoryWriter: the state is not the model's size");
   std::unique_lock lock(q.mutex);
@@ -445,6 +467,7 @@ void BackgroundTrajectoryWriter::queue(double t, const State& state, const Vecto
     std::copy_n(inputs->data(), q.nu, p + 1 + q.nx + q.ny + q.nq + q.nz);
   else
     std::fill_n(p + 1 + q.nx + q.ny + q.nq + q.nz, q.nu, 0.0);
+  if (q.nr > 0) std::copy_n(reactions->data(), q.nr, p + 1 + q.nx + q.ny + q.nq + q.nz + q.nu);
   ++q.count;
   ++q.queued;
   const bool wake = q.consumer_waiting && q.count >= q.wake_at;

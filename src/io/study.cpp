@@ -18,6 +18,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/files.hpp"
@@ -568,7 +569,8 @@ std::string status_kind(const std::string& status) {
 namespace {
 
 /// The numbers of one trajectory row, in the order of trajectory_columns() (the writer's,
-/// csv.cpp): t, per body G_K, eps, s', w', s' dot and the joint columns, energy, inputs.
+/// csv.cpp): t, per body G_K, eps, s', w', s' dot and the joint columns, energy, inputs, the
+/// constraints' reactions.
 /// Without `kinematics` (data's not computed for this state) G_K is left 0.
 void row_values(const Model& model, double t, const State& state, const VectorX& q,
                 const VectorX& z, const Data& data, bool kinematics, double energy,
@@ -593,6 +595,7 @@ void row_values(const Model& model, double t, const State& state, const VectorX&
   }
   row.push_back(energy);
   if (model.num_inputs() > 0) put(data.inputs);
+  put(data.reactions);
 }
 
 /// A running statistic of one column.
@@ -679,8 +682,8 @@ class RowReducer {
         keep_(keep),
         trajectory_(trajectory),
         outputs_(study.outputs.size()) {
-    const int energy_column =
-        static_cast<int>(trajectory_columns(model).size()) - 1 - model.num_inputs();
+    const int energy_column = static_cast<int>(trajectory_columns(model).size()) - 1 -
+                              model.num_inputs() - reaction_count(model);
     needs_energy_ = needs_kinematics_ = keep;
     for (const StudyOutput& o : study.outputs) {
       needs_energy_ = needs_energy_ || o.column_index == energy_column;

@@ -20,6 +20,8 @@ namespace kanedyn::io {
 /// NAME.sd1..sd3 (16 columns per body), then energy: 2 + 16N columns. A body
 /// whose joint is neither free nor weld adds NAME.j1..j<n> (its q) and NAME.jd1..jd<m> (its z)
 /// right after its own columns. A model with inputs adds input.NAME per input after energy.
+/// A model with constraints then adds, per constraint in order, NAME.f1 NAME.f2 NAME.f3 (its
+/// force on its body, inertial) and for a hinge NAME.m1 NAME.m2 NAME.m3 (its moment about `at`).
 std::vector<std::string> trajectory_columns(const Model& model);
 /// The columns of trajectory_columns() without any body's joint columns: t, 16 per body,
 /// energy.
@@ -41,7 +43,8 @@ class TrajectoryWriter {
 
   /// Appends one row: t, per body the mass centre G_K (data.kinematics.p_G, inertial: needs
   /// compute_kinematics at this state), eps_K, s'_K, w'_K, s'_K dot, then energy, then the
-  /// inputs' values data.inputs (a model with inputs). Numbers
+  /// inputs' values data.inputs (a model with inputs), then the constraints' reactions
+  /// data.reactions (a model with constraints: simulate() fills them). Numbers
   /// are written in the shortest form that reads back as the same double (std::to_chars).
   /// Rows are buffered and reach the file whole; throws std::runtime_error if writing fails,
   /// or if a number of the row is not finite (naming the time and the column; the row is
@@ -104,12 +107,14 @@ class BackgroundTrajectoryWriter {
 
   /// Queues one row: t and a copy of the state (its Euler parameters as given). Throws
   /// std::invalid_argument for a state of another size than the model's.
-  /// inputs: the values in force at t (model.num_inputs(); null: zero).
-  void write_row(double t, const State& state, const VectorX* inputs = nullptr);
+  /// inputs: the values in force at t (model.num_inputs(); null: zero). reactions: a model
+  /// with constraints must give theirs (Data::reactions, reaction_count(model) entries).
+  void write_row(double t, const State& state, const VectorX* inputs = nullptr,
+                 const VectorX* reactions = nullptr);
   /// The same with the model's state (q, z) (any model; queued when some joint is not free,
   /// whose rows have joint columns). Throws std::invalid_argument for q or z of the wrong size.
   void write_row(double t, const State& state, const VectorX& q, const VectorX& z,
-                 const VectorX* inputs = nullptr);
+                 const VectorX* inputs = nullptr, const VectorX* reactions = nullptr);
   /// Asks the thread to write the queued rows to the file now (returns at once).
   void flush();
   /// Writes every queued row, stops the thread, closes and renames PATH.partial to PATH.
@@ -125,7 +130,7 @@ class BackgroundTrajectoryWriter {
 
  private:
   void queue(double t, const State& state, const VectorX& q, const VectorX& z,
-             const VectorX* inputs);
+             const VectorX* inputs, const VectorX* reactions);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
