@@ -81,6 +81,12 @@ std::string names_of(const std::vector<std::string>& state, const std::vector<in
 void run(const Options& o) {
   const io::ModelFile file = io::load_model_file(o.model);
   const Model& model = file.model;
+  // The equilibrium of the tree without its constraints would be a wrong answer, not a
+  // partial one.
+  if (model.num_constraints() > 0)
+    throw std::runtime_error(o.model +
+                             ": equilibrium does not handle models with constraints yet (it "
+                             "would balance the tree without them); kanedyn linearize does");
   if (!o.out.empty()) io::check_output_path(o.out, {o.model});
   StateChoice choice;
   choice.inputs = o.inputs;

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cstdio>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "commands.hpp"
@@ -47,6 +48,11 @@ void add_inverse(CLI::App& app) {
   cmd->callback([o] {
     const io::ModelFile file = io::load_model_file(o->model);
     const Model& model = file.model;
+    // The tree's generalized forces would ignore what the constraints carry: a wrong answer.
+    if (model.num_constraints() > 0)
+      throw std::runtime_error(o->model +
+                               ": inverse does not handle models with constraints yet (the "
+                               "tree's forces would ignore what the constraints carry)");
     std::string out = o->out;
     if (out.empty()) {
       const std::string& t = o->trajectory;

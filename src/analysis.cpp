@@ -1137,6 +1137,11 @@ void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
                           VectorX* zdot) {
   Impl& s = *impl_;
   const Model& model = s.model;
+  if (model.num_constraints() > 0)
+    throw std::invalid_argument(
+        "Derivatives::forward: the model has constraints, and these would be the tree's without "
+        "them (a wrong "
+        "answer); linearize and Derivatives::constrained handle them");
   const int n = model.num_speeds();
   const int m = model.num_inputs();
   check_size("Derivatives: q", q.size(), model.num_coordinates());
@@ -1169,6 +1174,11 @@ void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
 void Derivatives::inverse(const VectorX& q, const VectorX& z, const VectorX& zdot, const VectorX& u,
                           Eigen::Ref<MatrixX> dq, Eigen::Ref<MatrixX> dz, Eigen::Ref<MatrixX> du) {
   Impl& s = *impl_;
+  if (s.model.num_constraints() > 0)
+    throw std::invalid_argument(
+        "Derivatives::inverse: the model has constraints, and these would be the tree's without "
+        "them (a wrong "
+        "answer); linearize and Derivatives::constrained handle them");
   if (!s.tables.supported)
     throw std::logic_error(
         "Derivatives::inverse: a force element of a type the library does not define");
@@ -1553,6 +1563,10 @@ Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, 
 
 Linearization linearize_at_rest(const Model& model, const VectorX& q, const VectorX& u,
                                 const std::vector<int>& free) {
+  if (model.num_constraints() > 0)
+    throw std::invalid_argument(
+        "linearize_at_rest: the model has constraints, and this would be the tree's without "
+        "them (a wrong answer); linearize handles them");
   const int n = model.num_speeds();
   const int m = model.num_inputs();
   const int f = static_cast<int>(free.size());
@@ -1609,6 +1623,11 @@ Linearization linearize_at_rest(const Model& model, const VectorX& q, const Vect
 
 EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
                               const EquilibriumOptions& options) {
+  if (model.num_constraints() > 0)
+    throw std::invalid_argument(
+        "equilibrium: the model has constraints, and these would be the tree's without them (a "
+        "wrong "
+        "answer); linearize and Derivatives::constrained handle them");
   const int n = model.num_speeds();
   check_size("equilibrium: q", q0.size(), model.num_coordinates());
   check_size("equilibrium: u", u.size(), model.num_inputs());

@@ -51,7 +51,8 @@ class Derivatives {
   std::string method() const;
 
   /// d(z dot)/dq (n x n, tangent columns), d(z dot)/dz (n x n) and d(z dot)/du (n x m) at
-  /// (q, z, u); zdot, when not null, gets z dot itself.
+  /// (q, z, u); zdot, when not null, gets z dot itself. A model with constraints throws
+  /// std::invalid_argument (these would be the tree's; linearize() handles constraints).
   void forward(const VectorX& q, const VectorX& z, const VectorX& u, Eigen::Ref<MatrixX> dq,
                Eigen::Ref<MatrixX> dz, Eigen::Ref<MatrixX> du, VectorX* zdot = nullptr);
   /// The derivatives of inverse dynamics Q(q, z, z dot, u) (Terms::inverse_dynamics with the
