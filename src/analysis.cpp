@@ -796,6 +796,16 @@ Vector4 small_rotation(const Vector3& r) {
   return {s * r.x(), s * r.y(), s * r.z(), std::cos(0.5 * angle)};
 }
 
+// What answers for the tree and would ignore a model's constraints refuses such a model: the
+// tree's answer would be a wrong one, not a partial one. linearize() and
+// Derivatives::constrained handle constraints.
+void refuse_constraints(const Model& model, const char* what) {
+  if (model.num_constraints() > 0)
+    throw std::invalid_argument(std::string(what) +
+                                ": the model has constraints, and this would answer for the tree "
+                                "without them (a wrong answer); linearize handles them");
+}
+
 void check_size(const char* what, Eigen::Index size, Eigen::Index expected) {
   if (size != expected)
     throw std::invalid_argument(std::string(what) + ": " + std::to_string(size) +
@@ -1137,11 +1147,7 @@ void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
                           VectorX* zdot) {
   Impl& s = *impl_;
   const Model& model = s.model;
-  if (model.num_constraints() > 0)
-    throw std::invalid_argument(
-        "Derivatives::forward: the model has constraints, and these would be the tree's without "
-        "them (a wrong "
-        "answer); linearize and Derivatives::constrained handle them");
+  refuse_constraints(model, "Derivatives::forward");
   const int n = model.num_speeds();
   const int m = model.num_inputs();
   check_size("Derivatives: q", q.size(), model.num_coordinates());
@@ -1174,11 +1180,7 @@ void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,
 void Derivatives::inverse(const VectorX& q, const VectorX& z, const VectorX& zdot, const VectorX& u,
                           Eigen::Ref<MatrixX> dq, Eigen::Ref<MatrixX> dz, Eigen::Ref<MatrixX> du) {
   Impl& s = *impl_;
-  if (s.model.num_constraints() > 0)
-    throw std::invalid_argument(
-        "Derivatives::inverse: the model has constraints, and these would be the tree's without "
-        "them (a wrong "
-        "answer); linearize and Derivatives::constrained handle them");
+  refuse_constraints(s.model, "Derivatives::inverse");
   if (!s.tables.supported)
     throw std::logic_error(
         "Derivatives::inverse: a force element of a type the library does not define");
@@ -1549,24 +1551,14 @@ Linearization linearize(const Model& model, const VectorX& q, const VectorX& z, 
   // The coordinates' rates: d(r)/dt = (w - w0) - w0 x r for a rotation vector (the spec's
   // "Linearization output"), d(deviation)/dt = the speed's deviation for every other entry.
   lin.A.topRightCorner(n, n).setIdentity();
-  for (int k = 0; k < model.num_bodies(); ++k) {
-    const JointType type = model.joint(k).type;
-    if (type != JointType::free && type != JointType::spherical) continue;
-    const int p = model.speed_offset(k);
-    const Vector3 w0 = z.segment<3>(p);
-    lin.A.block<3, 3>(p, p) = -skew(w0);
-    if (type == JointType::free && !w0.isZero(0.0)) lin.periodic = true;
-  }
+  lin.A.topLeftCorner(n, n) = rotation_rate_block(model, z, &lin.periodic);
   lin.eigenvalues = sorted_eigenvalues(lin.A, modes ? &lin.modes : nullptr);
   return lin;
 }
 
 Linearization linearize_at_rest(const Model& model, const VectorX& q, const VectorX& u,
                                 const std::vector<int>& free) {
-  if (model.num_constraints() > 0)
-    throw std::invalid_argument(
-        "linearize_at_rest: the model has constraints, and this would be the tree's without "
-        "them (a wrong answer); linearize handles them");
+  refuse_constraints(model, "linearize_at_rest");
   const int n = model.num_speeds();
   const int m = model.num_inputs();
   const int f = static_cast<int>(free.size());
@@ -1623,11 +1615,7 @@ Linearization linearize_at_rest(const Model& model, const VectorX& q, const Vect
 
 EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
                               const EquilibriumOptions& options) {
-  if (model.num_constraints() > 0)
-    throw std::invalid_argument(
-        "equilibrium: the model has constraints, and these would be the tree's without them (a "
-        "wrong "
-        "answer); linearize and Derivatives::constrained handle them");
+  refuse_constraints(model, "equilibrium");
   const int n = model.num_speeds();
   check_size("equilibrium: q", q0.size(), model.num_coordinates());
   check_size("equilibrium: u", u.size(), model.num_inputs());
