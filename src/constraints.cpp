@@ -47,7 +47,7 @@ struct PointMotion {
 }  // namespace
 
 struct ConstraintEquations::Impl {
-  explicit Impl(const Model& m) : model(m), state(m) {
+  explicit Impl(const Model& m) : model(m), own(m) {
     const int n = m.num_speeds();
     for (const Constraint& c : m.constraints()) {
       first.push_back(rows);
@@ -66,16 +66,9 @@ struct ConstraintEquations::Impl {
     errors.setZero(rows);
     points.assign(m.constraints().size(), Vector3::Zero());
     bases.assign(m.constraints().size(), Matrix3::Identity());
-    Jv.resize(3, n);
-    Jw.resize(3, n);
     Jp.resize(3, n);
     Jr.resize(3, n);
     hinge_moment.assign(m.constraints().size(), {Vector3::Zero(), Vector3::Zero()});
-    const size_t bodies = at(m.num_bodies());
-    kin.R.assign(bodies, Matrix3::Identity());
-    kin.p_O.assign(bodies, Vector3::Zero());
-    kin.p_G = kin.v_O = kin.v_G = kin.qs_b = kin.p_O;
-    zero_rates = VectorX::Zero(n);
   }
 
   struct Perpendiculars {
@@ -94,20 +87,17 @@ struct ConstraintEquations::Impl {
   // two rows' moment directions in hinge_moment.
   std::vector<Matrix3> bases;
   std::vector<std::array<Vector3, 2>> hinge_moment;
-  State state;
-  Kinematics kin;
-  MatrixX Jv, Jw, Jp, Jr;
-  VectorX zero_rates;
-  const VectorX* q = nullptr;
-  const VectorX* z = nullptr;
+  // The tree's kinematic terms: its own, or those of the evaluation of ConstrainedDynamics'
+  // tree (the same functions of (q, z)).
+  detail::JointDynamics own;
+  detail::JointDynamics* tree = &own;
+  detail::JointDynamics::BodyMotion motion;
+  MatrixX Jp, Jr;
 
-  // Jacobian rows of the point r (from O_K, inertial) of body k into (Jp, Jr), added with sign.
-  void add_jacobian(int k, const Vector3& r, double sign, Eigen::Ref<MatrixX> Jp,
-                    Eigen::Ref<MatrixX> Jr) {
-    if (k == kGround) return;
-    body_jacobian(model, k, *q, kin, Jv, Jw);
-    Jp += sign * (Jv - skew(r) * Jw);
-    Jr += sign * Jw;
+  // Jacobian rows of the point at `point` (inertial position) fixed in body k into (Jp, Jr),
+  // added with sign; m a point_motion of k (for O_K).
+  void add_jacobian(int k, const PointMotion& m, const Vector3& point, double sign) {
+    if (k != kGround) tree->add_point_jacobian(k, m.p - m.r, point, sign, Jp, Jr);
   }
 
   PointMotion point_motion(int k, const Vector3& offset) {
@@ -117,25 +107,23 @@ struct ConstraintEquations::Impl {
       m.r = offset;
       return m;
     }
-    const Matrix3& R = kin.R[at(k)];
-    m.r = R.transpose() * offset;
-    m.p = kin.p_O[at(k)] + m.r;
-    m.w = R.transpose() * state.angular_velocity(k);
-    m.v = kin.v_O[at(k)] + m.w.cross(m.r);
-    const FrameAcceleration a = body_acceleration(model, k, *q, *z, zero_rates, state, kin);
-    m.alpha0 = a.angular;
-    m.a0 = a.linear + a.angular.cross(m.r) + m.w.cross(m.w.cross(m.r));
+    tree->body_motion(k, motion);
+    m.r = motion.R.transpose() * offset;
+    m.p = motion.p + m.r;
+    m.w = motion.w;
+    m.v = motion.v + m.w.cross(m.r);
+    m.alpha0 = motion.alpha;
+    m.a0 = motion.a + motion.alpha.cross(m.r) + m.w.cross(m.w.cross(m.r));
     return m;
   }
 
-  void evaluate(const VectorX& qq, const VectorX& zz);
+  const Matrix3& rotation(int k) const { return tree->body_rotation(k); }
+
+  // The rows at the tree's last evaluation.
+  void compute_rows();
 };
 
-void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
-  q = &qq;
-  z = &zz;
-  joint_state(model, qq, zz, state);
-  compute_kinematics(model, state, kin);
+void ConstraintEquations::Impl::compute_rows() {
   B.setZero();
   b.setZero();
   errors.setZero();
@@ -152,8 +140,8 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
       case ConstraintType::distance: {
         const PointMotion p1 = point_motion(c.body, c.at);
         const PointMotion p2 = point_motion(c.other, c.other_at);
-        add_jacobian(c.body, p1.r, 1.0, Jp, Jr);
-        add_jacobian(c.other, p2.r, -1.0, Jp, Jr);
+        add_jacobian(c.body, p1, p1.p, 1.0);
+        add_jacobian(c.other, p2, p2.p, -1.0);
         points[i] = p1.p;
         const Vector3 d = p1.p - p2.p, vrel = p1.v - p2.v, arel = p1.a0 - p2.a0;
         if (c.type == ConstraintType::distance) {
@@ -175,11 +163,11 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
         errors.segment<3>(row) = d;
         bases[i].setIdentity();
         if (c.type == ConstraintType::hinge) {
-          const Vector3 axis = kin.R[at(c.body)].transpose() * c.axis;
+          const Vector3 axis = rotation(c.body).transpose() * c.axis;
           Vector3 e1 = perpendiculars[i].p1, e2 = perpendiculars[i].p2;
           if (c.other != kGround) {
-            e1 = kin.R[at(c.other)].transpose() * e1;
-            e2 = kin.R[at(c.other)].transpose() * e2;
+            e1 = rotation(c.other).transpose() * e1;
+            e2 = rotation(c.other).transpose() * e2;
           }
           const Vector3 wrel = p1.w - p2.w, alpha_rel = p1.alpha0 - p2.alpha0;
           const Vector3 axis_rate = p1.w.cross(axis);
@@ -197,8 +185,7 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
         break;
       }
       case ConstraintType::rolling_disc: {
-        const Matrix3& R = kin.R[at(c.body)];
-        const Vector3 a = R.transpose() * c.axis;
+        const Vector3 a = rotation(c.body).transpose() * c.axis;
         const Vector3& normal = c.plane_normal;
         const Vector3 u = a.cross(normal);
         const double s = u.norm();
@@ -209,9 +196,8 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
         const double an = a.dot(normal);
         const Vector3 d = (a * an - normal) / s;  // from the centre to the contact, unit
         const PointMotion centre = point_motion(c.body, c.at);
-        const Vector3 r_contact = centre.r + c.radius * d;  // from O_K
-        add_jacobian(c.body, r_contact, 1.0, Jp, Jr);
         const Vector3 P = centre.p + c.radius * d;
+        add_jacobian(c.body, centre, P, 1.0);
         points[i] = P;
         // d moves over the disc: d dot from a dot = w x a (not w x d).
         const Vector3 a_rate = centre.w.cross(a);
@@ -226,7 +212,7 @@ void ConstraintEquations::Impl::evaluate(const VectorX& qq, const VectorX& zz) {
         basis.col(0) = normal;
         basis.col(1) = perpendiculars[i].p1;
         basis.col(2) = perpendiculars[i].p2;
-        B.middleRows(row, 3) = basis.transpose() * Jp;
+        B.middleRows(row, 3).noalias() = basis.transpose().lazyProduct(Jp);
         b.segment<3>(row) = basis.transpose() * acc;
         errors[row] = normal.dot(P) - c.plane_offset;
         bases[i] = basis;
@@ -251,7 +237,18 @@ std::string ConstraintEquations::row_name(int row) const {
   const int c = constraint_of_row(row);
   return impl_->model.constraints()[at(c)].name + "." + std::to_string(row - first_row(c) + 1);
 }
-void ConstraintEquations::evaluate(const VectorX& q, const VectorX& z) { impl_->evaluate(q, z); }
+void ConstraintEquations::evaluate(const VectorX& q, const VectorX& z) {
+  Impl& s = *impl_;
+  s.own.kinematics(q, z);
+  s.tree = &s.own;
+  s.compute_rows();
+}
+void ConstraintEquations::evaluate(detail::JointDynamics& tree) {
+  Impl& s = *impl_;
+  s.tree = &tree;
+  s.compute_rows();
+  s.tree = &s.own;
+}
 const MatrixX& ConstraintEquations::B() const { return impl_->B; }
 const VectorX& ConstraintEquations::b() const { return impl_->b; }
 const VectorX& ConstraintEquations::errors() const { return impl_->errors; }
@@ -447,6 +444,46 @@ Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z, 
 
 // ---- Constrained dynamics ----
 
+namespace {
+
+// The Cholesky factor L (lower triangle, in place) of the symmetric positive definite a, or
+// false when a pivot sqrt(d_j) is not above `least` (a singular or nearly singular a). Written
+// out because the constraint space is small (a few rows): Eigen's blocked LLT of dynamic size
+// costs several times the arithmetic there.
+bool cholesky_in_place(MatrixX& a, double least) {
+  const Eigen::Index c = a.rows();
+  for (Eigen::Index j = 0; j < c; ++j) {
+    double d = a(j, j);
+    for (Eigen::Index k = 0; k < j; ++k) d -= a(j, k) * a(j, k);
+    if (!(d > least * least)) return false;
+    const double pivot = std::sqrt(d);
+    a(j, j) = pivot;
+    for (Eigen::Index i = j + 1; i < c; ++i) {
+      double v = a(i, j);
+      for (Eigen::Index k = 0; k < j; ++k) v -= a(i, k) * a(j, k);
+      a(i, j) = v / pivot;
+    }
+  }
+  return true;
+}
+
+// x := (L L^T)^-1 x, L from cholesky_in_place.
+void cholesky_solve_in_place(const MatrixX& l, VectorX& x) {
+  const Eigen::Index c = l.rows();
+  for (Eigen::Index i = 0; i < c; ++i) {
+    double v = x[i];
+    for (Eigen::Index k = 0; k < i; ++k) v -= l(i, k) * x[k];
+    x[i] = v / l(i, i);
+  }
+  for (Eigen::Index i = c - 1; i >= 0; --i) {
+    double v = x[i];
+    for (Eigen::Index k = i + 1; k < c; ++k) v -= l(k, i) * x[k];
+    x[i] = v / l(i, i);
+  }
+}
+
+}  // namespace
+
 struct ConstrainedDynamics::Impl {
   Impl(const Model& m, Method how)
       : model(m), method(how), equations(m), terms(m), tree(m), n(m.num_speeds()) {
@@ -462,7 +499,7 @@ struct ConstrainedDynamics::Impl {
   int n;
   MatrixX M, Y, S;
   VectorX bias, lambda, rhs;
-  Eigen::LLT<MatrixX> llt, s_llt;
+  MatrixX factor;  // the Cholesky factor of S
   SpeedPartition partition;
   bool partitioned = false;
   int rank = 0;
@@ -473,26 +510,30 @@ struct ConstrainedDynamics::Impl {
 
 void ConstrainedDynamics::Impl::multipliers(const VectorX& q, const VectorX& z, const VectorX& u,
                                             Eigen::Ref<VectorX> zdot) {
-  const MatrixX& B = equations.B();
   tree.set_inputs(u);
   tree.evaluate(q, z, Route::recursive, zdot);  // the tree without the constraints, O(N)
-  terms.mass_matrix(q, M);
-  llt.compute(M);
+  equations.evaluate(tree);                     // the rows from the same kinematic terms
+  const MatrixX& B = equations.B();
+  // M^-1 B^T from the articulated-body factorization the evaluation left: O(N c), no mass
+  // matrix.
   Y = B.transpose();
-  llt.solveInPlace(Y);  // M^-1 B^T
-  S.noalias() = B * Y;
+  tree.solve_mass(Y);
+  // c x n times n x c: for few rows a coefficient-based product (the blocked one's packing
+  // costs more than it saves there).
+  if (B.rows() <= 16)
+    S.noalias() = B.lazyProduct(Y);
+  else
+    S.noalias() = B * Y;
   rhs = -equations.b();
   rhs.noalias() -= B * zdot;
   // Independent rows (the usual case): S is positive definite and its Cholesky factor gives
   // lambda; redundant rows make it singular, and the complete orthogonal decomposition gives
   // the minimum-norm lambda.
-  s_llt.compute(S);
-  const double smallest = s_llt.info() == Eigen::Success && S.rows() > 0
-                              ? s_llt.matrixLLT().diagonal().minCoeff()
-                              : 0.0;
   const double largest = S.rows() > 0 ? std::sqrt(S.diagonal().maxCoeff()) : 0.0;
-  if (S.rows() > 0 && smallest > 1e-6 * largest) {
-    lambda = s_llt.solve(rhs);
+  factor = S;
+  if (S.rows() > 0 && cholesky_in_place(factor, 1e-6 * largest)) {
+    lambda = rhs;
+    cholesky_solve_in_place(factor, lambda);
     rank = static_cast<int>(S.rows());
   } else {
     Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
@@ -562,11 +603,12 @@ ConstrainedDynamics::Method ConstrainedDynamics::method() const { return impl_->
 void ConstrainedDynamics::evaluate(const VectorX& q, const VectorX& z, const VectorX& u,
                                    Eigen::Ref<VectorX> zdot) {
   Impl& s = *impl_;
-  s.equations.evaluate(q, z);
-  if (s.method == Method::multipliers)
+  if (s.method == Method::multipliers) {
     s.multipliers(q, z, u, zdot);
-  else
+  } else {
+    s.equations.evaluate(q, z);
     s.projected(q, z, u, zdot);
+  }
 }
 
 const VectorX& ConstrainedDynamics::lambda() const { return impl_->lambda; }

@@ -12,6 +12,7 @@
 // without them gravity is the ground's acceleration and that state is computed only when asked.
 #include "joint_dynamics.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -45,7 +46,8 @@ enum class Subspace { none, angular, ball, linear, general, free };
 
 // Body K's terms of the recursions, in inertial components about O_K (docs/theory.md).
 struct Link {
-  Matrix6 IA;  // [I_O,K], then the articulated (recursive) or composite (assembled) inertia
+  Matrix6 IA;  // [I_O,K], then the articulated (recursive; a free body's inverted) or composite
+               // (assembled) inertia
   Matrix3 R;   // [R_K]
   Vector3 r;   // O_K - O_J = [R_J]^T (q'_K + s'_K)
   Vector3 w;   // w_K = [R_K]^T w'_K
@@ -74,6 +76,7 @@ struct JointDynamics::Impl {
     offset.assign(at(n), 0);
     joint_type.assign(at(n), JointType::free);
     links.resize(at(n));
+    path.reserve(at(n));
     if (m.has_body_force_elements() || m.has_body_inputs()) motions.resize(at(n));
     joint_forces = m.has_joint_force_elements() || m.num_inputs() > 0;
     for (const auto& element : m.forces())
@@ -139,10 +142,15 @@ struct JointDynamics::Impl {
   std::vector<int> d_offset;
   // The assembled route's blocks of [C]^T [A] [C] and their factor, made on its first use.
   std::optional<TreeLdlt> ldlt;
+  // solve_mass: whether the last evaluation left the articulated-body factorization, and per
+  // body 6 x c blocks of the forces passed inwards and of the accelerations (body k's at 6 c k).
+  bool factored = false;
+  std::vector<double> column_force, column_acceleration;
 
   void update_state(std::vector<detail::JointMotion>* tables = nullptr, bool complete = true);
   void complete_kinematics();
-  void prepare(const VectorX& qq, const VectorX& zz);
+  void prepare(const VectorX& qq, const VectorX& zz, bool dynamics = true);
+  std::vector<int> path;  // body_motion's chain, root first
   void recursive(Eigen::Ref<VectorX> zdot);
   void assembled(Eigen::Ref<VectorX> zdot);
   BodyMap body_map(int k) const { return {links[at(k)].r, joint_type[at(k)] != JointType::free}; }
@@ -165,6 +173,15 @@ struct JointDynamics::Impl {
   void recursive_inward(int k);
   template <int M, Subspace Shape>
   void recursive_outward(int k, Eigen::Ref<VectorX> zdot);
+  template <int M, Subspace Shape>
+  void solve_inward(int k, Eigen::Ref<MatrixX> x);
+  template <int M, Subspace Shape>
+  void solve_outward(int k, Eigen::Ref<MatrixX> x);
+  using Columns = Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>>;
+  Columns force_columns(int k, int c) { return {column_force.data() + 6 * c * k, 6, c}; }
+  Columns acceleration_columns(int k, int c) {
+    return {column_acceleration.data() + 6 * c * k, 6, c};
+  }
 };
 
 // The notes' state at the last (q, z), its kinematics (only [R_K] when not complete: the
@@ -191,13 +208,16 @@ void JointDynamics::Impl::complete_kinematics() {
 
 // Per body [P_K], [S_K], c_K and p_K = b_K - F_ext,K in inertial components about O_K, and
 // the joint loads' Q. The notes' state is computed here only when force elements need it.
-void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
-  joint_force.setZero();
-  add_joint_forces(model, qq, zz, joint_force);
-  if (model.num_inputs() > 0) add_input_joint_forces(model, data.inputs, joint_force);
+// With dynamics false, the kinematic terms only ([R_K], w_K, r_K, [S_K], c_K).
+void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz, bool dynamics) {
+  if (dynamics) {
+    joint_force.setZero();
+    add_joint_forces(model, qq, zz, joint_force);
+    if (model.num_inputs() > 0) add_input_joint_forces(model, data.inputs, joint_force);
+  }
   q_seen = qq;
   z_seen = zz;
-  const bool loads = model.has_body_force_elements() || model.has_body_inputs();
+  const bool loads = dynamics && (model.has_body_force_elements() || model.has_body_inputs());
   if (loads)  // the joint tables come with the state, [R_K] with its kinematics
     update_state(&motions, loads_read_positions);
   else
@@ -236,6 +256,7 @@ void JointDynamics::Impl::prepare(const VectorX& qq, const VectorX& zz) {
       motion_subspace(type, speeds[i], rk, rj, jm.G, translation[i], translation_columns[i],
                       S.data() + 6 * off);
     velocity_product_acceleration(type, root, l.w, w_j, rk, rj, jm, l.r, l.c);
+    if (!dynamics) continue;
     // Newton-Euler about O_K in inertial components, with A = d/dt V (a_O the acceleration of
     // the material point O_K): [I_O] A + b is the force needed, b = (w x [I_G] w + m c x
     // (w x (w x c)), m w x (w x c)), c = [R_K]^T r'_K. The external force about O_K is
@@ -277,9 +298,10 @@ void JointDynamics::Impl::recursive_inward(int k) {
     // [S] (M = 6) is invertible: IA - [U] D^-1 [U]^T = 0 and p + [U] D^-1 u = [S]^-T Q = 0 (no
     // joint loads on a free body), so K passes nothing on, and its acceleration is the free
     // body's, A_K = -IA^-1 p (then z dot_K = [S]^-1 (A_K - [P] A_J - c), outward).
-    Matrix6 ia_inv = l.IA;
-    invert_spd6(ia_inv);
-    l.A.noalias() = -(ia_inv * l.p);
+    // Inverted in place: nothing reads a free body's IA after this but solve_mass, which
+    // needs the inverse.
+    invert_spd6(l.IA);
+    l.A.noalias() = -(l.IA * l.p);
     return;
   } else {
     if constexpr (M > 0) {
@@ -367,6 +389,111 @@ void JointDynamics::Impl::recursive_outward(int k, Eigen::Ref<VectorX> zdot) {
   }
 }
 
+// [M]^-1 Q by the articulated-body factorization (solve_mass): the recursion of
+// recursive_inward/recursive_outward with the velocity terms c_K, b_K and the ground's
+// acceleration zero and Q in place of the joint loads, so that only [U], D^-1 and the free
+// bodies' articulated inertias enter; a column of x at a time, in fixed-size products (no
+// allocation). Inward, F_K the force K's subtree passes to K: u = Q - [S]^T F,
+// F_J += [P]^T (F + [U] D^-1 u), u kept in x's rows.
+template <int M, Subspace Shape>
+void JointDynamics::Impl::solve_inward(int k, Eigen::Ref<MatrixX> x) {
+  const Link& l = links[at(k)];
+  const int j = model.lower_body(k);
+  const int c = static_cast<int>(x.cols());
+  const int off = offset[at(k)];
+  auto f = force_columns(k, c);
+  if constexpr (Shape == Subspace::free) {
+    // [S] invertible: F + [U] D^-1 u = [S]^-T Q, [S]^-T = [S] = diag([R_K]^T, [R_J]^T), and
+    // the body's acceleration IA^-1 ([S]^-T Q - F) needs nothing from J (outward). The inward
+    // pass left IA^-1 in IA (recursive_inward).
+    const Matrix6& ia_inv = l.IA;
+    auto a = acceleration_columns(k, c);
+    const BodyMap map = body_map(k);
+    for (int col = 0; col < c; ++col) {
+      Vector6 g;
+      g.head<3>().noalias() = l.R.transpose() * x.col(col).segment<3>(off);
+      if (j == kGround)
+        g.tail<3>() = x.col(col).segment<3>(off + 3);
+      else
+        g.tail<3>().noalias() = links[at(j)].R.transpose() * x.col(col).segment<3>(off + 3);
+      a.col(col).noalias() = ia_inv * (g - f.col(col));
+      if (j != kGround) force_columns(j, c).col(col) += carry_force(map, g);
+    }
+  } else {
+    const BodyMap map = body_map(k);
+    for (int col = 0; col < c; ++col) {
+      Vector6 passed = f.col(col);
+      if constexpr (M > 0) {
+        [[maybe_unused]] const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+        const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
+        const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
+        auto uu = x.col(col).segment<M>(off);
+        if constexpr (Shape == Subspace::ball) {
+          // the primed u' = [R_K]^T Q - [S']^T F (recursive_inward)
+          const Vector3 primed = l.R.transpose() * uu - passed.head<3>();
+          uu = primed;
+        } else if constexpr (Shape == Subspace::angular) {
+          uu.noalias() -= s.template topRows<3>().transpose() * passed.head<3>();
+        } else if constexpr (Shape == Subspace::linear) {
+          uu.noalias() -= s.template bottomRows<3>().transpose() * passed.tail<3>();
+        } else {
+          uu.noalias() -= s.transpose() * passed;
+        }
+        if (j == kGround) continue;
+        const Eigen::Matrix<double, M, 1> scaled = d_inv * uu;
+        passed.noalias() += uk * scaled;
+      }
+      if (j != kGround) force_columns(j, c).col(col) += carry_force(map, passed);
+    }
+  }
+}
+
+// Outward: A' = [P] A_J, z dot_K = D^-1 (u - [U]^T A'), A_K = A' + [S] z dot_K.
+template <int M, Subspace Shape>
+void JointDynamics::Impl::solve_outward(int k, Eigen::Ref<MatrixX> x) {
+  const Link& l = links[at(k)];
+  const int j = model.lower_body(k);
+  const int c = static_cast<int>(x.cols());
+  const int off = offset[at(k)];
+  auto a = acceleration_columns(k, c);
+  const BodyMap map = body_map(k);
+  for (int col = 0; col < c; ++col) {
+    const Vector6 carried =
+        j == kGround ? Vector6::Zero() : map_velocity(map, acceleration_columns(j, c).col(col));
+    if constexpr (Shape == Subspace::free) {
+      // A_K from the inward pass; z dot_K = [S]^-1 (A_K - A') = (R_K rel_w, R_J rel_v).
+      const Vector6 rel = a.col(col) - carried;
+      x.col(col).segment<3>(off).noalias() = l.R * rel.head<3>();
+      if (j == kGround)
+        x.col(col).segment<3>(off + 3) = rel.tail<3>();
+      else
+        x.col(col).segment<3>(off + 3).noalias() = links[at(j)].R * rel.tail<3>();
+    } else {
+      Vector6 acc = carried;
+      if constexpr (M > 0) {
+        [[maybe_unused]] const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
+        const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
+        const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
+        auto zk = x.col(col).segment<M>(off);
+        const Eigen::Matrix<double, M, 1> rates = d_inv * (zk - uk.transpose() * carried);
+        if constexpr (Shape == Subspace::ball) {
+          zk.noalias() = l.R * rates;
+          acc.head<3>() += rates;
+        } else {
+          zk = rates;
+          if constexpr (Shape == Subspace::angular)
+            acc.head<3>().noalias() += s.template topRows<3>() * rates;
+          else if constexpr (Shape == Subspace::linear)
+            acc.tail<3>().noalias() += s.template bottomRows<3>() * rates;
+          else
+            acc.noalias() += s * rates;
+        }
+      }
+      a.col(col) = acc;
+    }
+  }
+}
+
 // Each joint type's speed count and shape of [S], for the templates above.
 template <typename Step>
 void dispatch_joint_type(JointType type, Step&& step) {
@@ -400,6 +527,7 @@ void dispatch_joint_type(JointType type, Step&& step) {
 
 void JointDynamics::Impl::recursive(Eigen::Ref<VectorX> zdot) {
   const int n = model.num_bodies();
+  factored = true;
   for (int k = n - 1; k >= 0; --k)
     dispatch_joint_type(joint_type[at(k)],
                         [this, k]<int M, Subspace Shape>() { recursive_inward<M, Shape>(k); });
@@ -500,6 +628,7 @@ const VectorX& JointDynamics::inputs() const { return impl_->data.inputs; }
 void JointDynamics::evaluate(const VectorX& q, const VectorX& z, Route route,
                              Eigen::Ref<VectorX> zdot) {
   Impl& s = *impl_;
+  s.factored = false;
   s.prepare(q, z);
   if (route == Route::recursive)
     s.recursive(zdot);
@@ -516,6 +645,94 @@ void JointDynamics::derivative(const VectorX& qz, Route route, Eigen::Ref<Vector
   joint_coordinate_rates(s.model, s.q, s.z, s.qdot);
   dqz.head(nq) = s.qdot;
   evaluate(s.q, s.z, route, dqz.tail(nz));
+}
+
+void JointDynamics::kinematics(const VectorX& q, const VectorX& z) {
+  Impl& s = *impl_;
+  s.factored = false;
+  s.prepare(q, z, false);
+}
+
+const Matrix3& JointDynamics::body_rotation(int k) const { return impl_->links[at(k)].R; }
+
+void JointDynamics::body_motion(int k, BodyMotion& out) {
+  Impl& s = *impl_;
+  s.path.clear();
+  for (const int c : s.model.chain(k)) s.path.push_back(c);
+  Vector3 p = Vector3::Zero(), v = Vector3::Zero(), alpha = Vector3::Zero(), a = Vector3::Zero();
+  Vector3 w_j = Vector3::Zero();
+  for (auto it = s.path.rbegin(); it != s.path.rend(); ++it) {
+    const int c = *it;
+    const Link& l = s.links[at(c)];
+    const int m = s.speeds[at(c)];
+    // [P_c]: the linear parts move by w_J x r and alpha_J x r, the angular ones carry J's
+    // unless c is free (its w'_c is absolute).
+    a += alpha.cross(l.r) + l.c.tail<3>();
+    alpha = (s.joint_type[at(c)] == JointType::free ? Vector3::Zero() : alpha) + l.c.head<3>();
+    v += w_j.cross(l.r);
+    if (m > 0) {
+      const int off = s.offset[at(c)];
+      const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> sc(s.S.data() + 6 * off, 6,
+                                                                          m);
+      v.noalias() += sc.bottomRows<3>() * s.z_seen.segment(off, m);
+    }
+    p += l.r;
+    w_j = l.w;
+  }
+  out.R = s.links[at(k)].R;
+  out.p = p;
+  out.w = s.links[at(k)].w;
+  out.v = v;
+  out.alpha = alpha;
+  out.a = a;
+}
+
+void JointDynamics::add_point_jacobian(int k, const Vector3& origin_k, const Vector3& point,
+                                       double sign, Eigen::Ref<MatrixX> Jv,
+                                       Eigen::Ref<MatrixX> Jw) {
+  Impl& s = *impl_;
+  Vector3 origin = origin_k;  // O_c of the joint c at hand, up the chain
+  Vector3 moved = point;
+  bool turns = true;
+  for (const int c : s.model.chain(k)) {
+    const Link& l = s.links[at(c)];
+    const int m = s.speeds[at(c)];
+    const int off = s.offset[at(c)];
+    for (int col = 0; col < m; ++col) {
+      const Eigen::Map<const Vector6> sc(s.S.data() + 6 * (off + col));
+      const Vector3 sw = sc.head<3>();
+      if (turns) Jw.col(off + col) += sign * sw;
+      Jv.col(off + col) += sign * (sc.tail<3>() + sw.cross(moved - origin));
+    }
+    if (s.joint_type[at(c)] == JointType::free) {
+      moved = origin;
+      turns = false;
+    }
+    origin -= l.r;  // O_J
+  }
+}
+
+void JointDynamics::solve_mass(Eigen::Ref<MatrixX> x) {
+  Impl& s = *impl_;
+  if (!s.factored)
+    throw std::logic_error("JointDynamics::solve_mass: needs an evaluation by Route::recursive");
+  if (x.rows() != s.model.num_speeds())
+    throw std::invalid_argument("JointDynamics::solve_mass: " + std::to_string(x.rows()) +
+                                " rows, expected " + std::to_string(s.model.num_speeds()));
+  const int n = s.model.num_bodies(), c = static_cast<int>(x.cols());
+  if (c == 0) return;
+  const size_t size = 6 * at(c) * at(n);
+  if (s.column_force.size() < size) {
+    s.column_force.resize(size);
+    s.column_acceleration.resize(size);
+  }
+  std::fill_n(s.column_force.begin(), size, 0.0);
+  for (int k = n - 1; k >= 0; --k)
+    dispatch_joint_type(s.joint_type[at(k)],
+                        [&s, k, &x]<int M, Subspace Shape>() { s.solve_inward<M, Shape>(k, x); });
+  for (int k = 0; k < n; ++k)
+    dispatch_joint_type(s.joint_type[at(k)],
+                        [&s, k, &x]<int M, Subspace Shape>() { s.solve_outward<M, Shape>(k, x); });
 }
 
 }  // namespace kanedyn::detail

@@ -6,6 +6,7 @@
 // energy conservation of a jointed eight-body figure.
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -185,6 +186,45 @@ TEST(JointDynamics, BothRoutesAgreeWithTheProjectedEquations) {
     EXPECT_LT(relative_difference(recursive, e.zdot), kRouteTolerance);
     EXPECT_LT(relative_difference(assembled, e.zdot), kRouteTolerance);
     EXPECT_LT(relative_difference(recursive, assembled), kRouteTolerance);
+  }
+}
+
+// solve_mass applies the articulated-body factorization of the last recursive evaluation to
+// columns: [A_z]^-1 Q against the dense [A_z] of the projected equations (its LDL^T solve), on
+// every comparison case (free joints at the root and inside, spherical, welded, planar ...), at
+// column counts 1, 3 and 7; the same tolerance as the routes (one well-conditioned solve each,
+// in different orders of operations). Then no allocation on later calls with as many columns,
+// and a call without a recursive evaluation before it is refused.
+TEST(JointDynamics, SolveMassAppliesTheInverseMassMatrix) {
+  std::mt19937 rng(17);
+  for (const Case& c : comparison_cases(2)) {
+    SCOPED_TRACE(c.name);
+    Data reference(c.model);
+    const ProjectedEquations e = projected_equations(c.model, c.q, c.z, reference);
+    const Eigen::LDLT<MatrixX> dense(e.A_z);
+    JointDynamics dyn(c.model);
+    const int n = c.model.num_speeds();
+    VectorX zdot(n);
+    dyn.evaluate(c.q, c.z, Route::recursive, zdot);
+    for (int columns : {1, 3, 7}) {
+      const MatrixX Q = MatrixX::NullaryExpr(n, columns, [&] { return test::uniform(rng, -1, 1); });
+      MatrixX x = Q;
+      dyn.solve_mass(x);
+      const MatrixX expected = dense.solve(Q);
+      EXPECT_LT(test::max_abs(x - expected) / (1.0 + test::max_abs(expected)), kRouteTolerance)
+          << columns << " columns";
+    }
+    if (alloc_counter::available()) {
+      MatrixX x = MatrixX::Ones(n, 7);
+      alloc_counter::count = 0;
+      alloc_counter::counting = true;
+      dyn.solve_mass(x);
+      alloc_counter::counting = false;
+      EXPECT_EQ(alloc_counter::count.load(), 0);
+    }
+    dyn.evaluate(c.q, c.z, Route::assembled, zdot);
+    MatrixX x = MatrixX::Ones(n, 1);
+    EXPECT_THROW(dyn.solve_mass(x), std::logic_error);
   }
 }
 

@@ -13,6 +13,10 @@
 
 namespace kanedyn {
 
+namespace detail {
+class JointDynamics;
+}
+
 /// A constraint's equations fail to be defined at a state: a rolling disc's axle along the
 /// plane's normal, a distance constraint's points together, a projection that does not converge.
 class ConstraintError : public std::runtime_error {
@@ -62,6 +66,9 @@ class ConstraintEquations {
   Vector3 moment(int constraint, const VectorX& lambda) const;
 
  private:
+  friend class ConstrainedDynamics;
+  // evaluate() from the kinematic terms of a tree's last evaluation at (q, z).
+  void evaluate(detail::JointDynamics& tree);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
