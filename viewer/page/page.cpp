@@ -191,6 +191,10 @@ Json constraint_json(const Constraint& c) {
 
 }  // namespace
 
+std::size_t required_columns(const Model& model) {
+  return 2 + 16 * static_cast<std::size_t>(model.num_bodies());
+}
+
 io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const VectorX& z) {
   State initial(model);
   joint_state(model, q, z, initial);
@@ -198,6 +202,9 @@ io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const Ve
   compute_kinematics(model, initial, data);
   io::Trajectory out;
   out.columns = io::trajectory_body_columns(model);
+  // The page's own columns only: the inputs' and reactions' columns after the energy are
+  // values of a run, not of a state (page() takes them when a trajectory has them).
+  out.columns.resize(required_columns(model));
   out.values.push_back(0.0);
   for (int k = 0; k < model.num_bodies(); ++k) {
     const auto put = [&](const auto& v) {
@@ -221,15 +228,24 @@ namespace {
 
 /// The JSON the page reads (docs/viewer.md, "What the page holds").
 /// The trajectory with only the columns of the free-body layout, in its order: a jointed
-/// model's j and jd columns are left out (the page draws the bodies from their poses).
+/// model's j and jd columns are left out (the page draws the bodies from their poses). The
+/// layout's first required_columns() (t, the bodies', the energy) must be there; the inputs'
+/// and the constraints' reactions' after them are kept when the trajectory has them all.
 io::Trajectory body_columns(const Model& model, const io::Trajectory& traj) {
-  const std::vector<std::string> wanted = io::trajectory_body_columns(model);
+  std::vector<std::string> wanted = io::trajectory_body_columns(model);
+  const std::size_t required = required_columns(model);
   std::vector<std::size_t> from;
   std::size_t c = 0;
-  for (const std::string& name : wanted) {
-    while (c < traj.columns.size() && traj.columns[c] != name) ++c;
-    if (c == traj.columns.size())
-      throw std::invalid_argument("view::page: the trajectory's columns are not the model's");
+  for (std::size_t i = 0; i < wanted.size(); ++i) {
+    while (c < traj.columns.size() && traj.columns[c] != wanted[i]) ++c;
+    if (c == traj.columns.size()) {
+      if (i < required)
+        throw std::invalid_argument("view::page: the trajectory's columns are not the model's");
+      // Without the run's columns (an initial state, a mode): the page's own only.
+      wanted.resize(required);
+      from.resize(required);
+      break;
+    }
     from.push_back(c++);
   }
   io::Trajectory out;
@@ -260,10 +276,10 @@ std::string page_data(const Model& model, const std::string& model_file,
   std::vector<double> f64;
   std::vector<float> f32;
   Json f64_columns = Json::array(), f32_columns = Json::array();
+  const std::size_t energy = required_columns(model) - 1;  // after t and 16 a body
   for (std::size_t c = 0; c < width; ++c) {
-    const std::size_t in_body = (c - 1) % 16;
-    const bool energy = c + 1 == width;  // the last column of the body layout
-    const bool wide = c == 0 || energy || in_body < 3;
+    const bool centre = c >= 1 && c < energy && (c - 1) % 16 < 3;  // NAME.x, .y, .z
+    const bool wide = c == 0 || centre || c == energy;
     (wide ? f64_columns : f32_columns).push_back(c);
     for (const std::size_t r : kept) {
       if (wide)
