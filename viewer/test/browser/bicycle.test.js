@@ -127,8 +127,14 @@ test('the ground grid is the wheels\' plane z = 0', async () => {
   assert.equal(ground[2], 0);
 });
 
-test('the plots are drawn', async () => {
+test('the plots are drawn; the energy axis has an offset and a scale', async () => {
   await checkPlots(ctx.page);
+  // The energy, 2022.86 J, drifts by about 1e-6 J in the run: the ticks are differences from
+  // an offset, in a power of ten, not the same "2022.86" repeated.
+  const axis = await ctx.page.evaluate(() => window.kanedynViewer.plotAxis(0));
+  console.log(`energy axis: '${axis.text}' over ${axis.labels.join(', ')}`);
+  assert.match(axis.text, /^\u00d71e-[0-9]+ \+2022\.86/);
+  assert.ok(axis.labels.length >= 2 && new Set(axis.labels).size === axis.labels.length, axis.labels.join(', '));
 });
 
 test('no console error and no network request', () => {

@@ -253,6 +253,12 @@ test('the constraints: as the model gives them, and the contact points where the
   assert.deepEqual(f.model.constraints, [
     { name: 'closure', type: 'hinge', body: 2, at: [0.9, 0, 0], axis: [0, 0, 1], other: -1, other_at: [1, 0, 0], other_axis: [0, 0, 1] },
   ]);
+  // The initial state's page holds the page's own columns, not the run's reactions.
+  assert.deepEqual(f.columns.slice(-2), ['rocker.sd3', 'energy']);
+  // A mode of the bicycle: a page too.
+  const mode = kanedyn(dir, 'view', bicycle, '--mode', '3', '-o', 'bicycle_mode.html');
+  assert.equal(mode.code, 0, mode.err);
+  assert.equal(pageData(join(dir, 'bicycle_mode.html')).model.constraints.length, 2);
   // A model without constraints has no such key.
   assert.equal(pageData(join(dir, 'eight.html')).model.constraints, undefined);
 });
