@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "kanedyn/constraint.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
@@ -163,7 +164,36 @@ void add_joint_json(const Model& model, int k, Json& o) {
   o["joint_axes"] = std::move(axes);
 }
 
+/// A constraint as the page draws it (docs/viewer.md, "What the page holds"): the fields of
+/// struct Constraint its type uses, body indices 0-based and -1 for the ground; vectors in
+/// the components they are given in (body K's, the other body's, or inertial for the ground
+/// and a disc's plane), axes normalized by the Model.
+Json constraint_json(const Constraint& c) {
+  Json o;
+  o["name"] = c.name;
+  o["type"] = to_string(c.type);
+  o["body"] = c.body;
+  o["at"] = vec(c.at);
+  if (c.type == ConstraintType::rolling_disc) {
+    o["axis"] = vec(c.axis);
+    o["radius"] = c.radius;
+    o["plane_normal"] = vec(c.plane_normal);
+    o["plane_offset"] = c.plane_offset;
+    return o;
+  }
+  if (c.type == ConstraintType::hinge) o["axis"] = vec(c.axis);
+  o["other"] = c.other == kGround ? -1 : c.other;
+  o["other_at"] = vec(c.other_at);
+  if (c.type == ConstraintType::hinge) o["other_axis"] = vec(c.other_axis);
+  if (c.type == ConstraintType::distance) o["length"] = c.length;
+  return o;
+}
+
 }  // namespace
+
+std::size_t required_columns(const Model& model) {
+  return 2 + 16 * static_cast<std::size_t>(model.num_bodies());
+}
 
 io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const VectorX& z) {
   State initial(model);
@@ -172,6 +202,9 @@ io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const Ve
   compute_kinematics(model, initial, data);
   io::Trajectory out;
   out.columns = io::trajectory_body_columns(model);
+  // The page's own columns only: the inputs' and reactions' columns after the energy are
+  // values of a run, not of a state (page() takes them when a trajectory has them).
+  out.columns.resize(required_columns(model));
   out.values.push_back(0.0);
   for (int k = 0; k < model.num_bodies(); ++k) {
     const auto put = [&](const auto& v) {
@@ -195,15 +228,24 @@ namespace {
 
 /// The JSON the page reads (docs/viewer.md, "What the page holds").
 /// The trajectory with only the columns of the free-body layout, in its order: a jointed
-/// model's j and jd columns are left out (the page draws the bodies from their poses).
+/// model's j and jd columns are left out (the page draws the bodies from their poses). The
+/// layout's first required_columns() (t, the bodies', the energy) must be there; the inputs'
+/// and the constraints' reactions' after them are kept when the trajectory has them all.
 io::Trajectory body_columns(const Model& model, const io::Trajectory& traj) {
-  const std::vector<std::string> wanted = io::trajectory_body_columns(model);
+  std::vector<std::string> wanted = io::trajectory_body_columns(model);
+  const std::size_t required = required_columns(model);
   std::vector<std::size_t> from;
   std::size_t c = 0;
-  for (const std::string& name : wanted) {
-    while (c < traj.columns.size() && traj.columns[c] != name) ++c;
-    if (c == traj.columns.size())
-      throw std::invalid_argument("view::page: the trajectory's columns are not the model's");
+  for (std::size_t i = 0; i < wanted.size(); ++i) {
+    while (c < traj.columns.size() && traj.columns[c] != wanted[i]) ++c;
+    if (c == traj.columns.size()) {
+      if (i < required)
+        throw std::invalid_argument("view::page: the trajectory's columns are not the model's");
+      // Without the run's columns (an initial state, a mode): the page's own only.
+      wanted.resize(required);
+      from.resize(required);
+      break;
+    }
     from.push_back(c++);
   }
   io::Trajectory out;
@@ -227,14 +269,17 @@ std::string page_data(const Model& model, const std::string& model_file,
   for (std::size_t r = 0; r < rows; r += stride) kept.push_back(r);
   if (kept.back() != rows - 1) kept.push_back(rows - 1);
   // Time and the mass centres in float64: float32's 6e-8 relative step would be 6 um at
-  // 100 m, coarser than the page's promise that it draws the CSV's positions. The rest
-  // (Euler parameters, speeds, energy: drawing and plotting only) in float32.
+  // 100 m, coarser than the page's promise that it draws the CSV's positions. The energy
+  // too: a conservative run's drift (1e-7 J of 100 J, say) is below float32's step, which
+  // would plot as a staircase of rounding. The rest (Euler parameters, speeds: drawing and
+  // plotting only) in float32.
   std::vector<double> f64;
   std::vector<float> f32;
   Json f64_columns = Json::array(), f32_columns = Json::array();
+  const std::size_t energy = required_columns(model) - 1;  // after t and 16 a body
   for (std::size_t c = 0; c < width; ++c) {
-    const std::size_t in_body = (c - 1) % 16;
-    const bool wide = c == 0 || (c + 1 < width && in_body < 3);
+    const bool centre = c >= 1 && c < energy && (c - 1) % 16 < 3;  // NAME.x, .y, .z
+    const bool wide = c == 0 || centre || c == energy;
     (wide ? f64_columns : f32_columns).push_back(c);
     for (const std::size_t r : kept) {
       if (wide)
@@ -254,6 +299,10 @@ std::string page_data(const Model& model, const std::string& model_file,
     Json b = body_json(model, k);
     if (!model.all_free()) add_joint_json(model, k, b);
     m["bodies"].push_back(std::move(b));
+  }
+  if (model.num_constraints() > 0) {
+    m["constraints"] = Json::array();
+    for (const Constraint& c : model.constraints()) m["constraints"].push_back(constraint_json(c));
   }
   d["model"] = std::move(m);
   d["source"] = source;

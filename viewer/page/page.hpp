@@ -25,13 +25,19 @@ void require_available();
 /// k: the page keeps rows 0, k, 2k, ... and the last; 1 up to kMaxRows rows.
 std::size_t stride(std::size_t rows);
 
+/// The page's own columns, the first of io::trajectory_body_columns(model): t, 16 a body and
+/// the energy (the inputs' and the constraints' reactions' columns follow them in a run's).
+std::size_t required_columns(const Model& model);
+
 /// The one-row trajectory of the state q, z at t = 0 (its notes' state by joint_state,
 /// positions by compute_kinematics, energy by total_energy with the joint springs'
-/// potentials), in the columns of io::trajectory_body_columns(model).
+/// potentials), in the first required_columns(model) columns of
+/// io::trajectory_body_columns(model).
 io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const VectorX& z);
 
 /// The page's text. `traj` must have io::trajectory_columns(model) or
-/// io::trajectory_body_columns(model) and at least one row (std::invalid_argument otherwise);
+/// io::trajectory_body_columns(model), or their first required_columns(model) (without the
+/// inputs and reactions), and at least one row (std::invalid_argument otherwise);
 /// `model_file` and `source` (the trajectory's name, or "initial state") are shown on the
 /// page. When some joint is not free, each body's joint type and axes are given for the page
 /// to draw. Throws std::runtime_error when !available().

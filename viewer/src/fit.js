@@ -1,5 +1,7 @@
 // Fitting the model in view, whatever its size: the box of all mass centres over the run
-// (sampled), of the O_K and Q_K points, grown by the largest ellipsoid.
+// (sampled), of the O_K and Q_K points and the rolling discs' contact points, grown by the
+// largest ellipsoid or wheel radius.
+import { discContact, discGround, rollingDiscs } from './constraints.js';
 
 /** Up is against gravity; without gravity, +z. */
 export function upDirection(gravity) {
@@ -27,15 +29,21 @@ export function fitView(model, motion, samples = 200) {
   };
   const rows = motion.times.length;
   const step = Math.max(1, Math.floor(rows / samples));
+  const discs = rollingDiscs(model);
   for (let r = 0; r < rows; r += step) {
-    for (const f of motion.at(motion.times[r])) {
+    const frame = motion.at(motion.times[r]);
+    for (const f of frame) {
       grow(f.g);
       grow(f.o);
       grow(f.q);
     }
+    for (const c of discs) {
+      const { contact } = discContact(c, frame);
+      if (contact) grow(contact);
+    }
   }
   for (const f of motion.at(motion.end)) grow(f.g);
-  const size = Math.max(...model.bodies.map((b) => Math.max(...b.semi_axes)));
+  const size = Math.max(...model.bodies.map((b) => Math.max(...b.semi_axes)), ...discs.map((c) => c.radius));
   for (let a = 0; a < 3; ++a) {
     lo[a] -= size;
     hi[a] += size;
@@ -48,6 +56,9 @@ export function fitView(model, motion, samples = 200) {
   for (const x of [lo[0], hi[0]]) for (const y of [lo[1], hi[1]]) for (const z of [lo[2], hi[2]]) {
     lowest = Math.min(lowest, x * up[0] + y * up[1] + z * up[2]);
   }
+  // Unless the wheels roll on a ground plane normal to up: the grid is that plane.
+  const wheels = discGround(model, up);
+  if (wheels !== null) lowest = wheels;
   const c = centre[0] * up[0] + centre[1] * up[1] + centre[2] * up[2];
   const ground = centre.map((x, a) => x + (lowest - c) * up[a]);
   // Cells a power of ten (about a fifth of the radius or less), as many as span the motion.

@@ -115,6 +115,7 @@ function start() {
   });
   ui.axes.addEventListener('change', () => { view.setAxesVisible(ui.axes.checked); dirty = true; });
   ui.joints.addEventListener('change', () => { view.setJointsVisible(ui.joints.checked); dirty = true; });
+  ui.constraints.addEventListener('change', () => { view.setConstraintsVisible(ui.constraints.checked); dirty = true; });
   ui.fit.addEventListener('click', fitCamera);
   controls.addEventListener('change', () => { dirty = true; });
 
@@ -198,12 +199,26 @@ function start() {
       pageFrom: project({ x: j.from[0], y: j.from[1], z: j.from[2] }),
       pageTo: project({ x: j.to[0], y: j.to[1], z: j.to[2] }),
     })),
+    /**
+     * The constraints as drawn now (inertial, m): per rolling disc its wheel's centre, axle,
+     * radius and contact marker, per closure its two markers (docs/viewer.md, "Page hook");
+     * pageContact, pageFrom and pageTo on the page (CSS pixels).
+     */
+    constraints: () => view.drawnConstraints().map((c) => {
+      const page = (p) => (p ? project({ x: p[0], y: p[1], z: p[2] }) : null);
+      if (c.type === 'rolling_disc') return { ...c, pageCentre: page(c.centre), pageContact: page(c.contact) };
+      return { ...c, pageFrom: page(c.from), pageTo: page(c.to) };
+    }),
+    /** A point of the ground grid's plane (inertial, m). */
+    ground: () => [...fit.ground],
     /** Page x (CSS pixels) of time `time` on plot i, and the vertical middle of its plot area. */
     plotPoint: (i, time) => {
       const p = plots[i];
       const r = p.over.getBoundingClientRect();
       return { x: r.left + p.valToPos(time, 'x'), y: r.top + r.height / 2 };
     },
+    /** The value axis of plot i: its tick labels and offset/scale text ('' when none). */
+    plotAxis: (i) => ({ labels: [...plots[i].kanedynAxis.labels], text: plots[i].kanedynAxis.text }),
     plotCanvases: () => plots.filter(Boolean).map((p) => p.ctx.canvas),
     pick,
     /** Milliseconds of work of the last rendered frames (update and draw). */

@@ -1,7 +1,10 @@
 // uPlot plots against time: energy, and the columns the user picks. One cursor for all
 // (uPlot's sync), a line at the animation's time, and a click seeks there.
+// The value axis labels its ticks by ticks.js: an offset and a power of ten written once in
+// the plot's top-left corner when the range is tiny next to the values.
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
+import { tickLabels } from './ticks.js';
 
 const SYNC = 'kanedyn';
 
@@ -26,9 +29,50 @@ function timeMarker(getTime) {
   };
 }
 
+/**
+ * The value axis's tick labels, and its offset and scale text drawn in the plot area's
+ * top-left corner; `state.text` holds that text (the page hook reads it).
+ */
+function valueAxis(state) {
+  return {
+    size: 70,
+    values: (u, splits, axisIdx, space, incr) => {
+      const r = tickLabels(splits, incr);
+      state.text = r.text;
+      state.labels = r.labels;
+      return r.labels;
+    },
+  };
+}
+
+function axisText(state) {
+  return {
+    hooks: {
+      draw: (u) => {
+        if (!state.text) return;
+        const ctx = u.ctx;
+        const px = devicePixelRatio;
+        ctx.save();
+        ctx.font = `${12 * px}px sans-serif`;
+        ctx.textBaseline = 'top';
+        ctx.textAlign = 'left';
+        const x = u.bbox.left + 4 * px;
+        const y = u.bbox.top + 3 * px;
+        const w = ctx.measureText(state.text).width;
+        ctx.fillStyle = 'rgba(255, 255, 255, 0.8)';
+        ctx.fillRect(x - 2 * px, y - 2 * px, w + 4 * px, 16 * px);
+        ctx.fillStyle = '#222';
+        ctx.fillText(state.text, x, y);
+        ctx.restore();
+      },
+    },
+  };
+}
+
 const PALETTE = ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e', '#17becf', '#8c564b', '#e377c2'];
 
 export function createPlot(container, traj, names, { width, height, getTime, seek, title }) {
+  const axis = { text: '', labels: [] };
   const series = [{ label: 't' }];
   const data = [traj.columns[0]];
   names.forEach((name, i) => {
@@ -42,12 +86,13 @@ export function createPlot(container, traj, names, { width, height, getTime, see
     height,
     series,
     scales: { x: { time: false } },
-    axes: [{ label: 't (s)' }, { size: 70 }],
+    axes: [{ label: 't (s)' }, valueAxis(axis)],
     cursor: { sync: { key: SYNC }, drag: { x: false, y: false } },
     legend: { live: true },
-    plugins: [timeMarker(getTime)],
+    plugins: [timeMarker(getTime), axisText(axis)],
   };
   const plot = new uPlot(opts, data, container);
+  plot.kanedynAxis = axis;
   plot.over.addEventListener('click', (e) => {
     seek(plot.posToVal(e.offsetX, 'x'));
   });

@@ -1,10 +1,10 @@
 // The three.js scene: an inertia-equivalent ellipsoid per body in its body frame, the links
-// O_J -> Q_K -> O_K, body axes, the joints of a jointed model, a ground grid and the gravity
-// direction.
+// O_J -> Q_K -> O_K, body axes, the joints of a jointed model, its constraints (wheels,
+// contact points, loop closures), a ground grid and the gravity direction.
 import {
-  AmbientLight, ArrowHelper, AxesHelper, BoxGeometry, Color, DirectionalLight, GridHelper, Group,
-  Mesh, MeshBasicMaterial, MeshStandardMaterial, PerspectiveCamera, Quaternion, Scene,
-  SphereGeometry, Vector3, WebGLRenderer,
+  AmbientLight, ArrowHelper, AxesHelper, BoxGeometry, CircleGeometry, Color, DirectionalLight,
+  DoubleSide, GridHelper, Group, Mesh, MeshBasicMaterial, MeshStandardMaterial, PerspectiveCamera,
+  Quaternion, Scene, SphereGeometry, TorusGeometry, Vector3, WebGLRenderer,
 } from 'three';
 import { LineMaterial } from 'three/examples/jsm/lines/LineMaterial.js';
 import { LineSegments2 } from 'three/examples/jsm/lines/LineSegments2.js';
@@ -13,6 +13,9 @@ import { fitView } from './fit.js';
 import {
   JOINT_HEX, MARKER_HEX, axisHalfLength, hasJoints, jointLines, jointMarkers, lineSegments, segmentCount,
 } from './joints.js';
+import {
+  CONSTRAINT_HEX, closurePoints, closures, discContact, hasConstraints, rollingDiscs,
+} from './constraints.js';
 
 export const BACKGROUND = 0xf4f5f7;
 /** Body axes x, y, z: red, green, blue (darker than pure, to read on the light background). */
@@ -167,6 +170,128 @@ export function createScene(canvas, model, motion) {
     }
   }
 
+  // The constraints. A rolling disc's wheel is a rim (a torus of the disc's radius about its
+  // axle, at its centre), a translucent disc in the body's colour and three spokes, fixed in
+  // the wheel's body frame so that it turns with it; its contact point is a green ball on the ground with the radius
+  // from the centre to it, recomputed from the wheel's pose every frame. A loop closure marks
+  // the point of `body` with a solid ball and the point of `other` with a wire ball around
+  // it (they coincide when the constraint holds), joins a distance constraint's two points
+  // with a line and draws a hinge's two axes through its points.
+  const constrained = new Group();
+  constrained.visible = hasConstraints(model);
+  scene.add(constrained);
+  const discs = rollingDiscs(model);
+  const loops = closures(model);
+  const markRadius = 0.015 * fit.radius; // the joints' markers' size
+  const axisHalf = 0.06 * fit.radius;
+  const wheels = discs.map((c) => {
+    const wheel = new Group();
+    wheel.position.set(...c.at);
+    const axle = new Vector3(...c.axis).normalize();
+    wheel.quaternion.setFromUnitVectors(new Vector3(0, 0, 1), axle); // the torus's axis is z
+    const r = c.radius;
+    const tube = 0.035 * r;
+    const rimMaterial = new MeshStandardMaterial({ color: CONSTRAINT_HEX.rim, roughness: 0.8 });
+    wheel.add(new Mesh(new TorusGeometry(r, tube, 12, 72), rimMaterial));
+    for (let i = 0; i < 3; ++i) {
+      const spoke = new Mesh(new BoxGeometry(2 * r, 0.5 * tube, 0.5 * tube), rimMaterial);
+      spoke.rotation.z = (i * Math.PI) / 3;
+      wheel.add(spoke);
+    }
+    const face = new Mesh(new CircleGeometry(r, 72), new MeshBasicMaterial({
+      color: bodyColour(c.body), transparent: true, opacity: 0.45, side: DoubleSide, depthWrite: false,
+    }));
+    wheel.add(face);
+    // In the body's frame (turning with it), shown with the other constraints. The wheel
+    // stands for its body: the body's ellipsoid (a wheel's is a flat disc larger than the
+    // wheel, I = m r^2 / 2 about the axle giving a semi-axis of r sqrt(5) / 2) is hidden
+    // while the wheel is shown.
+    bodies[c.body].frame.add(wheel);
+    bodies[c.body].mesh.visible = !constrained.visible;
+    const contact = new Mesh(new SphereGeometry(markRadius, 16, 8), new MeshBasicMaterial({
+      color: CONSTRAINT_HEX.contact, depthTest: false, depthWrite: false,
+    }));
+    contact.renderOrder = 2;
+    constrained.add(contact);
+    return { c, wheel, contact };
+  });
+  const closureMarks = loops.map((c) => {
+    const from = new Mesh(new SphereGeometry(markRadius, 16, 8), new MeshBasicMaterial({
+      color: CONSTRAINT_HEX.closure, depthTest: false, depthWrite: false,
+    }));
+    const to = new Mesh(new SphereGeometry(1.8 * markRadius, 12, 6), new MeshBasicMaterial({
+      color: CONSTRAINT_HEX.closure, wireframe: true, depthTest: false, depthWrite: false,
+    }));
+    from.renderOrder = 2;
+    to.renderOrder = 2;
+    constrained.add(from, to);
+    return { c, from, to };
+  });
+  // Line segments: per disc the radius to its contact, per distance its line, per hinge its
+  // two axes.
+  const constraintSegmentCount = (c) => (c.type === 'hinge' ? 2 : c.type === 'ball' ? 0 : 1);
+  const constraintSegments = (model.constraints || []).reduce((n0, c) => n0 + constraintSegmentCount(c), 0);
+  const constraintPositions = new Float32Array(constraintSegments * 6);
+  const constraintColours = new Float32Array(constraintSegments * 6);
+  const constraintGeometry = new LineSegmentsGeometry();
+  {
+    let seg = 0;
+    for (const c of model.constraints || []) {
+      const colour = new Color(c.type === 'rolling_disc' ? CONSTRAINT_HEX.contact : CONSTRAINT_HEX.closure);
+      for (let i = 0; i < constraintSegmentCount(c); ++i, ++seg) {
+        for (let end = 0; end < 2; ++end) colour.toArray(constraintColours, seg * 6 + end * 3);
+      }
+    }
+    if (constraintSegments > 0) {
+      constraintGeometry.setPositions(constraintPositions);
+      constraintGeometry.setColors(constraintColours);
+    }
+  }
+  lineMaterials.push(new LineMaterial({
+    vertexColors: true, linewidth: JOINT_WIDTH, depthTest: false, depthWrite: false,
+  }));
+  const constraintLines = new LineSegments2(constraintGeometry, lineMaterials[2]);
+  constraintLines.visible = constraintSegments > 0;
+  constraintLines.frustumCulled = false;
+  constraintLines.renderOrder = 2;
+  constrained.add(constraintLines);
+
+  /** The constraints' markers and lines at `frame`, from the bodies' poses. */
+  function placeConstraints(frame) {
+    const segs = [];
+    let w = 0;
+    let l = 0;
+    for (const c of model.constraints || []) {
+      if (c.type === 'rolling_disc') {
+        const { contact } = wheels[w++];
+        const p = discContact(c, frame);
+        contact.visible = p.contact !== null;
+        if (p.contact) {
+          contact.position.set(...p.contact);
+          segs.push([p.centre, p.contact]);
+        } else {
+          segs.push([p.centre, p.centre]);
+        }
+        continue;
+      }
+      const m = closureMarks[l++];
+      const p = closurePoints(c, frame);
+      m.from.position.set(...p.from);
+      m.to.position.set(...p.to);
+      if (c.type === 'distance') segs.push([p.from, p.to]);
+      if (c.type === 'hinge') {
+        for (const [at, u] of [[p.from, p.axis], [p.to, p.otherAxis]]) {
+          segs.push([at.map((x, a) => x - axisHalf * u[a]), at.map((x, a) => x + axisHalf * u[a])]);
+        }
+      }
+    }
+    segs.forEach(([a, b], i) => {
+      constraintPositions.set(a, i * 6);
+      constraintPositions.set(b, i * 6 + 3);
+    });
+    if (constraintSegments > 0) constraintGeometry.attributes.instanceStart.data.needsUpdate = true;
+  }
+
   const q = new Quaternion();
   const v = new Vector3();
   /** Places every body at the configuration `frame` (motion.at(t)). */
@@ -189,6 +314,7 @@ export function createScene(canvas, model, motion) {
     }
     linkGeometry.attributes.instanceStart.data.needsUpdate = true;
     if (lines.length || marks.length) placeJoints(frame);
+    if (hasConstraints(model)) placeConstraints(frame);
     scene.updateMatrixWorld();
   }
 
@@ -224,8 +350,52 @@ export function createScene(canvas, model, motion) {
     });
   }
 
+  function setConstraintsVisible(on) {
+    constrained.visible = on;
+    for (const { c, wheel } of wheels) {
+      wheel.visible = on;
+      bodies[c.body].mesh.visible = !on;
+    }
+  }
+
+  /**
+   * The constraints as drawn, in the model's order, inertial coordinates from the scene
+   * graph: a rolling disc's wheel centre, axle (the wheel's local z), radius and contact
+   * marker (null when undefined); a closure's two markers, and a hinge's axis lines.
+   */
+  function drawnConstraints() {
+    let w = 0;
+    let l = 0;
+    let seg = 0;
+    const p = constraintPositions;
+    const segment = () => {
+      const r = [[...p.subarray(seg * 6, seg * 6 + 3)], [...p.subarray(seg * 6 + 3, seg * 6 + 6)]];
+      ++seg;
+      return r;
+    };
+    const world = (o) => o.getWorldPosition(new Vector3()).toArray();
+    return (model.constraints || []).map((c) => {
+      const r = { name: c.name, type: c.type, body: c.body };
+      if (c.type === 'rolling_disc') {
+        const { wheel, contact } = wheels[w++];
+        r.centre = world(wheel);
+        r.axis = new Vector3(0, 0, 1).applyQuaternion(wheel.getWorldQuaternion(new Quaternion())).toArray();
+        r.radius = c.radius;
+        r.contact = contact.visible ? world(contact) : null;
+        r.radiusLine = segment();
+        return r;
+      }
+      const m = closureMarks[l++];
+      r.from = world(m.from);
+      r.to = world(m.to);
+      if (c.type === 'distance') r.line = segment();
+      if (c.type === 'hinge') r.axes = [segment(), segment()];
+      return r;
+    });
+  }
+
   return {
     software, renderer, scene, camera, bodies, fit, place, drawnCentres, setAxesVisible, setJointsVisible, drawnJoints, sun,
-    setResolution,
+    setResolution, setConstraintsVisible, drawnConstraints,
   };
 }

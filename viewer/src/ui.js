@@ -1,5 +1,6 @@
 // The page's elements: the 3D stage, the playback bar and the side panel with the plots.
 import { hasJoints } from './joints.js';
+import { hasConstraints, rollingDiscs } from './constraints.js';
 
 /** document.createElement with attributes (on* as listeners) and children. */
 export function h(tag, attrs = {}, ...children) {
@@ -37,6 +38,11 @@ export function layout(body, d) {
   // Shown (and on) for a jointed model only.
   const jointed = hasJoints(m);
   const joints = h('input', { type: 'checkbox', id: 'joints', checked: jointed });
+  // Likewise for a model with constraints.
+  const constrained = hasConstraints(m);
+  const constraints = h('input', { type: 'checkbox', id: 'constraints', checked: constrained });
+  const wheels = rollingDiscs(m).length > 0;
+  const loops = constrained && m.constraints.length > rollingDiscs(m).length;
   const fit = h('button', { id: 'fit' }, 'Fit view');
   const listId = 'kanedyn-columns';
   const picker = h('input', { type: 'text', id: 'picker', list: listId, placeholder: 'add a column, e.g. ' + (d.columns[1] || 't'), autocomplete: 'off' });
@@ -55,11 +61,14 @@ export function layout(body, d) {
     note,
     h('p', { class: 'controls' }, h('label', {}, 'follow ', follow), ' ',
       h('label', {}, axes, ' body axes'), ' ',
-      jointed ? h('label', {}, joints, ' joints') : '', jointed ? ' ' : '', fit),
+      jointed ? h('label', {}, joints, ' joints') : '', jointed ? ' ' : '',
+      constrained ? h('label', {}, constraints, ' constraints') : '', constrained ? ' ' : '', fit),
     h('p', { class: 'hint' }, 'Drag: orbit; wheel: zoom; right-drag: pan. Space: play/pause; arrows: step a row. Click a plot to seek. Blue arrow: gravity; lines: O_J \u2192 Q_K \u2192 O_K.',
-      jointed ? ' Violet: joint axes and balls at Q_K; orange arrowheads: sliding.' : ''));
+      jointed ? ' Violet: joint axes and balls at Q_K; orange arrowheads: sliding.' : '',
+      wheels ? ' Wheels: rolling discs; green: their contact points with the ground.' : '',
+      loops ? ' Magenta: loop closures, the point of the body (solid) and of the other (wire ball); lines: a distance, or a hinge\u2019s two axes.' : ''));
   const side = h('div', { class: 'side' }, about, plots);
   const main = h('div', { class: 'main' }, h('div', { class: 'left' }, stage, bar), side);
   body.append(main);
-  return { canvas, tip, stage, play, speed, loop, slider, time, follow, axes, joints, fit, picker, chips, energyPlot, pickedPlot, plots };
+  return { canvas, tip, stage, play, speed, loop, slider, time, follow, axes, joints, constraints, fit, picker, chips, energyPlot, pickedPlot, plots };
 }

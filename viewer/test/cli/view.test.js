@@ -10,6 +10,8 @@ import { decodeTrajectory } from '../../src/data.js';
 import { createMotion } from '../../src/motion.js';
 import { rotationMatrix } from '../../src/interp.js';
 import { jointLines, lineSegments } from '../../src/joints.js';
+import { discContact } from '../../src/constraints.js';
+import { fitView } from '../../src/fit.js';
 
 const dir = workDir('cli');
 const eight = join(EXAMPLES, 'eight_body.yaml');
@@ -38,7 +40,7 @@ test('the eight-body 10 s page holds every row: t and G exactly, the rest as flo
       assert.equal(traj.columns[c][i], want, `${csv.header[c]}, row ${i}`);
     }
   }
-  for (const name of ['t', 'torso.x', 'pelvis.y', `${d.model.bodies[7].name}.z`]) assert.ok(d.f64_columns.includes(d.columns.indexOf(name)), name);
+  for (const name of ['t', 'torso.x', 'pelvis.y', `${d.model.bodies[7].name}.z`, 'energy']) assert.ok(d.f64_columns.includes(d.columns.indexOf(name)), name);
   assert.equal(d.model.bodies.length, 8);
   assert.equal(d.model.bodies[1].L, 0); // pelvis on torso
   assert.equal(d.model.bodies[0].inertia.length, 9);
@@ -216,4 +218,47 @@ test('more than 20,000 rows: every k-th row and the last, and the page says how 
   const v = kanedyn(dir, 'view', racket, 'edge.csv');
   assert.equal(v.code, 0, v.err);
   assert.equal(pageData(join(dir, 'edge.html')).stride, 1); // 20,000 rows: all kept
+});
+
+test('the constraints: as the model gives them, and the contact points where the tool puts them', () => {
+  const bicycle = join(EXAMPLES, 'bicycle.yaml');
+  assert.equal(kanedyn(dir, 'simulate', bicycle, '--t-end', '0.6', '-o', 'bicycle.csv').code, 0);
+  assert.equal(kanedyn(dir, 'view', bicycle, 'bicycle.csv').code, 0);
+  const d = pageData(join(dir, 'bicycle.html'));
+  assert.deepEqual(d.model.constraints, [
+    { name: 'rear_contact', type: 'rolling_disc', body: 1, at: [0, 0, 0], axis: [0, 1, 0], radius: 0.3, plane_normal: [0, 0, 1], plane_offset: 0 },
+    { name: 'front_contact', type: 'rolling_disc', body: 3, at: [0, 0, 0], axis: [0, 1, 0], radius: 0.35, plane_normal: [0, 0, 1], plane_offset: 0 },
+  ]);
+  // At 0.5 s (a row) the bicycle leans and steers: the contact points the page computes from
+  // its own data are the ones kanedyn inspect reports, to 1e-6 m (the page's Euler
+  // parameters are float32, relative step 6e-8, on wheels of 0.35 m).
+  const ins = JSON.parse(kanedyn(dir, 'inspect', bicycle, '--json', '--trajectory', 'bicycle.csv', '--t', '0.5').out);
+  const motion = createMotion(d.model, decodeTrajectory(d));
+  const frame = motion.at(0.5);
+  d.model.constraints.forEach((c, i) => {
+    const want = ins.constraints.reactions[i];
+    assert.equal(want.name, c.name);
+    const got = discContact(c, frame).contact;
+    for (let a = 0; a < 3; ++a) assert.ok(Math.abs(got[a] - want.point[a]) < 1e-6, `${c.name} P[${a}]: ${got[a]} vs ${want.point[a]}`);
+  });
+  // The rear frame leans by more than 1e-3 rad there: the contact is not just under the centre.
+  const lean = Math.abs(frame[1].g[1] - discContact(d.model.constraints[0], frame).contact[1]);
+  assert.ok(lean > 1e-4, `the rear contact is ${lean} m aside from the wheel's centre`);
+  // The grid lies in the wheels' plane z = 0.
+  assert.equal(fitView(d.model, motion).ground[2], 0);
+
+  const fourBar = join(EXAMPLES, 'four_bar.yaml');
+  assert.equal(kanedyn(dir, 'view', fourBar, '-o', 'four_bar.html').code, 0);
+  const f = pageData(join(dir, 'four_bar.html'));
+  assert.deepEqual(f.model.constraints, [
+    { name: 'closure', type: 'hinge', body: 2, at: [0.9, 0, 0], axis: [0, 0, 1], other: -1, other_at: [1, 0, 0], other_axis: [0, 0, 1] },
+  ]);
+  // The initial state's page holds the page's own columns, not the run's reactions.
+  assert.deepEqual(f.columns.slice(-2), ['rocker.sd3', 'energy']);
+  // A mode of the bicycle: a page too.
+  const mode = kanedyn(dir, 'view', bicycle, '--mode', '3', '-o', 'bicycle_mode.html');
+  assert.equal(mode.code, 0, mode.err);
+  assert.equal(pageData(join(dir, 'bicycle_mode.html')).model.constraints.length, 2);
+  // A model without constraints has no such key.
+  assert.equal(pageData(join(dir, 'eight.html')).model.constraints, undefined);
 });
