@@ -768,7 +768,11 @@ class DartJointedEngine final : public JointedEngine {
 }  // namespace
 
 JointedEngineInfo dart_jointed_engine() {
-  return {"DART", DART_VERSION, [](const JointedSystem&) { return std::string(); },
+  return {"DART", DART_VERSION,
+          [](const JointedSystem& s) {
+            return s.constraints.empty() ? std::string()
+                                         : std::string("constraints not translated");
+          },
           [](const JointedSystem& s) -> std::unique_ptr<JointedEngine> {
             return std::make_unique<DartJointedEngine>(s);
           }};

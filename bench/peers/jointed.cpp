@@ -6,6 +6,7 @@
 #include <iterator>
 #include <stdexcept>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/rotation.hpp"
@@ -272,6 +273,35 @@ JointedSystem describe_jointed(const JointedCase& c) {
     }
     b.kr += bushing->rotational_stiffness;
     b.cr += bushing->rotational_damping;
+  }
+  for (const kanedyn::Constraint& k : m.constraints()) {
+    ConstraintSpec spec;
+    spec.name = k.name;
+    switch (k.type) {
+      case kanedyn::ConstraintType::ball:
+        spec.type = ConstraintSpec::Kind::ball;
+        break;
+      case kanedyn::ConstraintType::hinge:
+        spec.type = ConstraintSpec::Kind::hinge;
+        break;
+      case kanedyn::ConstraintType::distance:
+        spec.type = ConstraintSpec::Kind::distance;
+        break;
+      case kanedyn::ConstraintType::rolling_disc:
+        throw std::runtime_error("peers: " + c.name + ": no peer translation for the " +
+                                 kanedyn::to_string(k.type) + " constraint " + k.name);
+    }
+    spec.body = k.body;
+    spec.other = k.other == kanedyn::kGround ? -1 : k.other;
+    spec.at = arr(k.at);
+    spec.other_at = arr(k.other_at);
+    spec.axis = arr(k.axis);
+    // The hinge's own p1, p2 (kanedyn's rows keep a normal to both), so that each engine's
+    // alignment equations are the same two.
+    const std::array<Vector3, 2> p = kanedyn::constraint_fixed_directions(k);
+    spec.p = {arr(p[0]), arr(p[1])};
+    spec.length = k.length;
+    sys.constraints.push_back(spec);
   }
   sys.q.assign(c.q.data(), c.q.data() + c.q.size());
   sys.z.assign(c.z.data(), c.z.data() + c.z.size());

@@ -23,6 +23,8 @@ struct JointedCase {
   JointedCase(std::string n, const kanedyn::Model& m, std::vector<kanedyn::Joint> joints,
               std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads)
       : name(std::move(n)), model(kanedyn::with_joints(m, std::move(joints), std::move(loads))) {}
+  /// A model that has its joints already (e.g. a model file's), constraints and all.
+  JointedCase(std::string n, kanedyn::Model m) : name(std::move(n)), model(std::move(m)) {}
   JointedCase(const JointedCase&) = delete;
   JointedCase& operator=(const JointedCase&) = delete;
 };
@@ -57,9 +59,9 @@ std::unique_ptr<JointedCase> planar_joints(unsigned seed);
 /// [-1, 1] (rad/s, m/s). Portable draws from the engine's raw 32-bit output.
 void random_joint_state(JointedCase& c, std::mt19937& rng);
 
-/// The case in the engines' terms, at the case's (q, z). Throws std::runtime_error for what
-/// the peers do not express (a bushing on a jointed body, a free joint off the root, constant
-/// body loads).
+/// The case in the engines' terms, at the case's (q, z), its ball, hinge and distance
+/// constraints too. Throws std::runtime_error for what the peers do not express (a bushing on a
+/// jointed body, a free joint off the root, constant body loads, a rolling disc).
 JointedSystem describe_jointed(const JointedCase& c);
 
 }  // namespace peers

@@ -592,7 +592,11 @@ class MujocoJointedEngine final : public JointedEngine {
 
 JointedEngineInfo mujoco_jointed_engine() {
   const EngineInfo free = mujoco_engine();
-  return {free.name, free.version, [](const JointedSystem&) { return std::string(); },
+  return {free.name, free.version,
+          [](const JointedSystem& s) {
+            return s.constraints.empty() ? std::string()
+                                         : std::string("constraints not translated");
+          },
           [](const JointedSystem& s) -> std::unique_ptr<JointedEngine> {
             return std::make_unique<MujocoJointedEngine>(s);
           }};

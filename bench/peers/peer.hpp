@@ -167,6 +167,20 @@ struct JointSpec {
   std::array<double, 3> stiffness{}, damping{}, rest{}, value{};
 };
 
+/// A constraint closing a loop of a jointed tree (kanedyn::Constraint's ball, hinge and
+/// distance; docs/model-format.md, "Constraints"), in plain numbers.
+struct ConstraintSpec {
+  enum class Kind { ball, hinge, distance };
+  std::string name;
+  Kind type = Kind::ball;
+  int body = 0;             ///< K, whose reaction is reported
+  int other = -1;           ///< the other body, -1 for the ground
+  Vec3 at{}, other_at{};    ///< from O_K (K axes), from other's O (its axes; ground: inertial)
+  Vec3 axis{0, 0, 1};       ///< hinge: a, K axes (unit)
+  std::array<Vec3, 2> p{};  ///< hinge: two unit directions of other normal to other_axis
+  double length = 0;        ///< distance
+};
+
 /// A jointed tree at a state. Free joints are roots only (a free joint is then the notes' own
 /// free body: z = (w'_K body-K components, s'_K dot inertial)), and only they carry the
 /// bushing fields of Body.
@@ -177,6 +191,8 @@ struct JointedSystem {
   Vec3 gravity{};
   std::vector<double> q, z;             ///< kanedyn's joint coordinates and speeds
   std::vector<int> q_offset, z_offset;  ///< per body, N + 1 entries
+  /// Constraints closing loops (empty for a tree). The state satisfies them.
+  std::vector<ConstraintSpec> constraints;
 };
 
 /// One engine holding one JointedSystem at its state.
@@ -207,6 +223,19 @@ class JointedEngine {
   virtual void mass_matrix() {}
   /// Its result in kanedyn's z order and convention, n x n by columns (Terms::mass_matrix).
   virtual std::vector<double> mass_matrix_in_z() { return {}; }
+
+  // With constraints (JointedSystem::constraints), at the state of evaluate() or at the
+  // integrated one:
+  /// The constraints' reactions after evaluate(), in the order and convention of kanedyn's
+  /// trajectory CSV: per constraint its force on `body` at `at`, then for a hinge its moment on
+  /// `body` about `at`, inertial components. Empty if not implemented.
+  virtual std::vector<double> reactions() { return {}; }
+  /// The joint coordinates (kanedyn's q; a spherical joint's Euler parameters with either sign),
+  /// speeds (kanedyn's z) and reactions at the current integrated state.
+  virtual void integrated_state(std::vector<double>& q, std::vector<double>& z,
+                                std::vector<double>& reactions) {
+    (void)q, (void)z, (void)reactions;
+  }
 };
 
 struct JointedEngineInfo {

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "constraints_section.hpp"
 #include "describe.hpp"
 #include "jointed_section.hpp"
 #include "kanedyn/data.hpp"
@@ -62,9 +63,9 @@ struct Options {
   double tolerance = 1e-8;
   double backward_tolerance = 1e-10;
 #ifdef KANEDYN_PEERS_HAVE_DART_URDF
-  std::vector<std::string> sections{"free", "jointed", "terms", "scaling", "urdf"};
+  std::vector<std::string> sections{"free", "jointed", "terms", "scaling", "constraints", "urdf"};
 #else
-  std::vector<std::string> sections{"free", "jointed", "terms", "scaling"};
+  std::vector<std::string> sections{"free", "jointed", "terms", "scaling", "constraints"};
 #endif
   int jointed_chain = 512;
   int jointed_states = 4;
@@ -78,6 +79,8 @@ struct Options {
                                       KANEDYN_SOURCE_DIR "/bench/peers/urdf/branches.urdf"};
   int urdf_states = 8;
   double urdf_tolerance = 1e-12;
+  peers::ConstraintOptions constraints{.files = {KANEDYN_SOURCE_DIR "/examples/four_bar.yaml",
+                                                 KANEDYN_SOURCE_DIR "/examples/rssr.yaml"}};
 };
 
 struct Case {
@@ -470,13 +473,13 @@ int main(int argc, char** argv) {
                  "Accept a larger difference when kanedyn's accelerations satisfy the engine's "
                  "own M qacc = f to this componentwise backward error (ill-conditioned M)")
       ->capture_default_str();
-  app.add_option(
-         "--sections", opt.sections,
-         "free (the free-body tables), jointed (jointed models: accelerations and "
-         "timing), terms (the jointed models' inverse dynamics and mass matrix against "
-         "Simbody's and DART's), scaling (kanedyn's time per body on revolute chains), urdf "
-         "(kanedyn's URDF import against DART's URDF loader; needs "
-         "libdart-utils-urdf-dev)")
+  app.add_option("--sections", opt.sections,
+                 "free (the free-body tables), jointed (jointed models: accelerations and "
+                 "timing), terms (the jointed models' inverse dynamics and mass matrix against "
+                 "Simbody's and DART's), scaling (kanedyn's time per body on revolute chains), "
+                 "constraints (closed loops: motions and reactions against Simbody's), urdf "
+                 "(kanedyn's URDF import against DART's URDF loader; needs "
+                 "libdart-utils-urdf-dev)")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--jointed-chain", opt.jointed_chain,
@@ -503,12 +506,34 @@ int main(int argc, char** argv) {
                  "Largest accepted relative difference of the URDF files' mass matrices and "
                  "joint accelerations (accelerations: raised to 10 cond(M) eps where larger)")
       ->capture_default_str();
+  peers::ConstraintOptions& c = opt.constraints;
+  app.add_option("--constraint-files", c.files,
+                 "Model files of the constraints section (ball, hinge, distance constraints)")
+      ->delimiter(',');
+  app.add_option("--constraint-t-end", c.t_end, "Span of the constraints section's runs, s")
+      ->capture_default_str();
+  app.add_option("--constraint-dt-out", c.dt_out, "Time between its compared states, s")
+      ->capture_default_str();
+  app.add_option("--constraint-rtol", c.rtol, "kanedyn's dopri5 rtol there (atol = rtol / 100)")
+      ->capture_default_str();
+  app.add_option("--constraint-accuracy", c.accuracy, "Simbody's integrator accuracy there")
+      ->capture_default_str();
+  app.add_option("--constraint-instant-tolerance", c.instant_tolerance,
+                 "Largest accepted relative difference of z dot and reactions at the initial "
+                 "state")
+      ->capture_default_str();
+  app.add_option("--constraint-safety", c.safety,
+                 "Over the run, accept differences up to this many times Simbody's own "
+                 "integration error (estimated from a run at 10x its accuracy)")
+      ->capture_default_str();
+  app.add_option("--constraint-floor", c.floor, "... plus this (rad, rad/s, relative reaction)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   for (const std::string& section : opt.sections)
     if (section != "free" && section != "jointed" && section != "scaling" && section != "urdf" &&
-        section != "terms") {
+        section != "terms" && section != "constraints") {
       std::cerr << "kanedyn_peers: unknown section '" << section
-                << "' (free, jointed, scaling, urdf, terms)\n";
+                << "' (free, jointed, scaling, urdf, terms, constraints)\n";
       return 1;
     }
   if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
@@ -572,6 +597,7 @@ int main(int argc, char** argv) {
     j.terms = selected("terms");
     if (!peers::run_jointed_sections(j) && rc == 0) rc = 2;
   }
+  if (selected("constraints") && !peers::run_constraint_section(opt.constraints) && rc == 0) rc = 2;
   if (selected("urdf")) {
 #ifdef KANEDYN_PEERS_HAVE_DART_URDF
     peers::UrdfOptions u;

@@ -47,10 +47,12 @@ SimTK::Vec3 rotation_vector(Real w, const SimTK::Vec3& xyz) {
   return (2.0 * std::atan2(n, w) / n) * v;
 }
 
-// The integrator of `settings` on `system`, started at `initial` (t = 0).
+// The integrator of `settings` on `system`, started at `initial` (t = 0). A constraint
+// tolerance of 0 leaves Simbody's default (the accuracy).
 IntegratorInfo start_integrator(SimTK::MultibodySystem& system, const SimTK::State& initial,
                                 const IntegratorSettings& settings,
-                                std::unique_ptr<SimTK::Integrator>& integrator) {
+                                std::unique_ptr<SimTK::Integrator>& integrator,
+                                double constraint_tolerance = 0) {
   const std::string& method = settings.method;
   std::string name;
   if (method.empty() || method == "rkmerson") {
@@ -71,6 +73,7 @@ IntegratorInfo start_integrator(SimTK::MultibodySystem& system, const SimTK::Sta
                                 "' (rkmerson, rkf, rk3, cpodes)");
   }
   integrator->setAccuracy(settings.accuracy);
+  if (constraint_tolerance > 0) integrator->setConstraintTolerance(constraint_tolerance);
   // Step to each output time exactly: no interpolated (lower-order) output states.
   integrator->setAllowInterpolation(false);
   SimTK::State start = initial;
@@ -362,6 +365,7 @@ class SimbodyJointedEngine final : public JointedEngine {
       }
     }
     SimTK::Force::Custom(forces_, new JointLoads(system_, bodies_));
+    add_constraints();
     mb_system_.realizeTopology();
     state_ = mb_system_.getDefaultState();
     for (size_t k = 0; k < bodies_.size(); ++k) {
@@ -438,15 +442,30 @@ class SimbodyJointedEngine final : public JointedEngine {
     return out;
   }
 
+  // With constraints, the integrator keeps them to a hundredth of its accuracy (Simbody's
+  // default is the accuracy itself), so that the joint angles' drift off the loop stays below
+  // the integration error being compared.
   IntegratorInfo start(const IntegratorSettings& settings) override {
     SimTK::State initial = state_;
     initial.updQ() = q_;
     initial.updU() = u_;
-    return start_integrator(mb_system_, initial, settings, integrator_);
+    const double tolerance = system_.constraints.empty() ? 0.0 : 1e-2 * settings.accuracy;
+    return start_integrator(mb_system_, initial, settings, integrator_, tolerance);
   }
   void advance_to(double t) override { advance_integrator(*integrator_, t); }
   std::vector<BodyPose> pose() override {
     return body_poses(mb_system_, integrator_->getState(), bodies_, system_.bodies);
+  }
+
+  std::vector<double> reactions() override { return reactions_at(state_); }
+
+  void integrated_state(std::vector<double>& q, std::vector<double>& z,
+                        std::vector<double>& reactions) override {
+    SimTK::State state = integrator_->getState();
+    mb_system_.realize(state, SimTK::Stage::Acceleration);
+    q = coordinates(state);
+    z = speeds(state);
+    reactions = reactions_at(state);
   }
   long steps() const override { return integrator_ ? integrator_->getNumStepsTaken() : 0; }
 
@@ -554,6 +573,109 @@ class SimbodyJointedEngine final : public JointedEngine {
     return out;
   }
 
+  // kanedyn's constraints as Simbody's: a ball as Constraint::Ball (body 1 kanedyn's `body`);
+  // a hinge as that ball and two Constraint::ConstantAngle at 90 degrees between the body's
+  // axis a and the other's p1, p2 (kanedyn's own alignment equations); a distance as
+  // Constraint::Rod. Redundant equations (a planar loop closed by a hinge) are Simbody's to
+  // handle: it solves for least-squares multipliers, as kanedyn does.
+  void add_constraints() {
+    for (const ConstraintSpec& c : system_.constraints) {
+      SimTK::MobilizedBody& body = bodies_[static_cast<size_t>(c.body)];
+      SimTK::MobilizedBody& other =
+          c.other < 0 ? matter_.updGround() : bodies_[static_cast<size_t>(c.other)];
+      std::vector<SimTK::Constraint> parts;
+      switch (c.type) {
+        case ConstraintSpec::Kind::ball:
+        case ConstraintSpec::Kind::hinge:
+          parts.push_back(SimTK::Constraint::Ball(body, v3(c.at), other, v3(c.other_at)));
+          break;
+        case ConstraintSpec::Kind::distance:
+          parts.push_back(SimTK::Constraint::Rod(body, v3(c.at), other, v3(c.other_at), c.length));
+          break;
+      }
+      if (c.type == ConstraintSpec::Kind::hinge)
+        for (const Vec3& p : c.p)
+          parts.push_back(SimTK::Constraint::ConstantAngle(other, SimTK::UnitVec3(v3(p)), body,
+                                                           SimTK::UnitVec3(v3(c.axis))));
+      constraints_.push_back(parts);
+    }
+  }
+
+  // The reactions in kanedyn's convention (JointedEngine::reactions) at a state realized
+  // through Acceleration. Simbody's constraint forces on a constrained body are spatial
+  // (moment about the body's origin, force), in ground, with the sign opposite to that of
+  // applied forces (Constraint::getConstrainedBodyForcesAsVector): kanedyn's force is their
+  // negative, its moment about `at` their negative moment less (at - O) x f.
+  std::vector<double> reactions_at(const SimTK::State& state) const {
+    std::vector<double> out;
+    for (size_t i = 0; i < constraints_.size(); ++i) {
+      const ConstraintSpec& c = system_.constraints[i];
+      const SimTK::MobilizedBody& body = bodies_[static_cast<size_t>(c.body)];
+      SimTK::Vec3 force(0), moment_O(0);
+      for (const SimTK::Constraint& part : constraints_[i]) {
+        const SimTK::Vector_<SpatialVec> f = part.getConstrainedBodyForcesAsVector(state);
+        for (int b = 0; b < part.getNumConstrainedBodies(); ++b)
+          if (part.getMobilizedBodyFromConstrainedBody(SimTK::ConstrainedBodyIndex(b))
+                  .getMobilizedBodyIndex() == body.getMobilizedBodyIndex()) {
+            moment_O -= f[b][0];
+            force -= f[b][1];
+          }
+      }
+      const SimTK::Vec3 arm = body.getBodyRotation(state) * v3(c.at);
+      const SimTK::Vec3 moment = moment_O - arm % force;
+      for (int a = 0; a < 3; ++a) out.push_back(force[a]);
+      if (c.type == ConstraintSpec::Kind::hinge)
+        for (int a = 0; a < 3; ++a) out.push_back(moment[a]);
+    }
+    return out;
+  }
+
+  // kanedyn's q at a state realized through Position: the constructor's mapping backwards.
+  std::vector<double> coordinates(const SimTK::State& state) const {
+    std::vector<double> out(system_.q.size(), 0.0);
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const SimTK::MobilizedBody& mb = bodies_[k];
+      double* q = out.data() + system_.q_offset[k];
+      const JointKind type = system_.joints[k].type;
+      if (type == JointKind::free || type == JointKind::spherical) {
+        // A free joint is a root's: F has the ground's axes (at q'_K).
+        const Transform& X = mb.getMobilizerTransform(state);
+        const Quaternion e = X.R().convertRotationToQuaternion();  // (w, x, y, z)
+        for (int i = 0; i < 3; ++i) q[i] = e[i + 1];
+        q[3] = e[0];
+        if (type == JointKind::free)
+          for (int i = 0; i < 3; ++i) q[4 + i] = X.p()[i];
+      } else if (type != JointKind::weld) {
+        for (int i = 0; i < mb.getNumQ(state); ++i)
+          q[i] = mb.getOneQ(state, simbody_index(type, i));
+      }
+    }
+    return out;
+  }
+
+  // kanedyn's z at a state realized through Velocity (speed_map backwards).
+  std::vector<double> speeds(const SimTK::State& state) const {
+    std::vector<double> out(system_.z.size(), 0.0);
+    for (size_t k = 0; k < bodies_.size(); ++k) {
+      const SimTK::MobilizedBody& mb = bodies_[k];
+      double* z = out.data() + system_.z_offset[k];
+      const JointKind type = system_.joints[k].type;
+      if (type == JointKind::free || type == JointKind::spherical) {
+        const Rotation& R = mb.getMobilizerTransform(state).R();
+        const SimTK::Vec3 w =
+            ~R * SimTK::Vec3(mb.getOneU(state, 0), mb.getOneU(state, 1), mb.getOneU(state, 2));
+        for (int i = 0; i < 3; ++i) z[i] = w[i];
+        if (type == JointKind::free)
+          for (int i = 0; i < 3; ++i) z[3 + i] = mb.getOneU(state, 3 + i);
+      } else if (type != JointKind::weld) {
+        for (int i = 0; i < mb.getNumU(state); ++i)
+          z[i] = mb.getOneU(state, simbody_index(type, i));
+      }
+    }
+    return out;
+  }
+
+  std::vector<std::vector<SimTK::Constraint>> constraints_;  // per ConstraintSpec
   std::vector<double> map_;
   SimTK::Vector udot_, residual_;
   SimTK::Matrix mass_;

@@ -41,7 +41,7 @@ def test_the_model_lists_its_constraints(four_bar: kanedyn.Model, bicycle: kaned
     assert len(free.independent_speeds) == len(free.initial_joint_speeds)
 
 
-@pytest.mark.parametrize("name, rank, redundant", [("four_bar.yaml", 2, 3), ("bicycle.yaml", 6, 0)])
+@pytest.mark.parametrize("name, rank, redundant", [("four_bar.yaml", 2, 3), ("bicycle.yaml", 6, 0), ("rssr.yaml", 3, 0)])
 def test_the_partition_spans_the_motions_the_constraints_allow(name: str, rank: int, redundant: int) -> None:
     m = kanedyn.load(EXAMPLES / name)
     e = m.constraint_equations()
@@ -110,7 +110,7 @@ def test_equations_undefined_at_a_state_name_the_constraint(bicycle: kanedyn.Mod
             call(q, z)
 
 
-@pytest.mark.parametrize("name", ["four_bar.yaml", "bicycle.yaml"])
+@pytest.mark.parametrize("name", ["four_bar.yaml", "bicycle.yaml", "rssr.yaml"])
 def test_forward_dynamics_keeps_the_constraints(name: str) -> None:
     m = kanedyn.load(EXAMPLES / name)
     s = m.initial_state()
