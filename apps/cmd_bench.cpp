@@ -16,6 +16,7 @@
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "options.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -128,17 +129,16 @@ void add_bench(CLI::App& app) {
       "bench", "Time forward-dynamics evaluations at the model's initial state (ns per eval)");
   struct Options {
     std::string path;
-    std::vector<std::string> routes;
+    std::vector<std::string> routes, methods;  ///< --route, and --method, its older name
     long reps = 0;
     int simd_lanes = 8;
     bool json = false;
   };
   auto opt = std::make_shared<Options>();
-  cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
-  cmd->add_option("--route,--method", opt->routes,
-                  "recursive | assembled (repeatable; default: both; --method and kane are the "
-                  "older spellings)")
-      ->check(CLI::IsMember({"recursive", "assembled", "kane"}));
+  cmd->add_option("MODEL", opt->path, kModelHelp)->required();
+  cmd->add_option("--route", opt->routes, "recursive | assembled (repeatable; default: both)")
+      ->check(route_names());
+  cmd->add_option("--method", opt->methods)->check(route_names())->group("");
   cmd->add_option("--reps", opt->reps,
                   "evaluations to time per route (default: about 2 s worth, at most 100000)")
       ->check(CLI::PositiveNumber);
@@ -153,7 +153,9 @@ void add_bench(CLI::App& app) {
   cmd->callback([opt] {
     const io::ModelFile file = io::load_model_file(opt->path);
     std::vector<Route> routes;
-    for (const std::string& m : opt->routes) {
+    std::vector<std::string> names = opt->routes;
+    names.insert(names.end(), opt->methods.begin(), opt->methods.end());
+    for (const std::string& m : names) {
       const Route route = parse_route(m);
       if (std::find(routes.begin(), routes.end(), route) == routes.end()) routes.push_back(route);
     }

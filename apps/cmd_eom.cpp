@@ -1,6 +1,8 @@
-// `kanedyn eom MODEL [--json] [--trajectory FILE.csv --t T]`: the notes' equations of motion
-// at the model's initial state or at a row of a trajectory:
-// [A] (Eq. 37), {f} (Eq. 38), {y dot} (Eq. 36) and {x dot} (Eqs. 39-40).
+// `kanedyn eom MODEL [--json] [--trajectory FILE.csv --t T]`: the equations of motion at the
+// model's initial state or at a row of a trajectory: for a jointed model its joint-space
+// equations (A_z, f_z, z dot) first, then the notes' [A] (Eq. 37), {f} (Eq. 38), {y dot}
+// (Eq. 36) and {x dot} (Eqs. 39-40).
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -84,12 +86,8 @@ void print_block_structure(const Model& model, const Data& data) {
               static_cast<long>(n) * n);
 }
 
-void print_tables(const io::ModelFile& file, const Data& data, const std::string& where,
-                  bool full) {
-  const int n = file.model.num_bodies();
-  std::printf("equations of motion of %s at %s: [A]{ydot} = {f} (Eq. 36)\n",
-              io::printable(file.path).c_str(), where.c_str());
-  std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n", n);
+void print_header(const io::ModelFile& file, const Data& data, const std::string& where) {
+  std::printf("equations of motion of %s at %s\n", io::printable(file.path).c_str(), where.c_str());
   if (file.model.num_inputs() > 0) {
     std::printf("inputs u:");
     for (int i = 0; i < file.model.num_inputs(); ++i)
@@ -97,6 +95,13 @@ void print_tables(const io::ModelFile& file, const Data& data, const std::string
                   data.inputs[i]);
     std::printf("\n");
   }
+}
+
+/// The notes' system of 6N equations in the free bodies' speeds y.
+void print_tables(const io::ModelFile& file, const Data& data, bool full) {
+  const int n = file.model.num_bodies();
+  std::printf("\nthe notes' equations: [A]{ydot} = {f} (Eq. 36)\n");
+  std::printf("N = %d, y = (w'_1..w'_N, s'_1 dot..s'_N dot), x = (eps_1..eps_N, s'_1..s'_N)\n", n);
   if (!full && n > kTableBodies) {
     print_block_structure(file.model, data);
     print_column("{f} (Eq. 38)", data.kane.f, speed_label, n);
@@ -129,20 +134,25 @@ void print_projected(const io::ModelFile& file, const ProjectedEquations& e, boo
   const Model& model = file.model;
   const int n = model.num_speeds();
   std::printf(
-      "\nprojected equations (docs/theory.md, \"Joints\"): [C]^T [A] [C] {z dot} = "
-      "[C]^T ({f} - [A][C dot]{z}) + Q, y = [C] z\nn = %d independent speeds; [C] is %d x %d\n",
+      "\nthe joints' equations, projected from the notes' below (docs/theory.md, \"Joints\"):\n"
+      "[C]^T [A] [C] {z dot} = [C]^T ({f} - [A][C dot]{z}) + Q, y = [C] z\n"
+      "n = %d independent speeds; [C] is %d x %d\n",
       n, model.num_y(), n);
+  // The labels' column as wide as the longest (a robot's link names are long).
+  int width = 12;
+  for (int i = 0; i < n; ++i)
+    width = std::max(width, static_cast<int>(independent_speed_label(model, i).size()));
   if (full || n <= 6 * kTableBodies) {
     std::printf("\nA_z = [C]^T [A] [C], %d x %d\n", n, n);
     for (int i = 0; i < n; ++i) {
-      std::printf("%-12s", independent_speed_label(model, i).c_str());
+      std::printf("%-*s", width, independent_speed_label(model, i).c_str());
       for (int j = 0; j < n; ++j) std::printf(" % 10.4g", e.A_z(i, j));
       std::printf("\n");
     }
   }
-  std::printf("\n%-12s %18s %18s\n", "z", "f_z", "z dot");
+  std::printf("\n%-*s %18s %18s\n", width, "z", "f_z", "z dot");
   for (int i = 0; i < n; ++i)
-    std::printf("%-12s % .10e % .10e\n", independent_speed_label(model, i).c_str(), e.f_z[i],
+    std::printf("%-*s % .10e % .10e\n", width, independent_speed_label(model, i).c_str(), e.f_z[i],
                 e.zdot[i]);
 }
 
@@ -207,7 +217,7 @@ void add_eom(CLI::App& app) {
     StateChoice state;
   };
   auto opt = std::make_shared<Options>();
-  cmd->add_option("MODEL", opt->path, "model file (YAML or JSON)")->required();
+  cmd->add_option("MODEL", opt->path, kModelHelp)->required();
   cmd->add_flag("--json", opt->json, "print the JSON object of docs/model-format.md");
   cmd->add_flag("--full", opt->full,
                 "print [A] as a 6N x 6N table at any N (default: up to 8 bodies; beyond, its "
@@ -239,8 +249,11 @@ void add_eom(CLI::App& app) {
     if (opt->json) {
       print_json(file, data, projected ? &*projected : nullptr);
     } else {
-      print_tables(file, data, where, opt->full);
+      // A jointed model's own equations first: the n joint speeds are what a user of a robot
+      // asks about; the notes' 6N system they come from follows.
+      print_header(file, data, where);
       if (projected) print_projected(file, *projected, opt->full);
+      print_tables(file, data, opt->full);
     }
   });
 }

@@ -168,7 +168,7 @@ void add_equilibrium(CLI::App& app) {
       "times the largest one at the start (at least 1). The others keep their values, held by "
       "reactions. A run that does not converge exits 1, writes nothing, and names the "
       "coordinates that nothing restrains. docs/analysis.md.");
-  cmd->add_option("MODEL", o->model, "model file (YAML or JSON) or URDF robot")->required();
+  cmd->add_option("MODEL", o->model, kModelHelp)->required();
   cmd->add_option("--out,-o", o->out,
                   "write the model file (YAML) with the rest pose as its initial state");
   cmd->add_option("--free", o->free,

@@ -61,7 +61,8 @@ void add_import(CLI::App& app) {
   cmd->add_option("--out,-o", o->out, "model file to write (YAML; - for standard output)")
       ->required();
   cmd->add_flag("--floating", o->floating,
-                "the root link free (6 DOF) instead of welded to the ground");
+                "a floating base: the root link free (6 DOF) instead of welded to the ground; "
+                "below a massless root, the first link with mass");
   cmd->callback([o] { run(*o); });
 }
 

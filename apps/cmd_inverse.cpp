@@ -40,7 +40,7 @@ void add_inverse(CLI::App& app) {
       "(error O(h^3) in the row spacing h). The model's own loads are gravity, its force "
       "elements and its inputs at the file's input columns. Columns: t, then NAME.Q1..Qk for "
       "each body with speeds (a free body's w'_K, then s'_K dot).");
-  cmd->add_option("MODEL", o->model, "model file (YAML or JSON)")->required();
+  cmd->add_option("MODEL", o->model, kModelHelp)->required();
   cmd->add_option("TRAJECTORY", o->trajectory, "trajectory CSV of this model (simulate's)")
       ->required();
   cmd->add_option("--out,-o", o->out,

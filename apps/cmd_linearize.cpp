@@ -185,7 +185,7 @@ void add_linearize(CLI::App& app) {
       "the state is every body's coordinates, then its speeds (docs/model-format.md, "
       "\"Linearization output\"). The derivatives are analytic (dual numbers through the "
       "inverse dynamics; docs/analysis.md).");
-  cmd->add_option("MODEL", o->model, "model file (YAML or JSON) or URDF robot")->required();
+  cmd->add_option("MODEL", o->model, kModelHelp)->required();
   cmd->add_flag("--json", o->json, "print the JSON object of docs/model-format.md");
   cmd->add_flag("--modes", o->modes,
                 "also each eigenvector: the state entries it moves most (with --json: a "

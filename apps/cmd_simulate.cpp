@@ -16,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "kanedyn/forces.hpp"
@@ -23,6 +24,7 @@
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/io/trajectory.hpp"
+#include "kanedyn/joint.hpp"
 #include "kanedyn/simulate.hpp"
 #include "options.hpp"
 
@@ -43,7 +45,8 @@ struct Options {
   double rtol = kDefaults.rtol, atol = kDefaults.atol, step = kDefaults.step;
   // Which flags were given (they win over the model file's `simulation:` section).
   CLI::Option *t_end_opt = nullptr, *dt_out_opt = nullptr, *integrator_opt = nullptr,
-              *route_opt = nullptr, *rtol_opt = nullptr, *atol_opt = nullptr, *step_opt = nullptr;
+              *route_opt = nullptr, *method_opt = nullptr, *rtol_opt = nullptr, *atol_opt = nullptr,
+              *step_opt = nullptr;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -155,7 +158,7 @@ SimulationSettings settings_from(const Options& o, const io::SimulationSection& 
   if (given(o.atol_opt)) s.atol = o.atol;
   if (given(o.step_opt)) s.step = o.step;
   if (given(o.integrator_opt)) s.integrator = parse_integrator(o.integrator);
-  if (given(o.route_opt)) s.route = parse_route(o.route);
+  if (given(o.route_opt) || given(o.method_opt)) s.route = parse_route(o.route);
   return s;
 }
 
@@ -167,6 +170,63 @@ std::string format(const char* fmt, double value) {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, value);
   return buf;
+}
+
+/// What makes the total energy change in this run besides the integrator's error: damping,
+/// loads without a potential (constant forces and torques, joint forces) and driven inputs.
+std::vector<std::string> energy_not_conserved_by(const Model& model, const SimulationSettings& s) {
+  bool damping = false, loads = false;
+  for (const auto& e : model.forces()) {
+    if (const auto* b = dynamic_cast<const Bushing*>(e.get()))
+      damping = damping || !b->damping.isZero(0.0) || b->rotational_damping != 0.0;
+    else if (const auto* j = dynamic_cast<const JointLoad*>(e.get())) {
+      damping = damping || !j->damping.isZero(0.0);
+      loads = loads || !j->value.isZero(0.0);
+    } else if (const auto* f = dynamic_cast<const ConstantForce*>(e.get()))
+      loads = loads || !f->value.isZero(0.0);
+    else if (const auto* t = dynamic_cast<const ConstantTorque*>(e.get()))
+      loads = loads || !t->value.isZero(0.0);
+    else
+      loads = true;  // an element of another kind: its work is not known to be in the energy
+  }
+  std::vector<std::string> why;
+  if (damping) why.emplace_back("damping");
+  if (loads) why.emplace_back("loads without a potential");
+  if (s.inputs) why.emplace_back("driven inputs");
+  return why;
+}
+
+bool has_euler_parameters(const Model& model) {
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType t = model.joint(k).type;
+    if (t == JointType::free || t == JointType::spherical) return true;
+  }
+  return false;
+}
+
+/// The energy line of the summary: the absolute change always, the relative one only against
+/// the energy that moved in the run (SimulationStats::energy_scale), never against the initial
+/// energy, whose size is that of the potential's datum and can be round-off.
+std::string energy_line(const Model& model, const SimulationSettings& s,
+                        const SimulationStats& st) {
+  std::string line = "energy: " + format("%.10g", st.energy_initial) + " -> " +
+                     format("%.10g", st.energy_final) + " J; change " +
+                     format("%.3g", st.energy_change()) + " J";
+  if (st.energy_scale > 0.0)
+    line += ", " + format("%.3g", st.relative_energy_change()) + " of " +
+            format("%.3g", st.energy_scale) +
+            " J (the run's largest kinetic energy or potential-energy swing)";
+  else
+    line +=
+        " (no relative change: the kinetic energy and the potential energy's swing stayed "
+        "at round-off)";
+  const std::vector<std::string> why = energy_not_conserved_by(model, s);
+  if (!why.empty()) {
+    line += "; not conserved by this run (";
+    for (std::size_t i = 0; i < why.size(); ++i) line += (i ? ", " : "") + why[i];
+    line += ")";
+  }
+  return line;
 }
 
 void print_summary(const io::ModelFile& file, const SimulationSettings& s,
@@ -190,9 +250,9 @@ void print_summary(const io::ModelFile& file, const SimulationSettings& s,
                 model.num_inputs());
   std::printf("  steps: %ld accepted, %ld rejected; %ld derivative evaluations; wall time %.3g s\n",
               st.steps_accepted, st.steps_rejected, st.evaluations, st.wall_seconds);
-  std::printf("  energy: %.10g -> %.10g (%s change %.3g)\n", st.energy_initial, st.energy_final,
-              st.energy_initial != 0.0 ? "relative" : "absolute", st.relative_energy_change());
-  std::printf("  largest Euler-parameter drift before projection: %.3g\n", st.max_euler_drift);
+  std::printf("  %s\n", energy_line(file.model, s, st).c_str());
+  if (has_euler_parameters(model))
+    std::printf("  largest Euler-parameter drift before projection: %.3g\n", st.max_euler_drift);
   if (model.num_constraints() > 0) {
     std::printf("  constraints: %s\n", constraint_summary(file).c_str());
     std::printf("  largest holonomic constraint error before projection: %.3g\n",
@@ -414,7 +474,7 @@ void add_simulate(CLI::App& app) {
       "defaults above. The trajectory streams to OUT.partial, renamed to OUT when the run "
       "completes; a summary goes to stdout. Exit codes: 0 completed; 1 error (the partial file "
       "is kept); 130/143 interrupted by SIGINT/SIGTERM (kept too).");
-  cmd->add_option("MODEL", o->model, "model file (YAML or JSON)")->required();
+  cmd->add_option("MODEL", o->model, kModelHelp)->required();
   o->t_end_opt =
       cmd->add_option("--t-end", o->t_end, "end time (default 10)")->check(positive_number());
   o->dt_out_opt = cmd->add_option("--dt-out", o->dt_out, "time between output rows (default 0.01)")
@@ -429,10 +489,11 @@ void add_simulate(CLI::App& app) {
                                 "rk4 step; output intervals are split evenly (default 1e-3)")
                     ->check(positive_number());
   o->route_opt =
-      cmd->add_option("--route,--method", o->route,
+      cmd->add_option("--route", o->route,
                       "recursive (O(N), default) or assembled (assemble [A] and {f}, Eqs. 37-38, "
-                      "and solve Eq. 36); --method and kane are the older spellings")
-          ->check(CLI::IsMember({"recursive", "assembled", "kane"}));
+                      "and solve Eq. 36)")
+          ->check(route_names());
+  o->method_opt = cmd->add_option("--method", o->route)->check(route_names())->group("");
   auto* out_opt = cmd->add_option(
       "--out,-o", o->out,
       "trajectory CSV (default: the model file's name with .csv, in the current folder); "

@@ -136,7 +136,7 @@ void add_view(CLI::App& app) {
       "rows are decimated (the page says so). Written to OUT.partial, renamed to OUT at the end; "
       "OUT must be a regular file or not exist, and not one of the inputs. -o - writes the "
       "page to standard output.");
-  cmd->add_option("MODEL", o->model, "model file (YAML or JSON)")->required();
+  cmd->add_option("MODEL", o->model, kModelHelp)->required();
   cmd->add_option("TRAJECTORY", o->trajectory, "trajectory CSV of this model (kanedyn simulate)");
   cmd->add_option("--out,-o", o->out,
                   "web page (default: the trajectory's, else the model's, name with .html, in "

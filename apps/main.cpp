@@ -88,6 +88,11 @@ int main(int argc, char** argv) {
   std::sort(registry.begin(), registry.end(),
             [](const auto& a, const auto& b) { return a.order < b.order; });
   for (const auto& entry : registry) entry.add(app);
+  // `kanedyn` alone asks what the tool does: the help, on stdout, as for --help (docs/cli.md).
+  if (argc <= 1) {
+    std::cout << app.help();
+    return 0;
+  }
   if (const auto code = check_words(app, argc, argv)) return *code;
   try {
     app.parse(argc, argv);

@@ -189,4 +189,8 @@ OperatingPoint operating_point(const io::ModelFile& file, const StateChoice& cho
   return op;
 }
 
+CLI::Validator route_names() {
+  return CLI::IsMember({"recursive", "assembled", "kane"}).description("{recursive,assembled}");
+}
+
 }  // namespace kanedyn::cli

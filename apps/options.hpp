@@ -15,6 +15,14 @@ namespace kanedyn::cli {
 CLI::Validator decimal_number(bool positive);
 inline CLI::Validator positive_number() { return decimal_number(true); }
 
+/// The help of every MODEL argument: load_model_file reads all three.
+inline constexpr const char* kModelHelp = "model file: YAML, JSON or URDF (.urdf)";
+
+/// A CLI11 check for --route: recursive or assembled, and `kane`, the older spelling of
+/// assembled, which still works but is left out of the help (as is --method, the option's
+/// older name, which each command adds with group("") beside --route).
+CLI::Validator route_names();
+
 /// Label of speed i (0-based) of {y} in an N-body model, in the order of Eq. (1): wK.c
 /// (w'_K component c) or sdK.c (s'_K dot component c), as eom prints them and inspect --row
 /// reads them.

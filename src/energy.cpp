@@ -76,6 +76,16 @@ double total_energy_of_kinematics(const Model& model, const State& state, const 
   return model.has_joint_force_elements() ? e + joint_potential_energy(model, q) : e;
 }
 
+double kinetic_energy_of_kinematics(const Model& model, const State& state, const Data& data) {
+  return kinetic_sum(model, state, data);
+}
+
+double potential_energy_of_kinematics(const Model& model, const State& state, const VectorX& q,
+                                      const Data& data) {
+  const double v = potential_sum(model, state, data);
+  return model.has_joint_force_elements() ? v + joint_potential_energy(model, q) : v;
+}
+
 double kinetic_energy(const Model& model, const VectorX& q, const VectorX& z, Data& data) {
   return kinetic_energy(model, notes_state(model, q, z), data);
 }

@@ -35,8 +35,8 @@ std::string to_string(SimulationStatus status) {
 }
 
 double SimulationStats::relative_energy_change() const {
-  const double change = energy_final - energy_initial;
-  return energy_initial != 0.0 ? change / std::abs(energy_initial) : change;
+  return energy_scale > 0.0 ? energy_change() / energy_scale
+                            : std::numeric_limits<double>::quiet_NaN();
 }
 
 std::string describe_state_component(const Model& model, int component, int* body) {
@@ -295,6 +295,7 @@ class Run {
     // gravity, say) has not produced a usable result either.
     if (stats_.ok() && !std::isfinite(stats_.energy_final))
       fail_energy(stats_.t_reached, stats_.energy_final);
+    stats_.energy_scale = energy_scale();
     stats_.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
     return stats_;
@@ -304,7 +305,29 @@ class Run {
   /// The total energy at the notes' state of q (with the joint springs' potentials of q).
   double energy_of(const State& state, const VectorX& q) {
     compute_kinematics(model_, state, data_);
+    note_energies(state, q);
     return total_energy_of_kinematics(model_, state, q, data_);
+  }
+
+  /// The kinetic and potential energies of a state whose kinematics data_ holds, into the
+  /// extremes energy_scale is made of.
+  void note_energies(const State& state, const VectorX& q) {
+    const double t = kinetic_energy_of_kinematics(model_, state, data_);
+    const double v = potential_energy_of_kinematics(model_, state, q, data_);
+    if (!std::isfinite(t) || !std::isfinite(v)) return;
+    kinetic_max_ = std::max(kinetic_max_, t);
+    potential_min_ = std::min(potential_min_, v);
+    potential_max_ = std::max(potential_max_, v);
+  }
+
+  /// The largest kinetic energy or swing of the potential energy seen, when it stands above
+  /// the round-off of the energies themselves, else 0 (docs/simulation.md).
+  double energy_scale() const {
+    if (potential_min_ > potential_max_) return 0.0;  // no finite energy seen
+    const double swing = std::max(kinetic_max_, potential_max_ - potential_min_);
+    const double size =
+        std::max({kinetic_max_, std::abs(potential_min_), std::abs(potential_max_)});
+    return swing > kEnergyScaleFloor * size ? swing : 0.0;
   }
 
   OdeFunction ode() {
@@ -422,9 +445,12 @@ class Run {
 
   void emit(double t, const VectorX& z) {
     // With constraints every output state is evaluated, observer or not: the lift of a
-    // rolling disc is reported in the stats.
+    // rolling disc is reported in the stats. The energies that make energy_scale are taken at
+    // the output times too, but at most once per integration step: many output times in one
+    // step would cost a kinematics pass each and add nothing the step's error has not.
     const bool constrained = model_.num_constraints() > 0;
-    if (observer_ || constrained) {
+    const bool sample = stats_.steps_accepted != energy_step_;
+    if (observer_ || constrained || sample) {
       dynamics_.unpack(z, s_.project_euler_parameters, q_, z_state_, out_state_);
       if (constrained) {
         // Dense output between steps lies off the constraints by the interpolation's error:
@@ -432,12 +458,15 @@ class Run {
         project_onto_constraints(model_, q_, z_state_);
         joint_state(model_, q_, z_state_, out_state_);
       }
-      if (drive_ != Drive::none) output_inputs(t);
-      if (constrained) output_reactions(t);
-      if (observer_) {
-        if (s_.observer_kinematics) compute_kinematics(model_, out_state_, data_);
-        observer_(t, out_state_, q_, z_state_, data_);
+      if (sample || (observer_ && s_.observer_kinematics))
+        compute_kinematics(model_, out_state_, data_);
+      if (sample) {
+        note_energies(out_state_, q_);
+        energy_step_ = stats_.steps_accepted;
       }
+      if (drive_ != Drive::none && (observer_ || constrained)) output_inputs(t);
+      if (constrained) output_reactions(t);
+      if (observer_) observer_(t, out_state_, q_, z_state_, data_);
     }
     ++stats_.outputs;
     if (t >= s_.t_end) done_outputs_ = true;
@@ -649,6 +678,12 @@ class Run {
     if (finite) dynamics_.unpack(z_, !s_.project_euler_parameters, q_, z_state_, work_);
     stats_.energy_final = finite ? energy_of(work_, q_) : std::numeric_limits<double>::quiet_NaN();
   }
+
+  /// The energies' extremes at the start, the output times and the end (note_energies).
+  double kinetic_max_ = 0.0;
+  double potential_min_ = std::numeric_limits<double>::infinity();
+  double potential_max_ = -std::numeric_limits<double>::infinity();
+  long energy_step_ = -1;  ///< steps_accepted when the energies were last taken at an output
 
   const Model& model_;
   const SimulationSettings& s_;

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "file_support.hpp"
 #include "kanedyn/data.hpp"
@@ -109,7 +110,75 @@ TEST(Cli, MissingFileAndUsageErrorsAreNonzero) {
   EXPECT_NE(missing.err.find("/nonexistent/model.yaml"), std::string::npos) << missing.err;
   EXPECT_NE(run_tool("info").exit_code, 0);
   EXPECT_NE(run_tool("frobnicate").exit_code, 0);
-  EXPECT_NE(run_tool("").exit_code, 0);
+}
+
+TEST(Cli, AloneItPrintsTheHelp) {
+  // `kanedyn` with no word is `kanedyn --help`: the same text on stdout, exit code 0.
+  const ToolRun alone = run_tool("");
+  const ToolRun help = run_tool("--help");
+  EXPECT_EQ(alone.exit_code, 0) << alone.err;
+  EXPECT_EQ(alone.err, "");
+  EXPECT_EQ(alone.out, help.out);
+  for (const char* command : {"simulate", "eom", "import", "equilibrium"})
+    EXPECT_NE(alone.out.find(command), std::string::npos) << command;
+}
+
+TEST(Cli, HelpSaysEveryModelArgumentReadsUrdfAndHidesTheOlderSpellings) {
+  const std::string arm = "'" + std::string(KANEDYN_SOURCE_DIR) + "/examples/urdf/arm.urdf'";
+  for (const std::string command : {"info", "eom", "inspect", "simulate", "bench", "linearize",
+                                    "equilibrium", "inverse", "view"}) {
+    const ToolRun r = run_tool(command + " --help");
+    ASSERT_EQ(r.exit_code, 0) << command << r.err;
+    EXPECT_NE(r.out.find("MODEL"), std::string::npos) << command;
+    EXPECT_NE(r.out.find("model file: YAML, JSON or URDF (.urdf)"), std::string::npos)
+        << command << "\n"
+        << r.out;
+    EXPECT_EQ(r.out.find("YAML or JSON)"), std::string::npos) << command << "\n" << r.out;
+    // --method and the route name kane still work (below) but are not offered.
+    EXPECT_EQ(r.out.find("--method"), std::string::npos) << command << "\n" << r.out;
+    EXPECT_EQ(r.out.find("kane}"), std::string::npos) << command << "\n" << r.out;
+    EXPECT_EQ(r.out.find(",kane"), std::string::npos) << command << "\n" << r.out;
+    EXPECT_EQ(r.out.find("older spelling"), std::string::npos) << command << "\n" << r.out;
+    // And the claim holds: the command reads the URDF arm (help is enough for view and
+    // inverse, which need more arguments or write files).
+    if (command == "info" || command == "eom" || command == "inspect") {
+      EXPECT_EQ(run_tool(command + " " + arm).exit_code, 0) << command;
+    }
+  }
+  // The hidden spellings are still read.
+  EXPECT_EQ(run_tool("bench --method kane --reps 5 " + arm).exit_code, 0);
+  EXPECT_EQ(run_tool("simulate --method kane --t-end 0.01 --no-output " + arm).exit_code, 0);
+}
+
+TEST(Cli, EomOfAJointedModelPrintsItsJointSpaceEquationsFirst) {
+  const std::string arm = "'" + std::string(KANEDYN_SOURCE_DIR) + "/examples/urdf/arm.urdf'";
+  const ToolRun r = run_tool("eom " + arm);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // n, A_z, f_z and z dot come before the notes' 6N system they are projected from.
+  const auto n = r.out.find("n = 6 independent speeds");
+  const auto a_z = r.out.find("A_z = [C]^T [A] [C], 6 x 6");
+  const auto zdot = r.out.find("z dot", a_z);  // the column of the table after A_z
+  const auto notes = r.out.find("[A]{ydot} = {f} (Eq. 36)");
+  const auto a = r.out.find("[A] (Eq. 37)");
+  ASSERT_NE(n, std::string::npos) << r.out;
+  ASSERT_NE(a_z, std::string::npos) << r.out;
+  ASSERT_NE(zdot, std::string::npos) << r.out;
+  ASSERT_NE(notes, std::string::npos) << r.out;
+  ASSERT_NE(a, std::string::npos) << r.out;
+  EXPECT_LT(n, a_z);
+  EXPECT_LT(a_z, zdot);
+  EXPECT_LT(zdot, notes);
+  EXPECT_LT(notes, a);
+  // The 6 x 6 matrix within the first screenful.
+  EXPECT_LT(std::count(r.out.begin(), r.out.begin() + static_cast<long>(a_z), '\n'), 10);
+  // The JSON object is the spec's, in its order: the notes' quantities, then the projected.
+  const ToolRun j = run_tool("eom --json " + arm);
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  const auto object = nlohmann::ordered_json::parse(j.out);
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : object.items()) keys.push_back(key);
+  EXPECT_EQ(keys, (std::vector<std::string>{"N", "L", "u", "inputs", "u_K", "A", "f", "ydot",
+                                            "xdot", "n", "C", "A_z", "f_z", "zdot"}));
 }
 
 TEST(Cli, BenchJsonIsTheSpecifiedObject) {

@@ -3,7 +3,9 @@
 // honoured, and the example models.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -537,6 +539,66 @@ TEST(Examples, Chain64HangsUnderGravity) {
       });
   ASSERT_TRUE(stats.ok()) << stats.message;
   EXPECT_LT(end_z, end_z0);  // released from rest: the free end falls
+}
+
+// A jointed double pendulum released horizontally: its initial energy is round-off (the mass
+// centres' heights are cos(pi/2) L, about 3e-17), so a ratio to it would be a huge number.
+const char* kHorizontalPendulum = R"(format: kanedyn-model/1
+gravity: [0, 0, -9.81]
+bodies:
+  - {name: upper, parent: ground, mass: 1.0, inertia: [0.08, 0.08, 0.001], com: [0, 0, -0.5],
+     joint: {type: revolute, axis: [0, 1, 0]}, initial: {joint: [1.5707963267948966]}}
+  - {name: lower, parent: upper, mass: 1.0, inertia: [0.08, 0.08, 0.001], com: [0, 0, -0.5],
+     joint: {type: revolute, at: [0, 0, -1], axis: [0, 1, 0]}}
+)";
+
+TEST(Simulate, EnergyChangeIsMeasuredAgainstTheEnergyThatMoved) {
+  const io::ModelFile file = io::parse_model_file(kHorizontalPendulum, "pendulum.yaml");
+  const Model& model = file.model;
+  SimulationSettings s;
+  s.t_end = 2.0;
+  // Rows farther apart than dopri5's steps here (about 0.01 at rtol 1e-8): each output is the
+  // first of its step, where simulate() takes the energies too.
+  s.dt_out = 0.05;
+  // The scale by the definition (energy_scale), from the energies of the output states
+  // computed here by the public functions of (q, z).
+  double t_max = 0.0, v_min = std::numeric_limits<double>::infinity(), v_max = -v_min;
+  Data scratch(model);
+  const auto stats = simulate(model, file.q, file.z, s,
+                              [&](double, const State&, const VectorX& q, const VectorX& z, Data&) {
+                                t_max = std::max(t_max, kinetic_energy(model, q, z, scratch));
+                                const double v = potential_energy(model, q, z, scratch);
+                                v_min = std::min(v_min, v);
+                                v_max = std::max(v_max, v);
+                              });
+  ASSERT_TRUE(stats.ok()) << stats.message;
+  ASSERT_LT(std::abs(stats.energy_initial), 1e-12);    // the setting of the test: E0 ~ 0
+  ASSERT_GT(stats.steps_accepted, 2 * stats.outputs);  // and its steps shorter than dt_out
+  // The two links fall about 1.5 m in all: some 10 J move between the two kinds of energy.
+  EXPECT_GT(t_max, 5.0);
+  // The output times include the start and the end, where simulate() also takes the energies:
+  // the same states, the same sums, to round-off of the order of 1e-16 x 15 J.
+  EXPECT_NEAR(stats.energy_scale, std::max(t_max, v_max - v_min), 1e-13);
+  EXPECT_EQ(stats.energy_change(), stats.energy_final - stats.energy_initial);
+  EXPECT_EQ(stats.relative_energy_change(), stats.energy_change() / stats.energy_scale);
+  // dopri5 at rtol 1e-8 keeps the energy to about 1e-7 of the energy that moves; a ratio to E0
+  // would have been of the order of 1e+7.
+  EXPECT_LT(std::abs(stats.relative_energy_change()), 1e-6) << stats.relative_energy_change();
+}
+
+TEST(Simulate, NoRelativeEnergyChangeWhenNothingMoves) {
+  // The pendulum hanging at rest: the kinetic energy stays 0 and the potential energy at -9.81
+  // x 2 J to round-off, so there is no scale and no ratio, only the absolute change.
+  std::string text = kHorizontalPendulum;
+  text.replace(text.find("1.5707963267948966"), 18, "0.0");
+  const io::ModelFile file = io::parse_model_file(text, "hanging.yaml");
+  SimulationSettings s;
+  s.t_end = 1.0;
+  const auto stats = simulate(file.model, file.q, file.z, s);
+  ASSERT_TRUE(stats.ok()) << stats.message;
+  EXPECT_EQ(stats.energy_scale, 0.0);
+  EXPECT_TRUE(std::isnan(stats.relative_energy_change()));
+  EXPECT_LT(std::abs(stats.energy_change()), 1e-12);
 }
 
 }  // namespace

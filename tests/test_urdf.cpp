@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -391,12 +392,142 @@ TEST(Urdf, FloatingOptionFreesAMassiveRoot) {
   const Json& b = m.at("bodies")[0];
   EXPECT_EQ(vec(b.at("joint")), Vec(0, 0, 0));  // the list form: free
   EXPECT_FALSE(b.contains("initial"));
-  // A massless root is the ground whatever the option: nothing to free, and a note says so.
+}
+
+/// The poses of the bodies and the frames of a converted model at its initial state: the
+/// rotation [R] and the position of O, body by body and then frame by frame.
+std::vector<std::pair<Mat, Vec>> poses(const std::string& yaml) {
+  const ModelFile f = parse_model_file(yaml, "converted.yaml");
+  Data data(f.model);
+  compute_kinematics(f.model, f.initial, data);
+  std::vector<std::pair<Mat, Vec>> out;
+  for (int k = 0; k < f.model.num_bodies(); ++k)
+    out.emplace_back(data.kinematics.R[static_cast<size_t>(k)],
+                     data.kinematics.p_O[static_cast<size_t>(k)]);
+  for (int i = 0; i < static_cast<int>(f.model.frames().size()); ++i) {
+    const FrameState s = frame_state(f.model, i, f.initial, data.kinematics);
+    out.emplace_back(s.R, s.position);
+  }
+  return out;
+}
+
+bool has_note(const std::vector<std::string>& notes, const std::string& text) {
+  for (const std::string& n : notes)
+    if (n.find(text) != std::string::npos) return true;
+  return false;
+}
+
+TEST(Urdf, FloatingOptionFreesTheFirstMassiveLinkBelowAMasslessRoot) {
+  REQUIRE_URDF();
+  REQUIRE_MAPPING_FORM();
+  // world (massless) carries base on a fixed joint, a camera frame and an arm on a revolute
+  // joint: with the option, base is free where the fixed joint put it, and the camera and the
+  // arm hang on base, so that the robot moves as one.
+  const auto origin = [](const std::string& xyz, const std::string& rpy) {
+    return "<origin xyz=\"" + xyz + "\" rpy=\"" + rpy + "\"/>";
+  };
+  const std::string urdf =
+      robot("<link name=\"world\"/><link name=\"camera\"/>" + massive("base") + massive("arm") +
+            joint("mount", "fixed", "world", "base", origin("0.1 -0.2 0.3", "0.2 -0.1 0.5")) +
+            joint("optics", "fixed", "world", "camera", origin("0.4 0.5 -0.6", "-0.3 0.7 0.1")) +
+            joint("swing", "revolute", "world", "arm",
+                  origin("-0.7 0.2 0.9", "0.6 0.1 -0.4") + "<axis xyz=\"0 1 0\"/>"));
+  UrdfOptions floating;
+  floating.floating = true;
   std::vector<std::string> notes;
-  const Json j = yaml_json(convert("joints.urdf", &notes, options));
-  EXPECT_EQ(body(j, "base").at("joint").at("type"), "weld");
-  ASSERT_FALSE(notes.empty());
-  EXPECT_NE(notes[0].find("root link 'world' has no mass"), std::string::npos) << notes[0];
+  const std::string welded_yaml = urdf_to_model_yaml(urdf, "r.urdf", {}, nullptr);
+  const std::string free_yaml = urdf_to_model_yaml(urdf, "r.urdf", floating, &notes);
+  const Json m = yaml_json(free_yaml);
+  EXPECT_EQ(vec(body(m, "base").at("joint")), Vec(0.1, -0.2, 0.3));  // the list form: free
+  EXPECT_EQ(body(m, "arm").at("parent"), "base");
+  EXPECT_EQ(body(m, "arm").at("joint").at("type"), "revolute");
+  ASSERT_EQ(m.at("frames").size(), 1u);
+  EXPECT_EQ(m.at("frames")[0].at("body"), "base");
+  EXPECT_TRUE(has_note(notes,
+                       "root link 'world' has no mass: the option floating frees link "
+                       "'base', the first link with mass below it (its fixed joint "
+                       "'mount' replaced by a free joint)"))
+      << ::testing::PrintToString(notes);
+  // The same poses at the initial state as the welded robot: each a product of two or three
+  // turns and shifts of size 1, so round-off of a few units of 1e-16.
+  const auto a = poses(welded_yaml), b = poses(free_yaml);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_LT((a[i].first - b[i].first).cwiseAbs().maxCoeff(), 1e-15) << i;
+    EXPECT_LT((a[i].second - b[i].second).cwiseAbs().maxCoeff(), 1e-15) << i;
+  }
+  // The free body moves the rest: its 6 speeds and the arm's 1.
+  EXPECT_EQ(parse_model_file(free_yaml, "f.yaml").model.num_speeds(), 7);
+}
+
+TEST(Urdf, FloatingOptionBelowAMasslessRootOnAMovingJoint) {
+  REQUIRE_URDF();
+  UrdfOptions floating;
+  floating.floating = true;
+  // One link on a revolute joint from a massless root: the link is freed, and its joint (which
+  // a massless root could not load) goes, with its input and its damping.
+  std::vector<std::string> notes;
+  const std::string one = robot("<link name=\"world\"/>" + massive("arm") +
+                                joint("swing", "revolute", "world", "arm",
+                                      "<axis xyz=\"0 0 1\"/><dynamics damping=\"0.5\"/>"));
+  const Json m = yaml_json(urdf_to_model_yaml(one, "r.urdf", floating, &notes));
+  EXPECT_EQ(vec(body(m, "arm").at("joint")), Vec(0, 0, 0));
+  EXPECT_FALSE(m.contains("inputs"));
+  EXPECT_FALSE(m.contains("forces"));
+  EXPECT_TRUE(has_note(notes,
+                       "(its revolute joint 'swing' replaced by a free joint, with the "
+                       "joint's input and damping)"))
+      << ::testing::PrintToString(notes);
+  // A link fixed to the root is freed before one on a moving joint, though the walk (joints by
+  // name) meets it second; it comes first in the file, before the arm now hung on it.
+  const std::string fixed_second =
+      robot("<link name=\"world\"/>" + massive("arm") + massive("leg") +
+            joint("a_swing", "revolute", "world", "arm", "<axis xyz=\"0 0 1\"/>") +
+            joint("b_step", "fixed", "world", "leg"));
+  const Json m2 = yaml_json(urdf_to_model_yaml(fixed_second, "r.urdf", floating, nullptr));
+  EXPECT_EQ(m2.at("bodies")[0].at("name"), "leg");
+  EXPECT_EQ(vec(m2.at("bodies")[0].at("joint")), Vec(0, 0, 0));
+  EXPECT_EQ(body(m2, "arm").at("parent"), "leg");
+  // Two on moving joints: freeing one would cut the other's connection through the root;
+  // refused, saying why.
+  const std::string two = robot("<link name=\"world\"/>" + massive("arm") + massive("leg") +
+                                joint("a_swing", "revolute", "world", "arm") +
+                                joint("b_turn", "continuous", "world", "leg"));
+  try {
+    urdf_to_model_yaml(two, "r.urdf", floating, nullptr);
+    ADD_FAILURE() << "accepted";
+  } catch (const ModelFileError& e) {
+    EXPECT_EQ(e.key_path(), "root link 'world'");
+    EXPECT_NE(e.problem().find("cannot free a massless root that moves several links"),
+              std::string::npos)
+        << e.what();
+  }
+  // Without the option nothing changes: the massless root is the ground.
+  const Json welded = yaml_json(urdf_to_model_yaml(two, "r.urdf", {}, nullptr));
+  EXPECT_EQ(body(welded, "arm").at("parent"), "ground");
+  EXPECT_EQ(body(welded, "leg").at("parent"), "ground");
+}
+
+// Every number of the converted files reads as a float under YAML 1.1 too (PyYAML's pattern
+// wants a '.' in the mantissa: `8e-04` would be a string; python/tests/test_written_yaml.py
+// reads the files with PyYAML itself).
+TEST(Urdf, EveryNumberWrittenIsAYaml11Float) {
+  REQUIRE_URDF();
+  const std::regex number(R"((?:^|[\[ ,:])(-?[0-9][0-9.eE+-]*)(?=[,\]\n]))");
+  const std::regex yaml11_float(R"(^[-+]?([0-9][0-9_]*)?\.[0-9.]*([eE][-+][0-9]+)?$)");
+  UrdfOptions floating;
+  floating.floating = true;
+  for (const std::string file : {"joints.urdf", "flange.urdf", "rotated_inertial.urdf"})
+    for (const UrdfOptions& options : {UrdfOptions{}, floating}) {
+      const std::string text = convert(file, nullptr, options);
+      int floats = 0;
+      for (auto it = std::sregex_iterator(text.begin(), text.end(), number);
+           it != std::sregex_iterator(); ++it) {
+        EXPECT_TRUE(std::regex_match((*it)[1].str(), yaml11_float)) << file << ": " << (*it)[1];
+        ++floats;
+      }
+      EXPECT_GT(floats, 10) << file;
+    }
 }
 
 TEST(Urdf, GravityOption) {
@@ -891,7 +1022,7 @@ TEST(UrdfImportLoads, OriginsThatSumPastADoubleAreRefusedNamingTheJoint) {
   EXPECT_EQ(e.file(), "bad.urdf");
   EXPECT_EQ(e.key_path(), "joint 'j'");
   EXPECT_NE(e.problem().find("massless parent link 'plate' (folded into the ground) is not "
-                             "finite: [inf, 0, 0]"),
+                             "finite: [inf, 0.0, 0.0]"),
             std::string::npos)
       << e.what();
   // The same through a body: folded onto 'a', the link 'tip' carries 'b' out of range.
@@ -902,7 +1033,7 @@ TEST(UrdfImportLoads, OriginsThatSumPastADoubleAreRefusedNamingTheJoint) {
             joint("j2", "revolute", "tip", "b", "<origin xyz=\"0 -1e308 0\"/>"));
   const ModelFileError f = refusal(below);
   EXPECT_EQ(f.key_path(), "joint 'j2'");
-  EXPECT_NE(f.problem().find("(folded into body 'a') is not finite: [0, -inf, 0]"),
+  EXPECT_NE(f.problem().find("(folded into body 'a') is not finite: [0.0, -inf, 0.0]"),
             std::string::npos)
       << f.what();
 }

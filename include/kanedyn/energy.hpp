@@ -39,6 +39,11 @@ double damping_power(const Model& model, const VectorX& q, const VectorX& z, Dat
 /// (q, z): the same bits without computing them again.
 double total_energy_of_kinematics(const Model& model, const State& state, const VectorX& q,
                                   const Data& data);
+/// The two parts of total_energy_of_kinematics(model, state, q, data), from the kinematics in
+/// data: the kinetic energy, and the potential energy with the joint springs' potentials of q.
+double kinetic_energy_of_kinematics(const Model& model, const State& state, const Data& data);
+double potential_energy_of_kinematics(const Model& model, const State& state, const VectorX& q,
+                                      const Data& data);
 /// Linear momentum sum_K m_K {v_G_K}, inertial components.
 Vector3 linear_momentum(const Model& model, const State& state, Data& data);
 /// Angular momentum about the inertial origin, inertial components.

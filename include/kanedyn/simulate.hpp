@@ -43,7 +43,9 @@ struct SimulationSettings {
   /// The initial state is normalized in any case.
   bool project_euler_parameters = true;
   /// Compute the kinematics of each output state into the observer's data (see Observer).
-  /// false when the observer does not read them, e.g. when it only queues the state.
+  /// false when the observer does not read them, e.g. when it only queues the state (the data
+  /// may hold them anyway: simulate() takes the energies of the first output state after each
+  /// step, for SimulationStats::energy_scale).
   bool observer_kinematics = true;
   /// Called after every accepted step with the time reached, and every 64 output rows while
   /// one step spans many output times; return false to stop the run (status interrupted).
@@ -89,6 +91,11 @@ enum class SimulationStatus {
 /// "completed", "interrupted", "non-finite state", "step size underflow", "controller error".
 std::string to_string(SimulationStatus status);
 
+/// energy_scale counts when above this fraction of the largest energy magnitude seen: the
+/// energies' round-off is a few units in the last place of that magnitude (1e-16 relative), so
+/// a scale above 1e-9 of it gives a relative change whose round-off is below about 1e-6.
+constexpr double kEnergyScaleFloor = 1e-9;
+
 /// What happened in a run.
 struct SimulationStats {
   SimulationStatus status = SimulationStatus::completed;
@@ -99,7 +106,15 @@ struct SimulationStats {
   long outputs = 0;             ///< observer calls
   double energy_initial = 0.0;  ///< total_energy at t_start
   double energy_final = 0.0;    ///< total_energy at t_reached
-  /// (energy_final - energy_initial) / |energy_initial|; the absolute change if that is 0.
+  double energy_change() const { return energy_final - energy_initial; }  ///< [J]
+  /// The size of the energy that moved in the run [J]: the largest kinetic energy, or the
+  /// largest difference of potential energies, at the start, the output times (the first in
+  /// each integration step) and the end;
+  /// 0 when that is not above kEnergyScaleFloor times the energies' magnitude (nothing moved,
+  /// and it is round-off). Unlike energy_initial, it does not depend on the potential's datum.
+  double energy_scale = 0.0;
+  /// energy_change() / energy_scale; NaN when energy_scale is 0 (a ratio to round-off would
+  /// only mislead).
   double relative_energy_change() const;
   /// Largest | |eps_K| - 1 | found before a projection, over all steps and bodies.
   double max_euler_drift = 0.0;

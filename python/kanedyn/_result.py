@@ -20,7 +20,9 @@ class Result:
     t (T,), x (T, 7N) and y (T, 6N) are the states of Eq. (1) in the notes' order, p_G (T, N, 3)
     the mass centres G_K (inertial), energy (T,) the total energy; stats is a dict (status,
     steps_accepted, steps_rejected, evaluations, wall_seconds, energy_initial, energy_final,
-    relative_energy_change, max_euler_drift, message, ...). r["torso.w2"] is a column of the
+    energy_change (J), energy_scale (J: the largest kinetic energy or potential-energy swing
+    of the run, 0 when nothing moved), relative_energy_change (energy_change / energy_scale,
+    nan when energy_scale is 0), max_euler_drift, message, ...). r["torso.w2"] is a column of the
     trajectory CSV by name (r.columns lists them); r.to_csv(path) writes the CSV that
     `kanedyn simulate` writes. A jointed model's result also has q (T, nq) and z (T, nz), the
     joint coordinates and independent speeds of each row (model.joint_layout gives each

@@ -501,6 +501,8 @@ py::dict stats_dict(const Model& model, const SimulationStats& st) {
   d["outputs"] = st.outputs;
   d["energy_initial"] = st.energy_initial;
   d["energy_final"] = st.energy_final;
+  d["energy_change"] = st.energy_change();
+  d["energy_scale"] = st.energy_scale;
   d["relative_energy_change"] = st.relative_energy_change();
   d["max_euler_drift"] = st.max_euler_drift;
   d["wall_seconds"] = st.wall_seconds;

@@ -133,3 +133,32 @@ def test_initial_state_argument(eight) -> None:
     r = eight.simulate(t_end=0.01, initial=s)
     assert np.array_equal(r.y[0], np.zeros(48))
     assert not np.array_equal(eight.simulate(t_end=0.01).y[0], r.y[0])
+
+
+PENDULUM = """format: kanedyn-model/1
+gravity: [0, 0, -9.81]
+bodies:
+  - {name: upper, parent: ground, mass: 1.0, inertia: [0.08, 0.08, 0.001], com: [0, 0, -0.5],
+     joint: {type: revolute, axis: [0, 1, 0]}, initial: {joint: [ANGLE]}}
+  - {name: lower, parent: upper, mass: 1.0, inertia: [0.08, 0.08, 0.001], com: [0, 0, -0.5],
+     joint: {type: revolute, at: [0, 0, -1], axis: [0, 1, 0]}}
+"""
+
+
+def test_the_relative_energy_change_is_to_the_energy_that_moved() -> None:
+    # Released level with its pivot: E0 is round-off (cos(pi/2) g L), the ratio to it 1e+8.
+    m = kanedyn.loads(PENDULUM.replace("ANGLE", "1.5707963267948966"))
+    r = m.simulate(t_end=1.0, dt_out=0.01)
+    s = r.stats
+    assert abs(s["energy_initial"]) < 1e-12
+    assert s["energy_change"] == s["energy_final"] - s["energy_initial"]
+    # The largest kinetic energy or potential swing: more than a few J within a second, and at
+    # most the m g (0.5 + 1.5) = 19.62 J the two links lose hanging straight down.
+    assert 5.0 < s["energy_scale"] <= 9.81 * 2.0 + 1e-6
+    assert s["relative_energy_change"] == s["energy_change"] / s["energy_scale"]
+    assert abs(s["relative_energy_change"]) < 1e-6  # dopri5 at rtol 1e-8
+    # Hanging at rest nothing moves: no scale and no ratio, only the absolute change.
+    rest = kanedyn.loads(PENDULUM.replace("ANGLE", "0.0")).simulate(t_end=1.0).stats
+    assert rest["energy_scale"] == 0.0
+    assert np.isnan(rest["relative_energy_change"])
+    assert abs(rest["energy_change"]) < 1e-12

@@ -22,6 +22,7 @@
 #include <utility>
 
 #include "direction.hpp"
+#include "kanedyn/io/model_writer.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/model.hpp"
 #include "xml_scan.hpp"
@@ -75,8 +76,11 @@ struct Body {
   double damping = 0.0;
 };
 
-/// The shortest decimal that reads back as the same double.
+/// The shortest decimal that reads back as the same double, spelled so that YAML 1.1 readers
+/// (PyYAML) read a float too (yaml_float: 8.0e-04, not 8e-04). A non-finite value, which only
+/// messages quote, as to_chars writes it.
 std::string num(double v) {
+  if (std::isfinite(v)) return yaml_float(v);
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
   return std::string(buf, r.ptr);
@@ -100,6 +104,12 @@ std::string yaml_string(const std::string& text) {
   }
   return "\"" + printable(s) + "\"";
 }
+
+/// A massless link on a fixed joint: a frame of the body (or the ground) it is fixed to.
+struct FrameOut {
+  std::string name, link;
+  Place at;
+};
 
 /// The axis and angle of q, the angle in [0, pi].
 std::string axis_angle(Quat q) {
@@ -162,6 +172,77 @@ class Notes {
   std::vector<Kind> kinds_;
   std::vector<std::string> lines_;
 };
+
+/// `--floating` with a massless root link (`base_link`, `world`): the root has no body to free,
+/// so the first body with mass below it is freed, and what hung on the root (the other bodies
+/// and the frames on the ground) is hung on that body at the same pose, so that the robot moves
+/// as one, as a free-flyer joint on the root link would move it. The body freed is the first
+/// one fixed to the root (through massless links), else the root's only body on a moving joint,
+/// whose joint is then given up (below a massless root it carried no load); with several such
+/// bodies and none fixed, freeing one would cut the others' connection: refused. A body on a
+/// floating joint stays on the ground: below a massless link it is free of the rest anyway. The
+/// freed body is moved to the front, so that it comes before the bodies now hung on it.
+template <typename Fail>
+void free_below_massless_root(const std::string& root, std::vector<Body>& bodies,
+                              std::vector<FrameOut>& frames, Notes& notes, const Fail& fail) {
+  const int n = static_cast<int>(bodies.size());
+  const auto on_root = [&](int k) {
+    return bodies[static_cast<std::size_t>(k)].parent < 0 &&
+           bodies[static_cast<std::size_t>(k)].joint_type != "free";
+  };
+  int chosen = -1;
+  for (int k = 0; k < n && chosen < 0; ++k)
+    if (on_root(k) && bodies[static_cast<std::size_t>(k)].joint_type == "weld") chosen = k;
+  for (int k = 0; k < n && chosen < 0; ++k)
+    if (on_root(k)) chosen = k;
+  if (chosen < 0) return;  // every body below the root is on a floating joint: free already
+  const bool welded = bodies[static_cast<std::size_t>(chosen)].joint_type == "weld";
+  for (int k = 0; k < n && !welded; ++k)
+    if (k != chosen && on_root(k))
+      fail(quoted_name("root link", root),
+           "has no mass and moves link '" +
+               printable(bodies[static_cast<std::size_t>(chosen)].link, 60) + "' and link '" +
+               printable(bodies[static_cast<std::size_t>(k)].link, 60) +
+               "' on joints of their own: the option floating cannot free a massless root that "
+               "moves several links (give the root link a mass and inertia)");
+  // The chosen body first: old index k is new index remap(k).
+  const auto remap = [&](int k) { return k == chosen ? 0 : (k < chosen ? k + 1 : k); };
+  std::rotate(bodies.begin(), bodies.begin() + chosen, bodies.begin() + chosen + 1);
+  for (Body& b : bodies)
+    if (b.parent >= 0) b.parent = remap(b.parent);
+  for (FrameOut& f : frames)
+    if (f.at.body >= 0) f.at.body = remap(f.at.body);
+
+  Body& first = bodies.front();
+  // It hung on the ground: its at and frame are its pose in the root's frame.
+  const Quat turn = first.frame.conjugate();
+  for (std::size_t k = 1; k < bodies.size(); ++k) {
+    Body& b = bodies[k];
+    if (b.parent >= 0 || b.joint_type == "free") continue;
+    b.parent = 0;
+    b.at = turn * (b.at - first.at);
+    b.frame = (turn * b.frame).normalized();
+  }
+  for (FrameOut& f : frames) {
+    if (f.at.body >= 0) continue;
+    f.at.body = 0;
+    f.at.p = turn * (f.at.p - first.at);
+    f.at.q = (turn * f.at.q).normalized();
+  }
+  std::string how = "its fixed joint '" + printable(first.joint, 60) + "' replaced by a free joint";
+  if (!welded) {
+    how = "its " + first.joint_type + " joint '" + printable(first.joint, 60) +
+          "' replaced by a free joint, with the joint's input" +
+          (first.damping > 0.0 ? " and damping" : "");
+    first.damping = 0.0;
+  }
+  first.joint_type = "free";
+  first.absolute = first.frame;
+  first.comment = "freed: the root link " + printable(root) + " has no mass (option floating)";
+  notes.add_line(quoted_name("root link", root) + " has no mass: the option floating frees link '" +
+                 printable(first.link, 60) + "', the first link with mass below it (" + how +
+                 "); what is fixed to the root moves with it");
+}
 
 /// urdfdom reports through console_bridge, which prints to the terminal by default: its
 /// messages are collected instead (the library never prints), the errors to refuse the file
@@ -324,11 +405,6 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
     return static_cast<int>(bodies.size()) - 1;
   };
 
-  // Massless links on fixed joints: frames of the body (or the ground) they are fixed to.
-  struct FrameOut {
-    std::string name, link;
-    Place at;
-  };
   std::vector<FrameOut> frames;
 
   std::unordered_map<std::string, Place> place;
@@ -347,9 +423,6 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
     bodies[k].joint_type = options.floating ? "free" : "weld";
     place[root->name] = Place{k, Vec::Zero(), Quat::Identity(), Quat::Identity()};
   } else {
-    if (options.floating)
-      notes.add_line(quoted_name("root link", root->name) +
-                     " has no mass, so it is the ground: the option floating frees nothing");
     place[root->name] = Place{};
   }
   bool geometry = root->visual || root->collision;
@@ -486,6 +559,11 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
              "cannot be reached from the root link '" + printable(root->name, 60) +
                  "': its joints form a closed loop, and a kanedyn model is a tree");
   }
+  if (bodies.empty())
+    fail(quoted_name("robot", model->getName()),
+         "no link has a mass: there is no body to simulate");
+  if (options.floating && root_mass <= 0.0)
+    free_below_massless_root(root->name, bodies, frames, notes, fail);
   if (geometry) notes.add_line("visual and collision geometry is ignored");
   for (std::size_t f = 0; f < frames.size(); ++f) {
     const FrameOut& frame = frames[f];
@@ -505,9 +583,6 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
                                      : "body '" + bodies[frame.at.body].name + "'"),
               frame.link);
   }
-  if (bodies.empty())
-    fail(quoted_name("robot", model->getName()),
-         "no link has a mass: there is no body to simulate");
 
   std::string y;
   y += "# Converted from " + printable(source_name) + " by kanedyn's URDF import (docs/urdf.md).\n";

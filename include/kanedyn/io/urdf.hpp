@@ -12,7 +12,8 @@
 namespace kanedyn::io {
 
 struct UrdfOptions {
-  /// The root link (when it has mass) free instead of welded to the ground (`--floating`).
+  /// The root link free instead of welded to the ground (`--floating`); when the root has no
+  /// mass, the first link with mass below it (docs/urdf.md, "A massless root with --floating").
   bool floating = false;
   /// Inertial components. A URDF file carries no gravity; robots are described z up.
   std::array<double, 3> gravity{0.0, 0.0, -9.81};
