@@ -361,10 +361,17 @@ SpeedPartition partition_speeds(const Model& model, const MatrixX& B) {
 // ---- Projection ----
 
 Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z, double tolerance) {
+  if (model.num_constraints() == 0) return {};
+  ConstraintEquations eq(model);
+  return project_onto_constraints(eq, q, z, tolerance);
+}
+
+Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX& z,
+                                    double tolerance) {
   Projection out;
+  const Model& model = eq.model();
   if (model.num_constraints() == 0) return out;
   normalize_joint_coordinates(model, q);
-  ConstraintEquations eq(model);
   const int n = model.num_speeds();
   std::vector<int> hol;
   eq.evaluate(q, z);

@@ -65,6 +65,7 @@ struct Dynamics::Impl {
   VectorX drift_q;  // project()'s copy of q when the Euler parameters are not projected
   // A model with constraints (docs/theory.md, "Constraints"): its own route over the tree's.
   std::optional<ConstrainedDynamics> constrained;
+  std::optional<ConstraintEquations> projector;  // project()'s workspace
   VectorX cq, cz;
   double constraint_error = 0.0;  // the largest holonomic error project() found
 
@@ -256,8 +257,10 @@ double Dynamics::project(VectorX& v, bool apply) {
     const int nq = s.model.num_coordinates();
     s.cq = v.head(nq);
     s.cz = v.tail(v.size() - nq);
+    // The drift before the projection, which normalizes again (a no-op on unit parameters).
     const double drift = normalize_joint_coordinates(s.model, s.cq);
-    const Projection p = project_onto_constraints(s.model, s.cq, s.cz);
+    if (!s.projector) s.projector.emplace(s.model);
+    const Projection p = project_onto_constraints(*s.projector, s.cq, s.cz);
     s.constraint_error = std::max(s.constraint_error, p.error_before);
     v.head(nq) = s.cq;
     v.tail(v.size() - nq) = s.cz;

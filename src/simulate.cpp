@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include "kanedyn/constraints.hpp"
@@ -455,7 +456,8 @@ class Run {
       if (constrained) {
         // Dense output between steps lies off the constraints by the interpolation's error:
         // the output is the state projected onto them, as the steps are.
-        project_onto_constraints(model_, q_, z_state_);
+        if (!projector_) projector_.emplace(model_);
+        project_onto_constraints(*projector_, q_, z_state_);
         joint_state(model_, q_, z_state_, out_state_);
       }
       if (sample || (observer_ && s_.observer_kinematics))
@@ -689,6 +691,7 @@ class Run {
   const SimulationSettings& s_;
   const Observer& observer_;
   Dynamics dynamics_;  ///< what is integrated, and its derivative (the route dispatch)
+  std::optional<ConstraintEquations> projector_;  ///< the outputs' projection's workspace
   int size_;
   VectorX q_, z_state_;  ///< the model's state at an output (and at the start and the end)
   Data data_;

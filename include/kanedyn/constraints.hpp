@@ -117,6 +117,10 @@ struct Projection {
 /// naming the constraint with the largest error when 50 steps do not converge.
 Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z,
                                     double tolerance = 1e-12);
+/// The same with the equations' workspace of the caller (their model's constraints), which a
+/// run projecting at every step keeps instead of building one each time.
+Projection project_onto_constraints(ConstraintEquations& equations, VectorX& q, VectorX& z,
+                                    double tolerance = 1e-12);
 
 /// Forward dynamics with constraints at (q, z, u): z dot and the rows' multipliers. The
 /// unconstrained equations M z dot + b(q, z, u) = [B]^T {lambda}, and [B]{z dot} + {b} = 0.
