@@ -81,12 +81,11 @@ std::string names_of(const std::vector<std::string>& state, const std::vector<in
 void run(const Options& o) {
   const io::ModelFile file = io::load_model_file(o.model);
   const Model& model = file.model;
-  // The equilibrium of the tree without its constraints would be a wrong answer, not a
-  // partial one.
-  if (model.num_constraints() > 0)
+  // A model with constraints: its constraints choose the independent coordinates.
+  if (model.num_constraints() > 0 && !o.free.empty())
     throw std::runtime_error(o.model +
-                             ": equilibrium does not handle models with constraints yet (it "
-                             "would balance the tree without them); kanedyn linearize does");
+                             ": --free: a model with constraints moves along its independent "
+                             "speeds (independent_speeds); leave --free out");
   if (!o.out.empty()) io::check_output_path(o.out, {o.model});
   StateChoice choice;
   choice.inputs = o.inputs;
@@ -100,8 +99,14 @@ void run(const Options& o) {
   const std::vector<std::string> state = tangent_state_names(model);
   const int n = model.num_speeds();
   const int f = options.free.empty() ? n : static_cast<int>(options.free.size());
-  std::printf("static equilibrium of %s from its initial state: Newton on %d of %d coordinates\n",
-              io::printable(file.path).c_str(), f, n);
+  if (model.num_constraints() > 0)
+    std::printf(
+        "static equilibrium of %s from its initial state: Newton along its independent "
+        "speeds, the constraints' reactions balancing the rest\n",
+        io::printable(file.path).c_str());
+  else
+    std::printf("static equilibrium of %s from its initial state: Newton on %d of %d coordinates\n",
+                io::printable(file.path).c_str(), f, n);
   const EquilibriumResult rest = equilibrium(model, op.q, op.u, options);
   std::printf("  %s\n", rest.message.c_str());
   if (!rest.converged) {

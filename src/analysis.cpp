@@ -1613,9 +1613,135 @@ Linearization linearize_at_rest(const Model& model, const VectorX& q, const Vect
 
 // ---- Static equilibrium ----
 
+namespace {
+
+// Static equilibrium with constraints (docs/analysis.md, "Static equilibrium"): at rest the
+// reactions balance the generalized forces, Q = [B]^T lambda, so their components along the
+// motions the constraints allow vanish, [C_I]^T Q = 0, with [C_I] the independent speeds'
+// basis of the null space of [B] (y = [C][C_I] z_I). Newton moves q along [C_I] (the
+// independent speeds' directions) and projects the holonomic rows back after each step; the
+// Jacobian of [C_I]^T Q along them is taken by central differences (the rows' second
+// derivatives are not formed analytically), whose error, O(h^2) relative with h = 1e-6, only
+// slows the convergence near the root without moving it.
+EquilibriumResult constrained_equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
+                                          const EquilibriumOptions& options) {
+  if (!options.free.empty())
+    throw std::invalid_argument(
+        "equilibrium: holding coordinates of a model with constraints is not supported (its "
+        "constraints already choose the independent ones); leave `free` empty");
+  const int n = model.num_speeds();
+  const VectorX zero = VectorX::Zero(n);
+  ConstraintEquations equations(model);
+  VectorX q = q0, z = zero;
+  project_onto_constraints(model, q, z);
+  equations.evaluate(q, zero);
+  const SpeedPartition partition = partition_speeds(model, equations.B());
+  const int r = partition.rank, f = n - r;
+  // [C_I] at q for the partition chosen at the start.
+  const auto basis = [&](const VectorX& at_q) {
+    equations.evaluate(at_q, zero);
+    const MatrixX& B = equations.B();
+    MatrixX BD(r, r), BI(r, f);
+    for (int i = 0; i < r; ++i) {
+      const int row = partition.rows[static_cast<size_t>(i)];
+      for (int j = 0; j < r; ++j) BD(i, j) = B(row, partition.dependent[static_cast<size_t>(j)]);
+      for (int j = 0; j < f; ++j) BI(i, j) = B(row, partition.independent[static_cast<size_t>(j)]);
+    }
+    MatrixX C = MatrixX::Zero(n, f);
+    const MatrixX DI = r > 0 ? MatrixX(BD.fullPivLu().solve(BI)) : MatrixX(0, f);
+    for (int j = 0; j < f; ++j) C(partition.independent[static_cast<size_t>(j)], j) = 1.0;
+    for (int i = 0; i < r; ++i) C.row(partition.dependent[static_cast<size_t>(i)]) = -DI.row(i);
+    return C;
+  };
+  const auto forces = [&](const VectorX& at_q) -> VectorX {
+    return basis(at_q).transpose() * detail::generic_inverse_dynamics(model, at_q, zero, zero, u);
+  };
+  // A step delta along the independent directions, then back onto the holonomic constraints.
+  const auto moved = [&](const VectorX& from, const VectorX& delta) {
+    VectorX to = retract(model, from, basis(from) * delta), rates = zero;
+    project_onto_constraints(model, to, rates);
+    return to;
+  };
+  EquilibriumResult result;
+  result.q = q;
+  result.free = partition.independent;
+  VectorX residual = forces(q);
+  result.scale = std::max(1.0, f > 0 ? residual.cwiseAbs().maxCoeff() : 0.0);
+  const double target = options.tolerance * result.scale;
+  double size = f > 0 ? residual.cwiseAbs().maxCoeff() : 0.0;
+  const double h = 1e-6;
+  MatrixX J(f, f);
+  const auto jacobian = [&](const VectorX& at_q) {
+    for (int j = 0; j < f; ++j) {
+      VectorX d = VectorX::Zero(f);
+      d[j] = h;
+      J.col(j) = (forces(moved(at_q, d)) - forces(moved(at_q, -d))) / (2.0 * h);
+    }
+  };
+  for (int iteration = 0; iteration <= options.max_iterations; ++iteration) {
+    result.iterations = iteration;
+    if (!(size > target)) {
+      result.converged = std::isfinite(size);
+      break;
+    }
+    if (iteration == options.max_iterations) break;
+    jacobian(result.q);
+    const VectorX step = -Eigen::CompleteOrthogonalDecomposition<MatrixX>(J).solve(residual);
+    double t = 1.0;
+    bool improved = false;
+    for (int halving = 0; halving < 40; ++halving, t *= 0.5) {
+      const VectorX q_try = moved(result.q, t * step);
+      const VectorX r_try = forces(q_try);
+      const double s_try = r_try.cwiseAbs().maxCoeff();
+      if (s_try < size) {
+        result.q = q_try;
+        residual = r_try;
+        size = s_try;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) break;
+  }
+  result.residual = residual;
+  result.residual_norm = size;
+  if (f > 0) {
+    jacobian(result.q);
+    Eigen::FullPivLU<MatrixX> lu(J);
+    lu.setThreshold(1e-8);  // a central-difference Jacobian: 1e-10 relative is its noise
+    if (lu.rank() < f) {
+      const MatrixX kernel = lu.kernel();
+      std::vector<bool> flagged(static_cast<size_t>(f), false);
+      for (Eigen::Index c = 0; c < kernel.cols(); ++c)
+        for (int i = 0; i < f; ++i)
+          if (std::abs(kernel(i, c)) > 1e-6 * kernel.col(c).cwiseAbs().maxCoeff())
+            flagged[static_cast<size_t>(i)] = true;
+      for (int i = 0; i < f; ++i)
+        if (flagged[static_cast<size_t>(i)])
+          result.unrestrained.push_back(partition.independent[static_cast<size_t>(i)]);
+    }
+    const Linearization lin = linearize(model, result.q, zero, u);
+    if (lin.A.allFinite()) result.eigenvalues = lin.eigenvalues;
+  }
+  std::ostringstream msg;
+  msg.precision(3);
+  msg << (result.converged ? "converged in " : "Newton did not converge after ")
+      << result.iterations << " Newton iterations on the " << f
+      << " independent speeds' directions: largest generalized force along them "
+      << result.residual_norm << " (tolerance " << target << ")";
+  result.message = msg.str();
+  return result;
+}
+
+}  // namespace
+
 EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
                               const EquilibriumOptions& options) {
-  refuse_constraints(model, "equilibrium");
+  if (model.num_constraints() > 0) {
+    check_size("equilibrium: q", q0.size(), model.num_coordinates());
+    check_size("equilibrium: u", u.size(), model.num_inputs());
+    return constrained_equilibrium(model, q0, u, options);
+  }
   const int n = model.num_speeds();
   check_size("equilibrium: q", q0.size(), model.num_coordinates());
   check_size("equilibrium: u", u.size(), model.num_inputs());
@@ -1641,6 +1767,7 @@ EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const Vecto
   };
   EquilibriumResult result;
   result.q = q0;
+  result.free = free;
   VectorX residual = forces(q0);
   // The force scale: the largest generalized force of gravity, the elements and the inputs at
   // the start, or 1 where they all vanish there.

@@ -181,16 +181,11 @@ TEST(InspectConstraints, ModelsWithoutConstraintsHaveNoConstraintsKey) {
   EXPECT_EQ(r.out.find("constraints:"), std::string::npos);
 }
 
-// equilibrium and inverse would answer for the tree without its constraints: refused, with a
-// nonzero exit and a message naming the file.
-TEST(ConstraintsNotYetHandled, EquilibriumAndInverseRefuseModelsWithConstraints) {
+// inverse would answer for the tree without its constraints: refused, with a nonzero exit and a
+// message naming the file.
+TEST(ConstraintsNotYetHandled, InverseRefusesModelsWithConstraints) {
   const fs::path dir = temp_dir("cli_constraints_refused");
   const std::string model = kExamples + "/four_bar.yaml";
-  const auto eq = run_in(dir, "equilibrium '" + model + "'");
-  EXPECT_NE(eq.exit_code, 0);
-  EXPECT_NE(eq.err.find("four_bar.yaml: equilibrium does not handle models with constraints"),
-            std::string::npos)
-      << eq.err;
   const auto sim = run_in(dir, "simulate '" + model + "' --t-end 0.1 -o run.csv");
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   const auto inv = run_in(dir, "inverse '" + model + "' run.csv");

@@ -139,11 +139,16 @@ struct EquilibriumOptions {
 struct EquilibriumResult {
   bool converged = false;
   int iterations = 0;
-  VectorX q;                   ///< the rest pose (the last iterate when not converged)
-  VectorX residual;            ///< the generalized forces Q at q on the free coordinates
+  VectorX q;  ///< the rest pose (the last iterate when not converged)
+  /// The generalized forces Q at q on the free coordinates (with constraints, [C_I]^T Q: along
+  /// the independent speeds).
+  VectorX residual;
   double residual_norm = 0.0;  ///< their largest magnitude
   double scale = 0.0;          ///< the force scale the tolerance is relative to
   std::string message;         ///< why it stopped, and what to fix when it failed
+  /// The tangent coordinates Newton moved: options.free (all when empty) or, with constraints,
+  /// the independent speeds (it moved along their directions, the dependent ones following).
+  std::vector<int> free;
   /// Tangent coordinates with no restoring force at the end (the Jacobian's null space): what to
   /// hold fixed.
   std::vector<int> unrestrained;

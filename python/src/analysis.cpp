@@ -239,11 +239,8 @@ py::dict equilibrium_of(const PyModel& m, py::object free, py::object u_obj, py:
     }
   }
   const std::vector<std::string> names = tangent_state_names(model);
-  std::vector<int> free_indices = options.free;
-  if (free_indices.empty())
-    for (int i = 0; i < model.num_speeds(); ++i) free_indices.push_back(i);
   std::vector<std::string> free_names, unrestrained;
-  for (const int i : free_indices) free_names.push_back(names[static_cast<size_t>(i)]);
+  for (const int i : result.free) free_names.push_back(names[static_cast<size_t>(i)]);
   for (const int i : result.unrestrained) unrestrained.push_back(names[static_cast<size_t>(i)]);
   py::dict d;
   d["converged"] = result.converged;

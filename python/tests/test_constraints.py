@@ -203,3 +203,20 @@ def test_an_all_free_model_with_constraints_derives_the_constrained_motion() -> 
     # The reaction holds the bob up (on average, with the centripetal part).
     (pivot,) = f["reactions"]
     assert pivot["force"][2] > 0
+
+
+def test_the_four_bar_rests_where_nothing_accelerates(four_bar: kanedyn.Model) -> None:
+    # Newton along the independent speed (the crank's) with the reactions balancing the rest:
+    # the constrained forward dynamics then gives no acceleration (residual 1e-10 of the
+    # weights' moments over inertias ~0.01: far below 1e-7). From the file's pose the nearest
+    # stationary point is balanced over the top: a real pair +-lambda.
+    rest = four_bar.equilibrium()
+    assert rest.converged, rest.message
+    assert rest.free == ["crank.j1"]
+    n = len(four_bar.initial_joint_speeds)
+    f = four_bar.constrained_forward(four_bar.state(q=rest.q, z=np.zeros(n)))
+    assert np.abs(f["zdot"]).max() < 1e-7
+    assert rest.eigenvalues is not None and len(rest.eigenvalues) == 2
+    assert rest.eigenvalues[0].real > 1.0 and abs(rest.eigenvalues[0] + rest.eigenvalues[1]) < 1e-6
+    with pytest.raises(ValueError, match="constraints"):
+        four_bar.equilibrium(free=["crank"])
