@@ -1615,6 +1615,55 @@ Linearization linearize_at_rest(const Model& model, const VectorX& q, const Vect
 
 namespace {
 
+// Newton's method on forces(q) = 0 from result.q, each step halved until the largest residual
+// shrinks (at most 40 times): jacobian(q) returns dforces/dstep at q, moved(q, step) the
+// iterate a step away. residual and size hold forces(result.q) and its largest magnitude on
+// entry and on return; result.iterations and result.converged say how it ended.
+template <typename Forces, typename Jacobian, typename Move>
+void halving_newton(EquilibriumResult& result, VectorX& residual, double& size, double target,
+                    int max_iterations, const Forces& forces, const Jacobian& jacobian,
+                    const Move& moved) {
+  for (int iteration = 0; iteration <= max_iterations; ++iteration) {
+    result.iterations = iteration;
+    if (!(size > target)) {
+      result.converged = std::isfinite(size);
+      break;
+    }
+    if (iteration == max_iterations) break;
+    const VectorX step =
+        -Eigen::CompleteOrthogonalDecomposition<MatrixX>(jacobian(result.q)).solve(residual);
+    double t = 1.0;
+    bool improved = false;
+    for (int halving = 0; halving < 40; ++halving, t *= 0.5) {
+      const VectorX q_try = moved(result.q, VectorX(t * step));
+      const VectorX r_try = forces(q_try);
+      const double s_try = r_try.cwiseAbs().maxCoeff();
+      if (s_try < size) {
+        result.q = q_try;
+        residual = r_try;
+        size = s_try;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) break;
+  }
+}
+
+// The columns of a rank-deficient Jacobian that its null space moves: those with an entry of at
+// least 1e-6 of the largest in some kernel vector (what nothing restrains).
+std::vector<int> kernel_columns(const Eigen::FullPivLU<MatrixX>& lu) {
+  const MatrixX kernel = lu.kernel();
+  std::vector<int> out;
+  for (Eigen::Index i = 0; i < kernel.rows(); ++i)
+    for (Eigen::Index c = 0; c < kernel.cols(); ++c)
+      if (std::abs(kernel(i, c)) > 1e-6 * kernel.col(c).cwiseAbs().maxCoeff()) {
+        out.push_back(static_cast<int>(i));
+        break;
+      }
+  return out;
+}
+
 // Static equilibrium with constraints (docs/analysis.md, "Static equilibrium"): at rest the
 // reactions balance the generalized forces, Q = [B]^T lambda, so their components along the
 // motions the constraints allow vanish, [C_I]^T Q = 0, with [C_I] the independent speeds'
@@ -1670,56 +1719,24 @@ EquilibriumResult constrained_equilibrium(const Model& model, const VectorX& q0,
   const double target = options.tolerance * result.scale;
   double size = f > 0 ? residual.cwiseAbs().maxCoeff() : 0.0;
   const double h = 1e-6;
-  MatrixX J(f, f);
   const auto jacobian = [&](const VectorX& at_q) {
+    MatrixX J(f, f);
     for (int j = 0; j < f; ++j) {
       VectorX d = VectorX::Zero(f);
       d[j] = h;
       J.col(j) = (forces(moved(at_q, d)) - forces(moved(at_q, -d))) / (2.0 * h);
     }
+    return J;
   };
-  for (int iteration = 0; iteration <= options.max_iterations; ++iteration) {
-    result.iterations = iteration;
-    if (!(size > target)) {
-      result.converged = std::isfinite(size);
-      break;
-    }
-    if (iteration == options.max_iterations) break;
-    jacobian(result.q);
-    const VectorX step = -Eigen::CompleteOrthogonalDecomposition<MatrixX>(J).solve(residual);
-    double t = 1.0;
-    bool improved = false;
-    for (int halving = 0; halving < 40; ++halving, t *= 0.5) {
-      const VectorX q_try = moved(result.q, t * step);
-      const VectorX r_try = forces(q_try);
-      const double s_try = r_try.cwiseAbs().maxCoeff();
-      if (s_try < size) {
-        result.q = q_try;
-        residual = r_try;
-        size = s_try;
-        improved = true;
-        break;
-      }
-    }
-    if (!improved) break;
-  }
+  halving_newton(result, residual, size, target, options.max_iterations, forces, jacobian, moved);
   result.residual = residual;
   result.residual_norm = size;
   if (f > 0) {
-    jacobian(result.q);
-    Eigen::FullPivLU<MatrixX> lu(J);
+    Eigen::FullPivLU<MatrixX> lu(jacobian(result.q));
     lu.setThreshold(1e-8);  // a central-difference Jacobian: 1e-10 relative is its noise
-    if (lu.rank() < f) {
-      const MatrixX kernel = lu.kernel();
-      std::vector<bool> flagged(static_cast<size_t>(f), false);
-      for (Eigen::Index c = 0; c < kernel.cols(); ++c)
-        for (int i = 0; i < f; ++i)
-          if (std::abs(kernel(i, c)) > 1e-6 * kernel.col(c).cwiseAbs().maxCoeff())
-            flagged[static_cast<size_t>(i)] = true;
-      for (int i = 0; i < f; ++i)
-        if (flagged[static_cast<size_t>(i)])
-          result.unrestrained.push_back(partition.independent[static_cast<size_t>(i)]);
-    }
+    if (lu.rank() < f)
+      for (const int i : kernel_columns(lu))
+        result.unrestrained.push_back(partition.independent[static_cast<size_t>(i)]);
     const Linearization lin = linearize(model, result.q, zero, u);
     if (lin.A.allFinite()) result.eigenvalues = lin.eigenvalues;
   }
@@ -1775,57 +1792,30 @@ EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const Vecto
   const double target = options.tolerance * result.scale;
   double size = f > 0 ? residual.cwiseAbs().maxCoeff() : 0.0;
   MatrixX J(f, f);
-  for (int iteration = 0; iteration <= options.max_iterations; ++iteration) {
-    result.iterations = iteration;
-    if (!(size > target)) {
-      result.converged = std::isfinite(size);
-      break;
-    }
-    if (iteration == options.max_iterations) break;
-    derivatives.inverse(result.q, zero, zero, u, dq, dz, du);
+  // Q's analytic Jacobian on the free coordinates at q, into J.
+  const auto jacobian = [&](const VectorX& at_q) -> const MatrixX& {
+    derivatives.inverse(at_q, zero, zero, u, dq, dz, du);
     for (int r = 0; r < f; ++r)
       for (int c = 0; c < f; ++c) J(r, c) = dq(free[at(r)], free[at(c)]);
-    const Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(J);
-    const VectorX step = -cod.solve(residual);
-    // A damped step: halve it until the residual shrinks.
-    double t = 1.0;
-    bool improved = false;
-    for (int halving = 0; halving < 40; ++halving, t *= 0.5) {
-      VectorX dx = VectorX::Zero(n);
-      for (int i = 0; i < f; ++i) dx[free[at(i)]] = t * step[i];
-      const VectorX q_try = retract(model, result.q, dx);
-      const VectorX r_try = forces(q_try);
-      const double s_try = r_try.cwiseAbs().maxCoeff();
-      if (s_try < size) {
-        result.q = q_try;
-        residual = r_try;
-        size = s_try;
-        improved = true;
-        break;
-      }
-    }
-    if (!improved) break;
-  }
+    return J;
+  };
+  const auto moved = [&](const VectorX& from, const VectorX& step) {
+    VectorX dx = VectorX::Zero(n);
+    for (int i = 0; i < f; ++i) dx[free[at(i)]] = step[i];
+    return retract(model, from, dx);
+  };
+  halving_newton(result, residual, size, target, options.max_iterations, forces, jacobian, moved);
   result.residual = residual;
   result.residual_norm = size;
   // Which free coordinates nothing restrains at the end: the null space of dQ/dq.
-  derivatives.inverse(result.q, zero, zero, u, dq, dz, du);
-  for (int r = 0; r < f; ++r)
-    for (int c = 0; c < f; ++c) J(r, c) = dq(free[at(r)], free[at(c)]);
+  jacobian(result.q);
   if (f > 0) {
     Eigen::ColPivHouseholderQR<MatrixX> qr(J);
     qr.setThreshold(1e-10);
     if (qr.rank() < f) {
       Eigen::FullPivLU<MatrixX> lu(J);
       lu.setThreshold(1e-10);
-      const MatrixX kernel = lu.kernel();
-      std::vector<bool> flagged(at(f), false);
-      for (Eigen::Index c = 0; c < kernel.cols(); ++c)
-        for (int i = 0; i < f; ++i)
-          if (std::abs(kernel(i, c)) > 1e-6 * kernel.col(c).cwiseAbs().maxCoeff())
-            flagged[at(i)] = true;
-      for (int i = 0; i < f; ++i)
-        if (flagged[at(i)]) result.unrestrained.push_back(free[at(i)]);
+      for (const int i : kernel_columns(lu)) result.unrestrained.push_back(free[at(i)]);
     }
   }
   // Stable or not: the motion about q with the held coordinates locked.
