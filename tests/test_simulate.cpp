@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <vector>
@@ -543,17 +545,14 @@ TEST(Examples, Chain64HangsUnderGravity) {
 
 // A jointed double pendulum released horizontally: its initial energy is round-off (the mass
 // centres' heights are cos(pi/2) L, about 3e-17), so a ratio to it would be a huge number.
-const char* kHorizontalPendulum = R"(format: kanedyn-model/1
-gravity: [0, 0, -9.81]
-bodies:
-  - {name: upper, parent: ground, mass: 1.0, inertia: [0.08, 0.08, 0.001], com: [0, 0, -0.5],
-     joint: {type: revolute, axis: [0, 1, 0]}, initial: {joint: [1.5707963267948966]}}
-  - {name: lower, parent: upper, mass: 1.0, inertia: [0.08, 0.08, 0.001], com: [0, 0, -0.5],
-     joint: {type: revolute, at: [0, 0, -1], axis: [0, 1, 0]}}
-)";
+// tests/data/horizontal_pendulum.yaml, the text of the model.
+std::string horizontal_pendulum() {
+  std::ifstream in(KANEDYN_SOURCE_DIR "/tests/data/horizontal_pendulum.yaml");
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
 
 TEST(Simulate, EnergyChangeIsMeasuredAgainstTheEnergyThatMoved) {
-  const io::ModelFile file = io::parse_model_file(kHorizontalPendulum, "pendulum.yaml");
+  const io::ModelFile file = io::parse_model_file(horizontal_pendulum(), "pendulum.yaml");
   const Model& model = file.model;
   SimulationSettings s;
   s.t_end = 2.0;
@@ -589,7 +588,7 @@ TEST(Simulate, EnergyChangeIsMeasuredAgainstTheEnergyThatMoved) {
 TEST(Simulate, NoRelativeEnergyChangeWhenNothingMoves) {
   // The pendulum hanging at rest: the kinetic energy stays 0 and the potential energy at -9.81
   // x 2 J to round-off, so there is no scale and no ratio, only the absolute change.
-  std::string text = kHorizontalPendulum;
+  std::string text = horizontal_pendulum();
   text.replace(text.find("1.5707963267948966"), 18, "0.0");
   const io::ModelFile file = io::parse_model_file(text, "hanging.yaml");
   SimulationSettings s;
