@@ -61,13 +61,11 @@ struct ConstraintEquations::Impl {
       const auto directions = constraint_fixed_directions(c);
       perpendiculars.push_back({directions[0], directions[1]});
     }
-    B.setZero(rows, n);
+    Bt.setZero(n, rows);
     b.setZero(rows);
     errors.setZero(rows);
     points.assign(m.constraints().size(), Vector3::Zero());
     bases.assign(m.constraints().size(), Matrix3::Identity());
-    Jp.resize(3, n);
-    Jr.resize(3, n);
     hinge_moment.assign(m.constraints().size(), {Vector3::Zero(), Vector3::Zero()});
   }
 
@@ -80,7 +78,10 @@ struct ConstraintEquations::Impl {
   std::vector<int> first, owner;
   std::vector<char> holonomic;
   std::vector<Perpendiculars> perpendiculars;
-  MatrixX B;
+  // [B]^T (n x c), each row of [B] a contiguous column; [B] itself is made from it on request.
+  MatrixX Bt;
+  mutable MatrixX B;
+  mutable bool B_current = false;
   VectorX b, errors;
   std::vector<Vector3> points;
   // Per constraint: the directions of its first three rows (columns), inertial; a hinge's last
@@ -92,12 +93,13 @@ struct ConstraintEquations::Impl {
   detail::JointDynamics own;
   detail::JointDynamics* tree = &own;
   detail::JointDynamics::BodyMotion motion;
-  MatrixX Jp, Jr;
+  using Directions = detail::JointDynamics::RowDirections;
 
-  // Jacobian rows of the point at `point` (inertial position) fixed in body k into (Jp, Jr),
-  // added with sign; m a point_motion of k (for O_K).
-  void add_jacobian(int k, const PointMotion& m, const Vector3& point, double sign) {
-    if (k != kGround) tree->add_point_jacobian(k, m.p - m.r, point, sign, Jp, Jr);
+  // Adds sign times the rows of the point at `point` (inertial position) fixed in body k along
+  // `directions` to [B] from row `first`; m a point_motion of k (for O_K).
+  void add_rows(int k, const PointMotion& m, const Vector3& point, double sign,
+                const Directions& directions, int first) {
+    if (k != kGround) tree->add_point_rows(k, m.p - m.r, point, sign, directions, Bt, first);
   }
 
   PointMotion point_motion(int k, const Vector3& offset) {
@@ -124,26 +126,25 @@ struct ConstraintEquations::Impl {
 };
 
 void ConstraintEquations::Impl::compute_rows() {
-  B.setZero();
+  Bt.setZero();
+  B_current = false;
   b.setZero();
   errors.setZero();
   for (auto& m : hinge_moment) m = {Vector3::Zero(), Vector3::Zero()};
+  Directions directions;
   for (size_t i = 0; i < model.constraints().size(); ++i) {
     const Constraint& c = model.constraints()[i];
     const int row = first[i];
     const auto where = [&c] { return "constraint '" + c.name + "'"; };
-    Jp.setZero();
-    Jr.setZero();
     switch (c.type) {
       case ConstraintType::ball:
       case ConstraintType::hinge:
       case ConstraintType::distance: {
         const PointMotion p1 = point_motion(c.body, c.at);
         const PointMotion p2 = point_motion(c.other, c.other_at);
-        add_jacobian(c.body, p1, p1.p, 1.0);
-        add_jacobian(c.other, p2, p2.p, -1.0);
         points[i] = p1.p;
         const Vector3 d = p1.p - p2.p, vrel = p1.v - p2.v, arel = p1.a0 - p2.a0;
+        directions.angular_count = 0;
         if (c.type == ConstraintType::distance) {
           const double length = d.norm();
           if (!(length > 1e-12 * std::max(1.0, c.length)))
@@ -151,17 +152,19 @@ void ConstraintEquations::Impl::compute_rows() {
                                   ": its two points coincide, so the direction "
                                   "between them is undefined");
           const Vector3 e = d / length;
-          B.row(row) = e.transpose() * Jp;
+          directions.linear[0] = e;
+          directions.linear_count = 1;
           const double along = e.dot(vrel);
           b[row] = (vrel.squaredNorm() - along * along) / length + e.dot(arel);
           errors[row] = length - c.length;
           bases[i].col(0) = e;
-          break;
+        } else {
+          directions.linear = {Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ()};
+          directions.linear_count = 3;
+          b.segment<3>(row) = arel;
+          errors.segment<3>(row) = d;
+          bases[i].setIdentity();
         }
-        B.middleRows(row, 3) = Jp;
-        b.segment<3>(row) = arel;
-        errors.segment<3>(row) = d;
-        bases[i].setIdentity();
         if (c.type == ConstraintType::hinge) {
           const Vector3 axis = rotation(c.body).transpose() * c.axis;
           Vector3 e1 = perpendiculars[i].p1, e2 = perpendiculars[i].p2;
@@ -175,13 +178,16 @@ void ConstraintEquations::Impl::compute_rows() {
           for (const Vector3& e : {e1, e2}) {
             const Vector3 m = axis.cross(e);
             const Vector3 e_rate = p2.w.cross(e);
-            B.row(row + 3 + k) = m.transpose() * Jr;
+            directions.angular[at(k)] = m;
             b[row + 3 + k] = alpha_rel.dot(m) + wrel.dot(axis_rate.cross(e) + axis.cross(e_rate));
             errors[row + 3 + k] = axis.dot(e);
             hinge_moment[i][at(k)] = m;
             ++k;
           }
+          directions.angular_count = 2;
         }
+        add_rows(c.body, p1, p1.p, 1.0, directions, row);
+        add_rows(c.other, p2, p2.p, -1.0, directions, row);
         break;
       }
       case ConstraintType::rolling_disc: {
@@ -197,7 +203,6 @@ void ConstraintEquations::Impl::compute_rows() {
         const Vector3 d = (a * an - normal) / s;  // from the centre to the contact, unit
         const PointMotion centre = point_motion(c.body, c.at);
         const Vector3 P = centre.p + c.radius * d;
-        add_jacobian(c.body, centre, P, 1.0);
         points[i] = P;
         // d moves over the disc: d dot from a dot = w x a (not w x d).
         const Vector3 a_rate = centre.w.cross(a);
@@ -208,14 +213,15 @@ void ConstraintEquations::Impl::compute_rows() {
         // w x (r d dot).
         const Vector3 acc =
             centre.a0 + centre.alpha0.cross(c.radius * d) + centre.w.cross(c.radius * d_rate);
-        Matrix3 basis;
-        basis.col(0) = normal;
-        basis.col(1) = perpendiculars[i].p1;
-        basis.col(2) = perpendiculars[i].p2;
-        B.middleRows(row, 3).noalias() = basis.transpose().lazyProduct(Jp);
-        b.segment<3>(row) = basis.transpose() * acc;
+        directions.linear = {normal, perpendiculars[i].p1, perpendiculars[i].p2};
+        directions.linear_count = 3;
+        directions.angular_count = 0;
+        add_rows(c.body, centre, P, 1.0, directions, row);
+        for (int r = 0; r < 3; ++r) b[row + r] = directions.linear[at(r)].dot(acc);
         errors[row] = normal.dot(P) - c.plane_offset;
-        bases[i] = basis;
+        bases[i].col(0) = normal;
+        bases[i].col(1) = perpendiculars[i].p1;
+        bases[i].col(2) = perpendiculars[i].p2;
         break;
       }
     }
@@ -249,7 +255,15 @@ void ConstraintEquations::evaluate(detail::JointDynamics& tree) {
   s.compute_rows();
   s.tree = &s.own;
 }
-const MatrixX& ConstraintEquations::B() const { return impl_->B; }
+const MatrixX& ConstraintEquations::B() const {
+  const Impl& s = *impl_;
+  if (!s.B_current) {
+    s.B = s.Bt.transpose();
+    s.B_current = true;
+  }
+  return s.B;
+}
+const MatrixX& ConstraintEquations::B_transpose() const { return impl_->Bt; }
 const VectorX& ConstraintEquations::b() const { return impl_->b; }
 const VectorX& ConstraintEquations::errors() const { return impl_->errors; }
 const Vector3& ConstraintEquations::point(int constraint) const {
@@ -453,39 +467,45 @@ Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX
 
 namespace {
 
-// The Cholesky factor L (lower triangle, in place) of the symmetric positive definite a, or
-// false when a pivot sqrt(d_j) is not above `least` (a singular or nearly singular a). Written
-// out because the constraint space is small (a few rows): Eigen's blocked LLT of dynamic size
-// costs several times the arithmetic there.
-bool cholesky_in_place(MatrixX& a, double least) {
+// The Cholesky factor L (lower triangle, in place; the reciprocals of its diagonal in
+// inverse) of the symmetric positive definite a, or false when a pivot sqrt(d_j) is not above
+// `least` (a singular or nearly singular a). Written out because the constraint space is small
+// (a few rows): Eigen's blocked LLT of dynamic size costs several times the arithmetic there.
+// Only the lower triangle of a is read. Each row is scaled by a reciprocal rather than
+// divided, so that the c divisions are all that wait on one another.
+bool cholesky_in_place(MatrixX& a, VectorX& inverse, double least) {
   const Eigen::Index c = a.rows();
+  inverse.resize(c);
+  double* const l = a.data();
   for (Eigen::Index j = 0; j < c; ++j) {
-    double d = a(j, j);
-    for (Eigen::Index k = 0; k < j; ++k) d -= a(j, k) * a(j, k);
+    double d = l[j + j * c];
+    for (Eigen::Index k = 0; k < j; ++k) d -= l[j + k * c] * l[j + k * c];
     if (!(d > least * least)) return false;
-    const double pivot = std::sqrt(d);
-    a(j, j) = pivot;
+    const double pivot = std::sqrt(d), reciprocal = 1.0 / pivot;
+    l[j + j * c] = pivot;
+    inverse[j] = reciprocal;
     for (Eigen::Index i = j + 1; i < c; ++i) {
-      double v = a(i, j);
-      for (Eigen::Index k = 0; k < j; ++k) v -= a(i, k) * a(j, k);
-      a(i, j) = v / pivot;
+      double v = l[i + j * c];
+      for (Eigen::Index k = 0; k < j; ++k) v -= l[i + k * c] * l[j + k * c];
+      l[i + j * c] = v * reciprocal;
     }
   }
   return true;
 }
 
-// x := (L L^T)^-1 x, L from cholesky_in_place.
-void cholesky_solve_in_place(const MatrixX& l, VectorX& x) {
-  const Eigen::Index c = l.rows();
+// x := (L L^T)^-1 x, L and the reciprocals of its diagonal from cholesky_in_place.
+void cholesky_solve_in_place(const MatrixX& a, const VectorX& inverse, VectorX& x) {
+  const Eigen::Index c = a.rows();
+  const double* const l = a.data();
   for (Eigen::Index i = 0; i < c; ++i) {
     double v = x[i];
-    for (Eigen::Index k = 0; k < i; ++k) v -= l(i, k) * x[k];
-    x[i] = v / l(i, i);
+    for (Eigen::Index k = 0; k < i; ++k) v -= l[i + k * c] * x[k];
+    x[i] = v * inverse[i];
   }
   for (Eigen::Index i = c - 1; i >= 0; --i) {
     double v = x[i];
-    for (Eigen::Index k = i + 1; k < c; ++k) v -= l(k, i) * x[k];
-    x[i] = v / l(i, i);
+    for (Eigen::Index k = i + 1; k < c; ++k) v -= l[k + i * c] * x[k];
+    x[i] = v * inverse[i];
   }
 }
 
@@ -504,9 +524,10 @@ struct ConstrainedDynamics::Impl {
   Terms terms;
   detail::JointDynamics tree;  // the unconstrained tree's O(N) route
   int n;
-  MatrixX M, Y, S;
+  MatrixX M, Y, S, correction;
   VectorX bias, lambda, rhs;
-  MatrixX factor;  // the Cholesky factor of S
+  MatrixX factor;       // the Cholesky factor of S
+  VectorX reciprocals;  // of its diagonal
   SpeedPartition partition;
   bool partitioned = false;
   int rank = 0;
@@ -520,35 +541,38 @@ void ConstrainedDynamics::Impl::multipliers(const VectorX& q, const VectorX& z, 
   tree.set_inputs(u);
   tree.evaluate(q, z, Route::recursive, zdot);  // the tree without the constraints, O(N)
   equations.evaluate(tree);                     // the rows from the same kinematic terms
-  const MatrixX& B = equations.B();
-  // M^-1 B^T from the articulated-body factorization the evaluation left: O(N c), no mass
-  // matrix.
-  Y = B.transpose();
-  tree.solve_mass(Y);
-  // c x n times n x c: for few rows a coefficient-based product (the blocked one's packing
-  // costs more than it saves there).
-  if (B.rows() <= 16)
-    S.noalias() = B.lazyProduct(Y);
-  else
-    S.noalias() = B * Y;
-  rhs = -equations.b();
-  rhs.noalias() -= B * zdot;
+  // [B]^T: each row of [B] a contiguous column for the products below.
+  const MatrixX& Bt = equations.B_transpose();
+  const Eigen::Index c = Bt.cols();
+  // S = [B] M^-1 [B]^T (its lower triangle, all the Cholesky factorization reads) from the
+  // articulated-body factorization the evaluation left: the inward pass over the c columns of
+  // [B]^T, O(N c^2), no mass matrix and no outward pass.
+  Y = Bt;
+  tree.inverse_mass_gram(Y, S);
+  // The right-hand side -b - [B] z dot_tree, by contiguous columns of [B]^T.
+  rhs.resize(c);
+  for (Eigen::Index i = 0; i < c; ++i) rhs[i] = -equations.b()[i] - Bt.col(i).dot(zdot);
   // Independent rows (the usual case): S is positive definite and its Cholesky factor gives
   // lambda; redundant rows make it singular, and the complete orthogonal decomposition gives
   // the minimum-norm lambda.
-  const double largest = S.rows() > 0 ? std::sqrt(S.diagonal().maxCoeff()) : 0.0;
+  const double largest = c > 0 ? std::sqrt(S.diagonal().maxCoeff()) : 0.0;
   factor = S;
-  if (S.rows() > 0 && cholesky_in_place(factor, 1e-6 * largest)) {
+  if (c > 0 && cholesky_in_place(factor, reciprocals, 1e-6 * largest)) {
     lambda = rhs;
-    cholesky_solve_in_place(factor, lambda);
-    rank = static_cast<int>(S.rows());
+    cholesky_solve_in_place(factor, reciprocals, lambda);
+    rank = static_cast<int>(c);
   } else {
+    for (Eigen::Index i = 0; i < c; ++i)
+      for (Eigen::Index j = i + 1; j < c; ++j) S(i, j) = S(j, i);
     Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
     cod.setThreshold(kRankThreshold);
     lambda = cod.solve(rhs);
     rank = static_cast<int>(cod.rank());
   }
-  zdot.noalias() += Y * lambda;
+  // z dot += M^-1 [B]^T lambda: one more solve, of one column.
+  correction.noalias() = Bt * lambda;
+  tree.solve_mass(correction);
+  zdot += correction.col(0);
 }
 
 void ConstrainedDynamics::Impl::projected(const VectorX& q, const VectorX& z, const VectorX& u,

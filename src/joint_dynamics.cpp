@@ -143,9 +143,12 @@ struct JointDynamics::Impl {
   // The assembled route's blocks of [C]^T [A] [C] and their factor, made on its first use.
   std::optional<TreeLdlt> ldlt;
   // solve_mass: whether the last evaluation left the articulated-body factorization, and per
-  // body 6 x c blocks of the forces passed inwards and of the accelerations (body k's at 6 c k).
+  // body 6 x c blocks of the forces passed inwards and of the accelerations (body k's at 6 c k),
+  // and c flags of whether its subtree passes it a nonzero force (body k's at c k).
   bool factored = false;
   std::vector<double> column_force, column_acceleration;
+  std::vector<char> column_loaded;
+  const Matrix3 identity3 = Matrix3::Identity();  // [R_J] of the ground
 
   void update_state(std::vector<detail::JointMotion>* tables = nullptr, bool complete = true);
   void complete_kinematics();
@@ -177,11 +180,11 @@ struct JointDynamics::Impl {
   void solve_inward(int k, Eigen::Ref<MatrixX> x);
   template <int M, Subspace Shape>
   void solve_outward(int k, Eigen::Ref<MatrixX> x);
-  using Columns = Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>>;
-  Columns force_columns(int k, int c) { return {column_force.data() + 6 * c * k, 6, c}; }
-  Columns acceleration_columns(int k, int c) {
-    return {column_acceleration.data() + 6 * c * k, 6, c};
-  }
+  template <int L, int A>
+  void point_rows(int k, Vector3 origin, const Vector3& point, double sign,
+                  const RowDirections& directions, Eigen::Ref<MatrixX> rows_t, int first);
+  // solve_mass's checks and inward pass (`caller` names the public function in errors).
+  void solve_mass_inward(Eigen::Ref<MatrixX> x, const char* caller);
 };
 
 // The notes' state at the last (q, z), its kinematics (only [R_K] when not complete: the
@@ -401,49 +404,86 @@ void JointDynamics::Impl::solve_inward(int k, Eigen::Ref<MatrixX> x) {
   const int j = model.lower_body(k);
   const int c = static_cast<int>(x.cols());
   const int off = offset[at(k)];
-  auto f = force_columns(k, c);
+  const Eigen::Index stride = x.outerStride();
+  // Column col of a body's forces at 6 col from its first; the body's constants are copied
+  // into fixed-size locals first, since the stores into x and the columns could alias them.
+  double* const f = column_force.data() + 6 * c * k;
+  double* const f_lower = j == kGround ? nullptr : column_force.data() + 6 * c * j;
+  const char* const loaded = column_loaded.data() + c * k;
+  char* const loaded_lower = j == kGround ? nullptr : column_loaded.data() + c * j;
+  // A column with no load on K's subtree (its rows there zero: a constraint's Jacobian is
+  // zero off its bodies' chains) gives u = 0 and passes nothing: skipped.
+  const auto idle = [&](int col) {
+    if (loaded[col]) return false;
+    for (int i = 0; i < M; ++i)
+      if (x(off + i, col) != 0.0) return false;
+    return true;
+  };
+  const Vector3 r = l.r;
+  const bool angular = joint_type[at(k)] != JointType::free;
+  const auto pass_on = [&](int col, const Vector6& force) {
+    loaded_lower[col] = 1;
+    Eigen::Map<Vector6> target(f_lower + 6 * col);
+    target.head<3>() += r.cross(force.tail<3>());
+    if (angular) target.head<3>() += force.head<3>();
+    target.tail<3>() += force.tail<3>();
+  };
   if constexpr (Shape == Subspace::free) {
     // [S] invertible: F + [U] D^-1 u = [S]^-T Q, [S]^-T = [S] = diag([R_K]^T, [R_J]^T), and
     // the body's acceleration IA^-1 ([S]^-T Q - F) needs nothing from J (outward). The inward
     // pass left IA^-1 in IA (recursive_inward).
     const Matrix6& ia_inv = l.IA;
-    auto a = acceleration_columns(k, c);
-    const BodyMap map = body_map(k);
+    const Matrix3& rk = l.R;
+    const Matrix3& rj = j == kGround ? identity3 : links[at(j)].R;
+    double* const a = column_acceleration.data() + 6 * c * k;
     for (int col = 0; col < c; ++col) {
+      if (idle(col)) {
+        Eigen::Map<Vector6>(a + 6 * col).setZero();
+        continue;
+      }
+      const Eigen::Map<const Vector6> q(x.data() + col * stride + off);
       Vector6 g;
-      g.head<3>().noalias() = l.R.transpose() * x.col(col).segment<3>(off);
-      if (j == kGround)
-        g.tail<3>() = x.col(col).segment<3>(off + 3);
-      else
-        g.tail<3>().noalias() = links[at(j)].R.transpose() * x.col(col).segment<3>(off + 3);
-      a.col(col).noalias() = ia_inv * (g - f.col(col));
-      if (j != kGround) force_columns(j, c).col(col) += carry_force(map, g);
+      g.head<3>().noalias() = rk.transpose() * q.head<3>();
+      g.tail<3>().noalias() = rj.transpose() * q.tail<3>();
+      if (f_lower) pass_on(col, g);
+      // [S]^-T Q - F replaces Q in x: the outward pass does not read it, inverse_mass_gram
+      // does.
+      g -= Eigen::Map<const Vector6>(f + 6 * col);
+      Eigen::Map<Vector6>(x.data() + col * stride + off) = g;
+      Eigen::Map<Vector6>(a + 6 * col).noalias() = ia_inv * g;
     }
   } else {
-    const BodyMap map = body_map(k);
-    for (int col = 0; col < c; ++col) {
-      Vector6 passed = f.col(col);
-      if constexpr (M > 0) {
-        [[maybe_unused]] const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
-        const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
-        const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
-        auto uu = x.col(col).segment<M>(off);
+    if constexpr (M > 0) {
+      const Eigen::Matrix<double, 6, M> s_k =
+          Eigen::Map<const Eigen::Matrix<double, 6, M>>(S.data() + 6 * off);
+      const Eigen::Matrix<double, 6, M> u_k =
+          Eigen::Map<const Eigen::Matrix<double, 6, M>>(U.data() + 6 * off);
+      const Eigen::Matrix<double, M, M> d_inv =
+          Eigen::Map<const Eigen::Matrix<double, M, M>>(D_inv.data() + d_offset[at(k)]);
+
+      for (int col = 0; col < c; ++col) {
+        if (idle(col)) continue;
+        Vector6 passed = Eigen::Map<const Vector6>(f + 6 * col);
+        Eigen::Map<Eigen::Matrix<double, M, 1>> uu(x.data() + col * stride + off);
         if constexpr (Shape == Subspace::ball) {
           // the primed u' = [R_K]^T Q - [S']^T F (recursive_inward)
           const Vector3 primed = l.R.transpose() * uu - passed.head<3>();
           uu = primed;
         } else if constexpr (Shape == Subspace::angular) {
-          uu.noalias() -= s.template topRows<3>().transpose() * passed.head<3>();
+          uu.noalias() -= s_k.template topRows<3>().transpose() * passed.head<3>();
         } else if constexpr (Shape == Subspace::linear) {
-          uu.noalias() -= s.template bottomRows<3>().transpose() * passed.tail<3>();
+          uu.noalias() -= s_k.template bottomRows<3>().transpose() * passed.tail<3>();
         } else {
-          uu.noalias() -= s.transpose() * passed;
+          uu.noalias() -= s_k.transpose() * passed;
         }
-        if (j == kGround) continue;
+        if (!f_lower) continue;
         const Eigen::Matrix<double, M, 1> scaled = d_inv * uu;
-        passed.noalias() += uk * scaled;
+        passed.noalias() += u_k * scaled;
+        pass_on(col, passed);
       }
-      if (j != kGround) force_columns(j, c).col(col) += carry_force(map, passed);
+    } else if (f_lower) {
+      for (int col = 0; col < c; ++col)
+        if (!idle(col)) pass_on(col, Eigen::Map<const Vector6>(f + 6 * col));
     }
   }
 }
@@ -455,41 +495,59 @@ void JointDynamics::Impl::solve_outward(int k, Eigen::Ref<MatrixX> x) {
   const int j = model.lower_body(k);
   const int c = static_cast<int>(x.cols());
   const int off = offset[at(k)];
-  auto a = acceleration_columns(k, c);
-  const BodyMap map = body_map(k);
-  for (int col = 0; col < c; ++col) {
-    const Vector6 carried =
-        j == kGround ? Vector6::Zero() : map_velocity(map, acceleration_columns(j, c).col(col));
-    if constexpr (Shape == Subspace::free) {
-      // A_K from the inward pass; z dot_K = [S]^-1 (A_K - A') = (R_K rel_w, R_J rel_v).
-      const Vector6 rel = a.col(col) - carried;
-      x.col(col).segment<3>(off).noalias() = l.R * rel.head<3>();
-      if (j == kGround)
-        x.col(col).segment<3>(off + 3) = rel.tail<3>();
-      else
-        x.col(col).segment<3>(off + 3).noalias() = links[at(j)].R * rel.tail<3>();
-    } else {
-      Vector6 acc = carried;
-      if constexpr (M > 0) {
-        [[maybe_unused]] const Eigen::Map<const Eigen::Matrix<double, 6, M>> s(S.data() + 6 * off);
-        const Eigen::Map<const Eigen::Matrix<double, 6, M>> uk(U.data() + 6 * off);
-        const Eigen::Map<const Eigen::Matrix<double, M, M>> d_inv(D_inv.data() + d_offset[at(k)]);
-        auto zk = x.col(col).segment<M>(off);
-        const Eigen::Matrix<double, M, 1> rates = d_inv * (zk - uk.transpose() * carried);
+  const Eigen::Index stride = x.outerStride();
+  double* const a = column_acceleration.data() + 6 * c * k;
+  const double* const a_lower = j == kGround ? nullptr : column_acceleration.data() + 6 * c * j;
+  const Vector3 r = l.r;
+  const bool angular = joint_type[at(k)] != JointType::free;
+  // [P] A_J: (a w, v + w x r).
+  const auto carried = [&](int col) {
+    Vector6 out = Vector6::Zero();
+    if (!a_lower) return out;
+    const Eigen::Map<const Vector6> lower(a_lower + 6 * col);
+    if (angular) out.head<3>() = lower.head<3>();
+    out.tail<3>() = lower.tail<3>() + lower.head<3>().cross(r);
+    return out;
+  };
+  if constexpr (Shape == Subspace::free) {
+    // A_K from the inward pass; z dot_K = [S]^-1 (A_K - A') = (R_K rel_w, R_J rel_v).
+    const Matrix3& rk = l.R;
+    const Matrix3& rj = j == kGround ? identity3 : links[at(j)].R;
+    for (int col = 0; col < c; ++col) {
+      const Vector6 rel = Eigen::Map<const Vector6>(a + 6 * col) - carried(col);
+      Eigen::Map<Vector6> out(x.data() + col * stride + off);
+      out.head<3>().noalias() = rk * rel.head<3>();
+      out.tail<3>().noalias() = rj * rel.tail<3>();
+    }
+  } else {
+    [[maybe_unused]] const Matrix3& rk = l.R;
+    if constexpr (M > 0) {
+      const Eigen::Matrix<double, 6, M> s_k =
+          Eigen::Map<const Eigen::Matrix<double, 6, M>>(S.data() + 6 * off);
+      const Eigen::Matrix<double, 6, M> u_k =
+          Eigen::Map<const Eigen::Matrix<double, 6, M>>(U.data() + 6 * off);
+      const Eigen::Matrix<double, M, M> d_inv =
+          Eigen::Map<const Eigen::Matrix<double, M, M>>(D_inv.data() + d_offset[at(k)]);
+      for (int col = 0; col < c; ++col) {
+        Vector6 acc = carried(col);
+        Eigen::Map<Eigen::Matrix<double, M, 1>> zk(x.data() + col * stride + off);
+        const Eigen::Matrix<double, M, 1> rates = d_inv * (zk - u_k.transpose() * acc);
         if constexpr (Shape == Subspace::ball) {
-          zk.noalias() = l.R * rates;
+          zk.noalias() = rk * rates;
           acc.head<3>() += rates;
         } else {
           zk = rates;
           if constexpr (Shape == Subspace::angular)
-            acc.head<3>().noalias() += s.template topRows<3>() * rates;
+            acc.head<3>().noalias() += s_k.template topRows<3>() * rates;
           else if constexpr (Shape == Subspace::linear)
-            acc.tail<3>().noalias() += s.template bottomRows<3>() * rates;
+            acc.tail<3>().noalias() += s_k.template bottomRows<3>() * rates;
           else
-            acc.noalias() += s * rates;
+            acc.noalias() += s_k * rates;
         }
+        Eigen::Map<Vector6>(a + 6 * col) = acc;
       }
-      a.col(col) = acc;
+    } else {
+      for (int col = 0; col < c; ++col) Eigen::Map<Vector6>(a + 6 * col) = carried(col);
     }
   }
 }
@@ -670,12 +728,8 @@ void JointDynamics::body_motion(int k, BodyMotion& out) {
     a += alpha.cross(l.r) + l.c.tail<3>();
     alpha = (s.joint_type[at(c)] == JointType::free ? Vector3::Zero() : alpha) + l.c.head<3>();
     v += w_j.cross(l.r);
-    if (m > 0) {
-      const int off = s.offset[at(c)];
-      const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> sc(s.S.data() + 6 * off, 6,
-                                                                          m);
-      v.noalias() += sc.bottomRows<3>() * s.z_seen.segment(off, m);
-    }
+    for (int col = s.offset[at(c)]; col < s.offset[at(c)] + m; ++col)
+      v += s.z_seen[col] * Eigen::Map<const Vector3>(s.S.data() + 6 * col + 3);
     p += l.r;
     w_j = l.w;
   }
@@ -687,52 +741,124 @@ void JointDynamics::body_motion(int k, BodyMotion& out) {
   out.a = a;
 }
 
-void JointDynamics::add_point_jacobian(int k, const Vector3& origin_k, const Vector3& point,
-                                       double sign, Eigen::Ref<MatrixX> Jv,
-                                       Eigen::Ref<MatrixX> Jw) {
-  Impl& s = *impl_;
-  Vector3 origin = origin_k;  // O_c of the joint c at hand, up the chain
+// add_point_rows with L linear and A angular directions (a ball's or a disc's 3 and 0, a
+// distance's 1 and 0, a hinge's 3 and 2), unrolled.
+template <int L, int A>
+void JointDynamics::Impl::point_rows(int k, Vector3 origin, const Vector3& point, double sign,
+                                     const RowDirections& directions, Eigen::Ref<MatrixX> rows_t,
+                                     int first) {
   Vector3 moved = point;
-  bool turns = true;
-  for (const int c : s.model.chain(k)) {
-    const Link& l = s.links[at(c)];
-    const int m = s.speeds[at(c)];
-    const int off = s.offset[at(c)];
-    for (int col = 0; col < m; ++col) {
-      const Eigen::Map<const Vector6> sc(s.S.data() + 6 * (off + col));
-      const Vector3 sw = sc.head<3>();
-      if (turns) Jw.col(off + col) += sign * sw;
-      Jv.col(off + col) += sign * (sc.tail<3>() + sw.cross(moved - origin));
+  bool turns = A > 0;
+  for (const int c : model.chain(k)) {
+    const int m = speeds[at(c)];
+    const int off = offset[at(c)];
+    const Vector3 lever = moved - origin;
+    for (int col = off; col < off + m; ++col) {
+      const Eigen::Map<const Vector3> sw(S.data() + 6 * col), sv(S.data() + 6 * col + 3);
+      const Vector3 v = sign * (sv + sw.cross(lever));
+      for (int r = 0; r < L; ++r) rows_t(col, first + r) += directions.linear[at(r)].dot(v);
+      if (A > 0 && turns)
+        for (int r = 0; r < A; ++r)
+          rows_t(col, first + L + r) += sign * directions.angular[at(r)].dot(sw);
     }
-    if (s.joint_type[at(c)] == JointType::free) {
+    if (joint_type[at(c)] == JointType::free) {
       moved = origin;
       turns = false;
     }
-    origin -= l.r;  // O_J
+    origin -= links[at(c)].r;  // O_J
   }
+}
+
+void JointDynamics::add_point_rows(int k, const Vector3& origin, const Vector3& point, double sign,
+                                   const RowDirections& directions, Eigen::Ref<MatrixX> rows_t,
+                                   int first) {
+  Impl& s = *impl_;
+  const int linear = directions.linear_count, angular = directions.angular_count;
+  if (linear == 3 && angular == 0)
+    s.point_rows<3, 0>(k, origin, point, sign, directions, rows_t, first);
+  else if (linear == 1 && angular == 0)
+    s.point_rows<1, 0>(k, origin, point, sign, directions, rows_t, first);
+  else if (linear == 3 && angular == 2)
+    s.point_rows<3, 2>(k, origin, point, sign, directions, rows_t, first);
+  else
+    throw std::invalid_argument("JointDynamics::add_point_rows: " + std::to_string(linear) +
+                                " linear and " + std::to_string(angular) +
+                                " angular directions (3 and 0, 1 and 0, or 3 and 2)");
+}
+
+void JointDynamics::Impl::solve_mass_inward(Eigen::Ref<MatrixX> x, const char* caller) {
+  if (!factored)
+    throw std::logic_error(std::string("JointDynamics::") + caller +
+                           ": needs an evaluation by Route::recursive");
+  if (x.rows() != model.num_speeds())
+    throw std::invalid_argument(std::string("JointDynamics::") + caller + ": " +
+                                std::to_string(x.rows()) + " rows, expected " +
+                                std::to_string(model.num_speeds()));
+  const int n = model.num_bodies(), c = static_cast<int>(x.cols());
+  if (c == 0) return;
+  const size_t size = 6 * at(c) * at(n);
+  if (column_force.size() < size) {
+    column_force.resize(size);
+    column_acceleration.resize(size);
+    column_loaded.resize(at(c) * at(n));
+  }
+  std::fill_n(column_force.begin(), size, 0.0);
+  std::fill_n(column_loaded.begin(), at(c) * at(n), 0);
+  for (int k = n - 1; k >= 0; --k)
+    dispatch_joint_type(joint_type[at(k)],
+                        [this, k, &x]<int M, Subspace Shape>() { solve_inward<M, Shape>(k, x); });
 }
 
 void JointDynamics::solve_mass(Eigen::Ref<MatrixX> x) {
   Impl& s = *impl_;
-  if (!s.factored)
-    throw std::logic_error("JointDynamics::solve_mass: needs an evaluation by Route::recursive");
-  if (x.rows() != s.model.num_speeds())
-    throw std::invalid_argument("JointDynamics::solve_mass: " + std::to_string(x.rows()) +
-                                " rows, expected " + std::to_string(s.model.num_speeds()));
-  const int n = s.model.num_bodies(), c = static_cast<int>(x.cols());
-  if (c == 0) return;
-  const size_t size = 6 * at(c) * at(n);
-  if (s.column_force.size() < size) {
-    s.column_force.resize(size);
-    s.column_acceleration.resize(size);
-  }
-  std::fill_n(s.column_force.begin(), size, 0.0);
-  for (int k = n - 1; k >= 0; --k)
-    dispatch_joint_type(s.joint_type[at(k)],
-                        [&s, k, &x]<int M, Subspace Shape>() { s.solve_inward<M, Shape>(k, x); });
+  s.solve_mass_inward(x, "solve_mass");
+  const int n = s.model.num_bodies();
+  if (x.cols() == 0) return;
   for (int k = 0; k < n; ++k)
     dispatch_joint_type(s.joint_type[at(k)],
                         [&s, k, &x]<int M, Subspace Shape>() { s.solve_outward<M, Shape>(k, x); });
+}
+
+// The inward pass maps Q to each joint's u_K (the innovations: u_K = Q_K - [S_K]^T F_K, a free
+// joint's g_K = [S_K]^-T Q_K - F_K), and the outward pass maps those to z dot; with D_K the
+// inverse of what the inward pass kept (a free body's IA_K), Q^T [M]^-1 Q' is the sum over the
+// joints of u_K^T D_K^-1 u'_K (docs/theory.md, "Constraints").
+void JointDynamics::inverse_mass_gram(Eigen::Ref<MatrixX> x, MatrixX& gram) {
+  Impl& s = *impl_;
+  s.solve_mass_inward(x, "inverse_mass_gram");
+  const int n = s.model.num_bodies(), c = static_cast<int>(x.cols());
+  gram.setZero(c, c);
+  for (int k = 0; k < n; ++k) {
+    const int off = s.offset[at(k)], m = s.speeds[at(k)];
+    if (m == 0) continue;
+    if (s.joint_type[at(k)] == JointType::free) {
+      // g_K^T IA_K^-1 g'_K, IA_K^-1 g'_K the acceleration the inward pass kept.
+      const double* const a = s.column_acceleration.data() + 6 * at(c) * at(k);
+      for (int j = 0; j < c; ++j) {
+        const Eigen::Map<const Vector6> aj(a + 6 * j);
+        for (int i = j; i < c; ++i) gram(i, j) += x.col(i).segment<6>(off).dot(aj);
+      }
+      continue;
+    }
+    const double* const d_inv = s.D_inv.data() + s.d_offset[at(k)];
+    if (m == 1) {  // revolute and prismatic joints: d^-1 u_K u'_K
+      for (int j = 0; j < c; ++j) {
+        const double scaled = d_inv[0] * x(off, j);
+        if (scaled == 0.0) continue;
+        for (int i = j; i < c; ++i) gram(i, j) += x(off, i) * scaled;
+      }
+      continue;
+    }
+    for (int j = 0; j < c; ++j) {
+      for (int r = 0; r < m; ++r) {
+        // (D^-1 u'_K)_r
+        double scaled = 0.0;
+        for (int t = 0; t < m; ++t) scaled += d_inv[r + t * m] * x(off + t, j);
+        if (scaled == 0.0) continue;
+        for (int i = j; i < c; ++i) gram(i, j) += x(off + r, i) * scaled;
+      }
+    }
+  }
 }
 
 }  // namespace kanedyn::detail

@@ -3,6 +3,7 @@
 // derivative of the integrated state (q; z).
 #pragma once
 
+#include <array>
 #include <memory>
 
 #include "kanedyn/data.hpp"
@@ -47,6 +48,12 @@ class JointDynamics {
   /// columns, O(N c). Allocates only when the column count grows.
   void solve_mass(Eigen::Ref<MatrixX> x);
 
+  /// gram := x^T [M]^-1 x (c x c, its lower triangle; the upper is zero) for the c columns of x,
+  /// by solve_mass's inward pass alone: that pass maps each column Q to the joints' u_K, and
+  /// Q^T [M]^-1 Q' = sum over the joints of u_K^T D_K^-1 u'_K. x is overwritten (with the
+  /// u_K). O(N c^2) with no outward pass; the same conditions as solve_mass.
+  void inverse_mass_gram(Eigen::Ref<MatrixX> x, MatrixX& gram);
+
   /// The kinematics alone of an evaluation at (q, z): the joint tables, [R_K], w_K and the
   /// terms body_motion() and add_point_jacobian() read, without the inertias, loads and
   /// solution (and without a factorization for solve_mass).
@@ -64,13 +71,24 @@ class JointDynamics {
   void body_motion(int k, BodyMotion& out);
   /// [R_K] at the last evaluate() or kinematics().
   const Matrix3& body_rotation(int k) const;
-  /// Adds sign times the Jacobian of the velocity of the point at `point` (inertial position)
-  /// fixed in body k into Jv (3 x n) and of k's angular velocity into Jw, at the last evaluate()
-  /// or kinematics(), `origin` being O_K there (body_motion's p): each joint c on k's chain
+  /// Directions onto which add_point_rows projects a point's velocity (linear, up to 3) and
+  /// its body's angular velocity (angular, up to 2), inertial.
+  struct RowDirections {
+    std::array<Vector3, 3> linear;
+    int linear_count = 0;
+    std::array<Vector3, 2> angular;
+    int angular_count = 0;
+  };
+  /// Adds sign times the Jacobian rows e^T J_v of the velocity of the point at `point`
+  /// (inertial position) fixed in body k, for each linear direction e, and then f^T J_w of k's
+  /// angular velocity for each angular direction f, to consecutive columns of rows_t (n rows:
+  /// each column a row of a Jacobian) from column `first`, at the last evaluate() or
+  /// kinematics(), `origin` being O_K there (body_motion's p): each joint c on k's chain
   /// contributes its [S_c] columns, turned about O_c (the point seen from a free body c's
-  /// ancestors is O_c, and they do not turn it). O(depth).
-  void add_point_jacobian(int k, const Vector3& origin, const Vector3& point, double sign,
-                          Eigen::Ref<MatrixX> Jv, Eigen::Ref<MatrixX> Jw);
+  /// ancestors is O_c, and they do not turn it). O(depth). The directions are 3 linear and 0
+  /// angular, 1 and 0, or 3 and 2 (std::invalid_argument otherwise).
+  void add_point_rows(int k, const Vector3& origin, const Vector3& point, double sign,
+                      const RowDirections& directions, Eigen::Ref<MatrixX> rows_t, int first);
 
   /// The notes' state at the last evaluation's (q, z) (State(model) before the first). Not
   /// const: it may compute the state (see evaluate()), so, like evaluate(), it is not for

@@ -214,17 +214,68 @@ TEST(JointDynamics, SolveMassAppliesTheInverseMassMatrix) {
       EXPECT_LT(test::max_abs(x - expected) / (1.0 + test::max_abs(expected)), kRouteTolerance)
           << columns << " columns";
     }
+    // Columns zero on some joints' speeds (as a constraint's rows are off its bodies' chains):
+    // the inward pass skips the subtrees that hold no load, and must give the same.
+    MatrixX Q = MatrixX::NullaryExpr(n, 4, [&] { return test::uniform(rng, -1, 1); });
+    for (int k = 0; k < c.model.num_bodies(); ++k)
+      for (int col = 0; col < 4; ++col)
+        if ((k + col) % 3 != 0)
+          Q.col(col)
+              .segment(c.model.speed_offset(k),
+                       c.model.speed_offset(k + 1) - c.model.speed_offset(k))
+              .setZero();
+    MatrixX x = Q;
+    dyn.solve_mass(x);
+    const MatrixX expected = dense.solve(Q);
+    EXPECT_LT(test::max_abs(x - expected) / (1.0 + test::max_abs(expected)), kRouteTolerance);
     if (alloc_counter::available()) {
-      MatrixX x = MatrixX::Ones(n, 7);
+      MatrixX ones = MatrixX::Ones(n, 7);
       alloc_counter::count = 0;
       alloc_counter::counting = true;
-      dyn.solve_mass(x);
+      dyn.solve_mass(ones);
       alloc_counter::counting = false;
       EXPECT_EQ(alloc_counter::count.load(), 0);
     }
     dyn.evaluate(c.q, c.z, Route::assembled, zdot);
-    MatrixX x = MatrixX::Ones(n, 1);
-    EXPECT_THROW(dyn.solve_mass(x), std::logic_error);
+    MatrixX one = MatrixX::Ones(n, 1);
+    EXPECT_THROW(dyn.solve_mass(one), std::logic_error);
+  }
+}
+
+// inverse_mass_gram: Q^T [A_z]^-1 Q from the inward pass alone, against the dense [A_z] (its
+// LDL^T solve), on every comparison case, with full columns and with columns zero on some
+// joints; the lower triangle is compared (the upper is zero). The same tolerance as solve_mass.
+TEST(JointDynamics, InverseMassGramIsTheInverseMassMatrixBetweenColumns) {
+  std::mt19937 rng(23);
+  for (const Case& c : comparison_cases(2)) {
+    SCOPED_TRACE(c.name);
+    Data reference(c.model);
+    const ProjectedEquations e = projected_equations(c.model, c.q, c.z, reference);
+    const Eigen::LDLT<MatrixX> dense(e.A_z);
+    JointDynamics dyn(c.model);
+    const int n = c.model.num_speeds();
+    VectorX zdot(n);
+    dyn.evaluate(c.q, c.z, Route::recursive, zdot);
+    for (const bool sparse : {false, true}) {
+      MatrixX Q = MatrixX::NullaryExpr(n, 5, [&] { return test::uniform(rng, -1, 1); });
+      if (sparse)
+        for (int k = 0; k < c.model.num_bodies(); ++k)
+          for (int col = 0; col < 5; ++col)
+            if ((2 * k + col) % 3 != 0)
+              Q.col(col)
+                  .segment(c.model.speed_offset(k),
+                           c.model.speed_offset(k + 1) - c.model.speed_offset(k))
+                  .setZero();
+      MatrixX x = Q, gram;
+      dyn.inverse_mass_gram(x, gram);
+      const MatrixX expected = Q.transpose() * dense.solve(Q);
+      const MatrixX lower = expected.triangularView<Eigen::Lower>();
+      EXPECT_LT(test::max_abs(gram - lower) / (1.0 + test::max_abs(expected)), kRouteTolerance)
+          << (sparse ? "sparse" : "full") << " columns";
+    }
+    dyn.evaluate(c.q, c.z, Route::assembled, zdot);
+    MatrixX x = MatrixX::Ones(n, 1), gram;
+    EXPECT_THROW(dyn.inverse_mass_gram(x, gram), std::logic_error);
   }
 }
 

@@ -51,6 +51,8 @@ class ConstraintEquations {
   /// nonholonomic rows) at (q, z), q with unit Euler parameters. Throws ConstraintError where
   /// the equations are not defined (the message names the constraint).
   void evaluate(const VectorX& q, const VectorX& z);
+  /// [B], made from the evaluation's [B]^T on the first call after it (so, like evaluate(), not
+  /// for concurrent calls on one object).
   const MatrixX& B() const;
   const VectorX& b() const;
   const VectorX& errors() const;
@@ -69,6 +71,8 @@ class ConstraintEquations {
   friend class ConstrainedDynamics;
   // evaluate() from the kinematic terms of a tree's last evaluation at (q, z).
   void evaluate(detail::JointDynamics& tree);
+  // [B]^T (n x c), as the evaluation writes it.
+  const MatrixX& B_transpose() const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
