@@ -144,20 +144,7 @@ ConstraintReport constraint_report(const Model& model, const VectorX& q, const V
   // [C_I]: z = [C_I] z_I solves the independent rows of [B] z = 0 for the dependent speeds.
   r.partition = partition_speeds(model, r.B);
   const SpeedPartition& p = r.partition;
-  const int rank = p.rank, free = n - rank;
-  MatrixX BD(rank, rank), BI(rank, free);
-  for (int i = 0; i < rank; ++i) {
-    for (int j = 0; j < rank; ++j)
-      BD(i, j) = r.B(p.rows[static_cast<size_t>(i)], p.dependent[static_cast<size_t>(j)]);
-    for (int j = 0; j < free; ++j)
-      BI(i, j) = r.B(p.rows[static_cast<size_t>(i)], p.independent[static_cast<size_t>(j)]);
-  }
-  r.C_I = MatrixX::Zero(n, free);
-  for (int j = 0; j < free; ++j) r.C_I(p.independent[static_cast<size_t>(j)], j) = 1.0;
-  if (rank > 0) {
-    const MatrixX D = BD.colPivHouseholderQr().solve(BI);
-    for (int i = 0; i < rank; ++i) r.C_I.row(p.dependent[static_cast<size_t>(i)]) = -D.row(i);
-  }
+  r.C_I = independent_basis(r.B, p);
   for (int c = 0; c < model.num_constraints(); ++c) {
     const Constraint& k = model.constraints()[static_cast<size_t>(c)];
     r.reactions.push_back(

@@ -1689,18 +1689,7 @@ EquilibriumResult constrained_equilibrium(const Model& model, const VectorX& q0,
   // [C_I] at q for the partition chosen at the start.
   const auto basis = [&](const VectorX& at_q) {
     equations.evaluate(at_q, zero);
-    const MatrixX& B = equations.B();
-    MatrixX BD(r, r), BI(r, f);
-    for (int i = 0; i < r; ++i) {
-      const int row = partition.rows[static_cast<size_t>(i)];
-      for (int j = 0; j < r; ++j) BD(i, j) = B(row, partition.dependent[static_cast<size_t>(j)]);
-      for (int j = 0; j < f; ++j) BI(i, j) = B(row, partition.independent[static_cast<size_t>(j)]);
-    }
-    MatrixX C = MatrixX::Zero(n, f);
-    const MatrixX DI = r > 0 ? MatrixX(BD.fullPivLu().solve(BI)) : MatrixX(0, f);
-    for (int j = 0; j < f; ++j) C(partition.independent[static_cast<size_t>(j)], j) = 1.0;
-    for (int i = 0; i < r; ++i) C.row(partition.dependent[static_cast<size_t>(i)]) = -DI.row(i);
-    return C;
+    return independent_basis(equations.B(), partition);
   };
   const auto forces = [&](const VectorX& at_q) -> VectorX {
     return basis(at_q).transpose() * detail::generic_inverse_dynamics(model, at_q, zero, zero, u);

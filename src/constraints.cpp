@@ -372,6 +372,27 @@ SpeedPartition partition_speeds(const Model& model, const MatrixX& B) {
   return p;
 }
 
+MatrixX independent_basis(const MatrixX& B, const SpeedPartition& p) {
+  const int n = static_cast<int>(B.cols()), r = p.rank, ni = n - r;
+  MatrixX BD(r, r), BI(r, ni);
+  for (int i = 0; i < r; ++i) {
+    for (int j = 0; j < r; ++j) BD(i, j) = B(p.rows[at(i)], p.dependent[at(j)]);
+    for (int j = 0; j < ni; ++j) BI(i, j) = B(p.rows[at(i)], p.independent[at(j)]);
+  }
+  MatrixX CI = MatrixX::Zero(n, ni);
+  for (int j = 0; j < ni; ++j) CI(p.independent[at(j)], j) = 1.0;
+  if (r == 0) return CI;
+  Eigen::ColPivHouseholderQR<MatrixX> qr(BD);
+  qr.setThreshold(kRankThreshold);
+  if (qr.rank() < r)
+    throw ConstraintError(
+        "the dependent speeds' columns of [B] are dependent at this state: the speed partition "
+        "chosen elsewhere does not determine them here");
+  const MatrixX D = qr.solve(BI);
+  for (int i = 0; i < r; ++i) CI.row(p.dependent[at(i)]) = -D.row(i);
+  return CI;
+}
+
 // ---- Projection ----
 
 Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z, double tolerance) {
@@ -582,35 +603,22 @@ void ConstrainedDynamics::Impl::projected(const VectorX& q, const VectorX& z, co
     partition = partition_speeds(model, B);
     partitioned = true;
   }
-  const int r = partition.rank, ni = n - r;
-  MatrixX BD(r, r), BI(r, ni);
-  VectorX br(r);
-  for (int i = 0; i < r; ++i) {
-    const int row = partition.rows[at(i)];
-    br[i] = equations.b()[row];
-    for (int j = 0; j < r; ++j) BD(i, j) = B(row, partition.dependent[at(j)]);
-    for (int j = 0; j < ni; ++j) BI(i, j) = B(row, partition.independent[at(j)]);
-  }
-  Eigen::ColPivHouseholderQR<MatrixX> lu(BD);
-  lu.setThreshold(kRankThreshold);
-  if (r > 0 && lu.rank() < r) {
+  // [C_I], and w, a particular solution of [B] z dot = -b (Kane's [C_I dot] z_I terms): z dot =
+  // [C_I] z_I dot + w whichever w (two differ by a motion [C_I] absorbs); the minimum-norm one.
+  MatrixX CI;
+  try {
+    CI = independent_basis(B, partition);
+  } catch (const ConstraintError&) {
     // [B_D] singular here: choose the dependent speeds again (the motion does not depend on
     // the choice).
     partitioned = false;
     projected(q, z, u, zdot);
     return;
   }
-  // [C_I]: identity on the independent speeds, -[B_D]^-1 [B_I] on the dependent ones; w the
-  // part of z dot that [B] z dot = -b needs beyond [C_I] z_I dot (Kane's [C_I dot] z_I).
-  MatrixX CI = MatrixX::Zero(n, ni);
-  VectorX w = VectorX::Zero(n);
-  const MatrixX DI = r > 0 ? MatrixX(lu.solve(BI)) : MatrixX(0, ni);
-  const VectorX wd = r > 0 ? VectorX(lu.solve(-br)) : VectorX(0);
-  for (int j = 0; j < ni; ++j) CI(partition.independent[at(j)], j) = 1.0;
-  for (int i = 0; i < r; ++i) {
-    CI.row(partition.dependent[at(i)]) = -DI.row(i);
-    w[partition.dependent[at(i)]] = wd[i];
-  }
+  const int r = partition.rank;
+  Eigen::CompleteOrthogonalDecomposition<MatrixX> rows(B);
+  rows.setThreshold(kRankThreshold);
+  const VectorX w = rows.solve(-equations.b());
   terms.mass_matrix(q, M);
   terms.bias_forces(q, z, bias, u.size() ? &u : nullptr);
   const MatrixX Mhat = CI.transpose() * M * CI;

@@ -8,6 +8,7 @@
 #include <complex>
 #include <filesystem>
 
+#include "constraint_models.hpp"
 #include "file_support.hpp"
 #include "kanedyn/analysis.hpp"
 #include "kanedyn/constraints.hpp"
@@ -20,28 +21,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A slender rod (length 1.5, centre 0.75 down its body z) as a free body held by a hinge about
-// x at its top end, the ground's origin; gravity along -z.
-Model hinged_rod() {
-  BodySpec b;
-  b.name = "rod";
-  b.lower_body = kGround;
-  b.mass = 2.0;
-  const double side = 2.0 * 1.5 * 1.5 / 12.0;
-  b.inertia = Vector3(side, side, 0.01 * side).asDiagonal();
-  b.com = Vector3(0, 0, -0.75);
-  b.joint = Vector3::Zero();
-  Constraint c;
-  c.name = "pin";
-  c.type = ConstraintType::hinge;
-  c.body = 0;
-  c.at = Vector3::Zero();
-  c.axis = Vector3::UnitX();
-  c.other = kGround;
-  c.other_at = Vector3::Zero();
-  c.other_axis = Vector3::UnitX();
-  return Model({b}, Vector3(0, 0, -9.81), {}, "hinged", {}, {}, {}, {c});
-}
+using test::hinged_rod;
 
 // Released 50 degrees from hanging, the rod's rest pose hangs straight down: its centre of mass
 // at (0, 0, -0.75). Newton stops at a generalized force of 1e-10 of the weight's moment, so

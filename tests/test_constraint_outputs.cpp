@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "constraint_models.hpp"
 #include "file_support.hpp"
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/io/csv.hpp"
@@ -30,32 +31,10 @@ using test::temp_dir;
 constexpr double kG = 9.81;
 const Vector3 kGravity(0, 0, -kG);
 
-// A slender rod of mass m and length L hanging from a hinge about x at its top end, O_K, which
-// sits at the inertial origin; its mass centre is L / 2 down its body z.
-constexpr double kRodMass = 2.0, kRodLength = 1.5;
-
-Model hinged_rod() {
-  BodySpec b;
-  b.name = "rod";
-  b.mass = kRodMass;
-  const double side = kRodMass * kRodLength * kRodLength / 12.0;
-  b.inertia = Vector3(side, side, 0.01 * side).asDiagonal();
-  b.com = Vector3(0, 0, -kRodLength / 2);
-  Constraint c;
-  c.name = "pin";
-  c.type = ConstraintType::hinge;
-  c.axis = Vector3::UnitX();
-  c.other_axis = Vector3::UnitX();
-  return Model({b}, kGravity, {}, "hinged rod", {}, {}, {}, {c});
-}
-
-// The rod turned by theta about x, turning at rate omega (w' about body x = inertial x).
-void rod_state(double theta, double omega, VectorX& q, VectorX& z) {
-  q = VectorX::Zero(7);
-  z = VectorX::Zero(6);
-  q.head<4>() << std::sin(theta / 2), 0, 0, std::cos(theta / 2);
-  z[0] = omega;
-}
+using test::hinged_rod;
+using test::kRodLength;
+using test::kRodMass;
+constexpr auto rod_state = test::hinged_rod_state;
 
 // A thin disc of radius r and mass m rolling upright on z = 0 along x at `speed`, its axle body
 // y. `input`: with an input of type force along body z at the centre, named lift (inertial z

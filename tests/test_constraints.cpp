@@ -7,6 +7,7 @@
 #include <numbers>
 #include <random>
 
+#include "constraint_models.hpp"
 #include "kanedyn/analysis.hpp"
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/data.hpp"
@@ -49,28 +50,10 @@ Model revolute_pendulum() {
 }
 
 // The same rod as a free body held by a hinge about x at its top end.
-Model hinged_pendulum() {
-  Constraint c;
-  c.name = "pin";
-  c.type = ConstraintType::hinge;
-  c.body = 0;
-  c.at = Vector3::Zero();
-  c.axis = Vector3::UnitX();
-  c.other = kGround;
-  c.other_at = Vector3::Zero();
-  c.other_axis = Vector3::UnitX();
-  return Model({rod("rod", kGround, 2.0, 1.5, Vector3::Zero())}, kGravity, {}, "hinged", {}, {}, {},
-               {c});
-}
+constexpr auto hinged_pendulum = test::hinged_rod;
 
 // The free rod's (q, z) turned by angle about x at the origin, turning at rate.
-void free_rod_state(double angle, double rate, VectorX& q, VectorX& z) {
-  q = VectorX::Zero(7);
-  z = VectorX::Zero(6);
-  // Euler parameters of the body relative to the ground: a turn by `angle` about x.
-  q.head<4>() << std::sin(angle / 2), 0, 0, std::cos(angle / 2);
-  z[0] = rate;  // w' about body x = inertial x
-}
+constexpr auto free_rod_state = test::hinged_rod_state;
 
 // Joint coordinates at the joints' zero: identity rotations, zero angles and translations.
 VectorX zero_coordinates(const Model& m) {

@@ -107,6 +107,12 @@ struct SpeedPartition {
 /// speeds leave the dependent ones undetermined, naming them.
 SpeedPartition partition_speeds(const Model& model, const MatrixX& B);
 
+/// [C_I] of a partition of [B] (n x (n - rank)): the identity on the independent speeds and
+/// -[B_D]^-1 [B_I] on the dependent ones, over the partition's independent rows, so that
+/// z = [C_I] z_I satisfies [B] z = 0. Throws ConstraintError when [B_D] is singular at this
+/// [B] (the partition was chosen at another state).
+MatrixX independent_basis(const MatrixX& B, const SpeedPartition& partition);
+
 /// What projecting a state onto the constraints changed.
 struct Projection {
   double coordinate_change = 0.0;  ///< the largest change of a tangent coordinate

@@ -103,24 +103,6 @@ py::dict equations_at(const PyModel& m, py::object first, py::object second) {
   return d;
 }
 
-/// [C_I] of a partition of [B]: identity rows on the independent speeds, -[B_D]^-1 [B_I] on
-/// the dependent ones (over the independent rows), rows in z order.
-MatrixX independent_basis(const MatrixX& B, const SpeedPartition& p) {
-  const int n = static_cast<int>(B.cols()), r = p.rank, ni = n - r;
-  MatrixX BD(r, r), BI(r, ni);
-  for (int i = 0; i < r; ++i) {
-    for (int j = 0; j < r; ++j) BD(i, j) = B(p.rows[at(i)], p.dependent[at(j)]);
-    for (int j = 0; j < ni; ++j) BI(i, j) = B(p.rows[at(i)], p.independent[at(j)]);
-  }
-  MatrixX CI = MatrixX::Zero(n, ni);
-  for (int j = 0; j < ni; ++j) CI(p.independent[at(j)], j) = 1.0;
-  if (r > 0) {
-    const MatrixX D = BD.colPivHouseholderQr().solve(BI);
-    for (int i = 0; i < r; ++i) CI.row(p.dependent[at(i)]) = -D.row(i);
-  }
-  return CI;
-}
-
 py::dict partition_at(const PyModel& m, py::object first, py::object second) {
   VectorX q, z;
   state_arguments(m, first, second, q, z, "partition_speeds()");
