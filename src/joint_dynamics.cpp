@@ -180,6 +180,20 @@ struct JointDynamics::Impl {
   void solve_inward(int k, Eigen::Ref<MatrixX> x);
   template <int M, Subspace Shape>
   void solve_outward(int k, Eigen::Ref<MatrixX> x);
+  // Body k's [S_K], [U_K] and D_K^-1 (M speeds), copied: the column passes store into x and
+  // their columns, which the compiler must assume could alias the pools.
+  template <int M>
+  struct JointFactor {
+    Eigen::Matrix<double, 6, M> s, u;
+    Eigen::Matrix<double, M, M> d_inv;
+  };
+  template <int M>
+  JointFactor<M> joint_factor(int k) const {
+    const int off = offset[at(k)];
+    return {Eigen::Map<const Eigen::Matrix<double, 6, M>>(S.data() + 6 * off),
+            Eigen::Map<const Eigen::Matrix<double, 6, M>>(U.data() + 6 * off),
+            Eigen::Map<const Eigen::Matrix<double, M, M>>(D_inv.data() + d_offset[at(k)])};
+  }
   template <int L, int A>
   void point_rows(int k, Vector3 origin, const Vector3& point, double sign,
                   const RowDirections& directions, Eigen::Ref<MatrixX> rows_t, int first);
@@ -454,12 +468,7 @@ void JointDynamics::Impl::solve_inward(int k, Eigen::Ref<MatrixX> x) {
     }
   } else {
     if constexpr (M > 0) {
-      const Eigen::Matrix<double, 6, M> s_k =
-          Eigen::Map<const Eigen::Matrix<double, 6, M>>(S.data() + 6 * off);
-      const Eigen::Matrix<double, 6, M> u_k =
-          Eigen::Map<const Eigen::Matrix<double, 6, M>>(U.data() + 6 * off);
-      const Eigen::Matrix<double, M, M> d_inv =
-          Eigen::Map<const Eigen::Matrix<double, M, M>>(D_inv.data() + d_offset[at(k)]);
+      const auto [s_k, u_k, d_inv] = joint_factor<M>(k);
 
       for (int col = 0; col < c; ++col) {
         if (idle(col)) continue;
@@ -522,12 +531,7 @@ void JointDynamics::Impl::solve_outward(int k, Eigen::Ref<MatrixX> x) {
   } else {
     [[maybe_unused]] const Matrix3& rk = l.R;
     if constexpr (M > 0) {
-      const Eigen::Matrix<double, 6, M> s_k =
-          Eigen::Map<const Eigen::Matrix<double, 6, M>>(S.data() + 6 * off);
-      const Eigen::Matrix<double, 6, M> u_k =
-          Eigen::Map<const Eigen::Matrix<double, 6, M>>(U.data() + 6 * off);
-      const Eigen::Matrix<double, M, M> d_inv =
-          Eigen::Map<const Eigen::Matrix<double, M, M>>(D_inv.data() + d_offset[at(k)]);
+      const auto [s_k, u_k, d_inv] = joint_factor<M>(k);
       for (int col = 0; col < c; ++col) {
         Vector6 acc = carried(col);
         Eigen::Map<Eigen::Matrix<double, M, 1>> zk(x.data() + col * stride + off);

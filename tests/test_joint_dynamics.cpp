@@ -195,17 +195,40 @@ TEST(JointDynamics, BothRoutesAgreeWithTheProjectedEquations) {
 // column counts 1, 3 and 7; the same tolerance as the routes (one well-conditioned solve each,
 // in different orders of operations). Then no allocation on later calls with as many columns,
 // and a call without a recursive evaluation before it is refused.
+// A case's dense [A_z] (its LDL^T) and its recursive evaluation, for solve_mass and
+// inverse_mass_gram.
+struct Factored {
+  explicit Factored(const Case& c) : dyn(c.model), zdot(c.model.num_speeds()) {
+    Data reference(c.model);
+    dense.compute(projected_equations(c.model, c.q, c.z, reference).A_z);
+    dyn.evaluate(c.q, c.z, Route::recursive, zdot);
+  }
+  Eigen::LDLT<MatrixX> dense;
+  JointDynamics dyn;
+  VectorX zdot;
+};
+
+// Random columns zero on the speeds of body k in column col unless (k * k_step + col) % 3 is 0
+// (as a constraint's rows are zero off its bodies' chains).
+MatrixX sparse_columns(const Model& m, int columns, int k_step, std::mt19937& rng) {
+  MatrixX Q =
+      MatrixX::NullaryExpr(m.num_speeds(), columns, [&] { return test::uniform(rng, -1, 1); });
+  for (int k = 0; k < m.num_bodies(); ++k)
+    for (int col = 0; col < columns; ++col)
+      if ((k_step * k + col) % 3 != 0)
+        Q.col(col).segment(m.speed_offset(k), m.speed_offset(k + 1) - m.speed_offset(k)).setZero();
+  return Q;
+}
+
 TEST(JointDynamics, SolveMassAppliesTheInverseMassMatrix) {
   std::mt19937 rng(17);
   for (const Case& c : comparison_cases(2)) {
     SCOPED_TRACE(c.name);
-    Data reference(c.model);
-    const ProjectedEquations e = projected_equations(c.model, c.q, c.z, reference);
-    const Eigen::LDLT<MatrixX> dense(e.A_z);
-    JointDynamics dyn(c.model);
+    Factored f(c);
+    const Eigen::LDLT<MatrixX>& dense = f.dense;
+    JointDynamics& dyn = f.dyn;
+    VectorX& zdot = f.zdot;
     const int n = c.model.num_speeds();
-    VectorX zdot(n);
-    dyn.evaluate(c.q, c.z, Route::recursive, zdot);
     for (int columns : {1, 3, 7}) {
       const MatrixX Q = MatrixX::NullaryExpr(n, columns, [&] { return test::uniform(rng, -1, 1); });
       MatrixX x = Q;
@@ -216,14 +239,7 @@ TEST(JointDynamics, SolveMassAppliesTheInverseMassMatrix) {
     }
     // Columns zero on some joints' speeds (as a constraint's rows are off its bodies' chains):
     // the inward pass skips the subtrees that hold no load, and must give the same.
-    MatrixX Q = MatrixX::NullaryExpr(n, 4, [&] { return test::uniform(rng, -1, 1); });
-    for (int k = 0; k < c.model.num_bodies(); ++k)
-      for (int col = 0; col < 4; ++col)
-        if ((k + col) % 3 != 0)
-          Q.col(col)
-              .segment(c.model.speed_offset(k),
-                       c.model.speed_offset(k + 1) - c.model.speed_offset(k))
-              .setZero();
+    const MatrixX Q = sparse_columns(c.model, 4, 1, rng);
     MatrixX x = Q;
     dyn.solve_mass(x);
     const MatrixX expected = dense.solve(Q);
@@ -249,31 +265,21 @@ TEST(JointDynamics, InverseMassGramIsTheInverseMassMatrixBetweenColumns) {
   std::mt19937 rng(23);
   for (const Case& c : comparison_cases(2)) {
     SCOPED_TRACE(c.name);
-    Data reference(c.model);
-    const ProjectedEquations e = projected_equations(c.model, c.q, c.z, reference);
-    const Eigen::LDLT<MatrixX> dense(e.A_z);
-    JointDynamics dyn(c.model);
+    Factored f(c);
+    JointDynamics& dyn = f.dyn;
     const int n = c.model.num_speeds();
-    VectorX zdot(n);
-    dyn.evaluate(c.q, c.z, Route::recursive, zdot);
     for (const bool sparse : {false, true}) {
-      MatrixX Q = MatrixX::NullaryExpr(n, 5, [&] { return test::uniform(rng, -1, 1); });
-      if (sparse)
-        for (int k = 0; k < c.model.num_bodies(); ++k)
-          for (int col = 0; col < 5; ++col)
-            if ((2 * k + col) % 3 != 0)
-              Q.col(col)
-                  .segment(c.model.speed_offset(k),
-                           c.model.speed_offset(k + 1) - c.model.speed_offset(k))
-                  .setZero();
+      const MatrixX Q = sparse
+                            ? sparse_columns(c.model, 5, 2, rng)
+                            : MatrixX::NullaryExpr(n, 5, [&] { return test::uniform(rng, -1, 1); });
       MatrixX x = Q, gram;
       dyn.inverse_mass_gram(x, gram);
-      const MatrixX expected = Q.transpose() * dense.solve(Q);
+      const MatrixX expected = Q.transpose() * f.dense.solve(Q);
       const MatrixX lower = expected.triangularView<Eigen::Lower>();
       EXPECT_LT(test::max_abs(gram - lower) / (1.0 + test::max_abs(expected)), kRouteTolerance)
           << (sparse ? "sparse" : "full") << " columns";
     }
-    dyn.evaluate(c.q, c.z, Route::assembled, zdot);
+    dyn.evaluate(c.q, c.z, Route::assembled, f.zdot);
     MatrixX x = MatrixX::Ones(n, 1), gram;
     EXPECT_THROW(dyn.inverse_mass_gram(x, gram), std::logic_error);
   }
