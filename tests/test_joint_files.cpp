@@ -587,14 +587,11 @@ TEST(JointFiles, EveryRowOfALongRunHoldsEveryJoint) {
 }
 
 TEST(JointFiles, EnergyIsConservedWithoutDampingAndLostWithIt) {
-  const io::ModelFile f = io::parse_model_file(kJointed, "jointed.yaml");
   SimulationSettings s;
   s.t_end = 10.0;
   s.dt_out = 1.0;
   s.rtol = 1e-11;
   s.atol = 1e-12;
-  const SimulationStats stats = simulate(f.model, f.q, f.z, s);
-  ASSERT_TRUE(stats.ok()) << stats.message;
   // The joint force is a constant generalized force: not conservative, and left out of the
   // energy; this model has only zero-damping springs and gravity otherwise, so take it out.
   const io::ModelFile g = io::parse_model_file(edit(kJointed, "value: [0.5, -1]", "value: [0, 0]"),

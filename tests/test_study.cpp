@@ -419,6 +419,13 @@ constexpr bool kThreadSanitizer = __has_feature(thread_sanitizer);
 #else
 constexpr bool kThreadSanitizer = false;
 #endif
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+constexpr bool kAddressSanitizer = __has_feature(address_sanitizer);
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
 
 TEST(StudySweep, StoppedOrKilledAndStartedAgainGivesTheSameTable) {
   // ThreadSanitizer holds asynchronous signals and runs the handler at points of its own (see
@@ -427,8 +434,9 @@ TEST(StudySweep, StoppedOrKilledAndStartedAgainGivesTheSameTable) {
   if (kThreadSanitizer) GTEST_SKIP() << "signal delivery under ThreadSanitizer";
   const fs::path dir = temp_dir("study_resume");
   // 1000 runs of 2 s of the eight-body figure: about 5 s on one thread, so that the stops land
-  // in the middle of the study.
-  eight_body_study(dir, 500, 2.0);
+  // in the middle of the study. AddressSanitizer's debug build runs them several times slower,
+  // so there runs of 0.4 s take about as long.
+  eight_body_study(dir, 500, kAddressSanitizer ? 0.4 : 2.0);
   ASSERT_EQ(run_in(dir, "sweep study.yaml -o whole -j 2").exit_code, 0);
   const auto whole = without_wall(dir / "whole/results.csv");
 
