@@ -55,7 +55,7 @@ class JointDynamics {
   void inverse_mass_gram(Eigen::Ref<MatrixX> x, MatrixX& gram);
 
   /// The kinematics alone of an evaluation at (q, z): the joint tables, [R_K], w_K and the
-  /// terms body_motion() and add_point_jacobian() read, without the inertias, loads and
+  /// terms body_motion() and add_point_rows() read, without the inertias, loads and
   /// solution (and without a factorization for solve_mass).
   void kinematics(const VectorX& q, const VectorX& z);
 
