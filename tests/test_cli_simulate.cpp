@@ -22,6 +22,7 @@
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/simulate.hpp"
+#include "sanitizers.hpp"
 
 namespace fs = std::filesystem;
 
@@ -446,18 +447,11 @@ TEST(SimulateCommand, TheSummarySaysBodyForOne) {
 TEST(SimulateCommand, ATinyDtOutRunStopsAtOnceOnSignals) {
   // dt_out = 1e-9 puts about 1e5 output rows into each step: the command must still see
   // SIGINT and SIGTERM between them, and stop with the partial file kept.
-#if defined(__SANITIZE_THREAD__)
-  constexpr bool kThreadSanitizer = true;
-#elif defined(__has_feature)
-  constexpr bool kThreadSanitizer = __has_feature(thread_sanitizer);
-#else
-  constexpr bool kThreadSanitizer = false;
-#endif
   // ThreadSanitizer holds asynchronous signals and runs the handler at points of its own; in one
   // run of the TSan build a SIGINT never reached the tool's handler and the run filled the disk
   // (the same test passes in every other build, and in the TSan build run alone). The test
   // checks the signal path, not a race between threads: the other builds run it.
-  if (kThreadSanitizer) GTEST_SKIP() << "signal delivery under ThreadSanitizer";
+  if (test::kThreadSanitizer) GTEST_SKIP() << "signal delivery under ThreadSanitizer";
   for (const int sig : {SIGINT, SIGTERM}) {
     const fs::path dir = temp_dir("cli_tiny_dt_out");
     const std::string model = kExamples + "/eight_body.yaml";

@@ -13,6 +13,7 @@
 #include "file_support.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/study.hpp"
+#include "sanitizers.hpp"
 
 namespace kanedyn::test {
 namespace {
@@ -412,20 +413,8 @@ bool wait_for_part(const fs::path& out) {
   return false;
 }
 
-#if defined(__SANITIZE_THREAD__)
-constexpr bool kThreadSanitizer = true;
-#elif defined(__has_feature)
-constexpr bool kThreadSanitizer = __has_feature(thread_sanitizer);
-#else
-constexpr bool kThreadSanitizer = false;
-#endif
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-constexpr bool kAddressSanitizer = __has_feature(address_sanitizer);
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
+using test::kAddressSanitizer;
+using test::kThreadSanitizer;
 
 TEST(StudySweep, StoppedOrKilledAndStartedAgainGivesTheSameTable) {
   // ThreadSanitizer holds asynchronous signals and runs the handler at points of its own (see
