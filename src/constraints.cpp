@@ -616,9 +616,11 @@ void ConstrainedDynamics::Impl::projected(const VectorX& q, const VectorX& z, co
     return;
   }
   const int r = partition.rank;
-  Eigen::CompleteOrthogonalDecomposition<MatrixX> rows(B);
-  rows.setThreshold(kRankThreshold);
-  const VectorX w = rows.solve(-equations.b());
+  // One complete orthogonal decomposition of [B]^T serves w (its transposed solve, the
+  // minimum-norm solution of [B] w = -b) and the reactions below.
+  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(B.transpose());
+  cod.setThreshold(kRankThreshold);
+  const VectorX w = cod.transpose().solve(-equations.b());
   terms.mass_matrix(q, M);
   terms.bias_forces(q, z, bias, u.size() ? &u : nullptr);
   const MatrixX Mhat = CI.transpose() * M * CI;
@@ -628,8 +630,6 @@ void ConstrainedDynamics::Impl::projected(const VectorX& q, const VectorX& z, co
   // The reactions from the dependent equations: [B]^T lambda = M z dot + b, least squares with
   // the minimum norm over redundant rows.
   const VectorX residual = M * zdot + bias;
-  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(B.transpose());
-  cod.setThreshold(kRankThreshold);
   lambda = cod.solve(residual);
   rank = r;
 }
