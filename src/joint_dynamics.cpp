@@ -419,8 +419,7 @@ void JointDynamics::Impl::solve_inward(int k, Eigen::Ref<MatrixX> x) {
   const int c = static_cast<int>(x.cols());
   const int off = offset[at(k)];
   const Eigen::Index stride = x.outerStride();
-  // Column col of a body's forces at 6 col from its first; the body's constants are copied
-  // into fixed-size locals first, since the stores into x and the columns could alias them.
+  // Column col of a body's forces at 6 col from its first.
   double* const f = column_force.data() + 6 * c * k;
   double* const f_lower = j == kGround ? nullptr : column_force.data() + 6 * c * j;
   const char* const loaded = column_loaded.data() + c * k;
@@ -433,14 +432,10 @@ void JointDynamics::Impl::solve_inward(int k, Eigen::Ref<MatrixX> x) {
       if (x(off + i, col) != 0.0) return false;
     return true;
   };
-  const Vector3 r = l.r;
-  const bool angular = joint_type[at(k)] != JointType::free;
+  const BodyMap map = body_map(k);
   const auto pass_on = [&](int col, const Vector6& force) {
     loaded_lower[col] = 1;
-    Eigen::Map<Vector6> target(f_lower + 6 * col);
-    target.head<3>() += r.cross(force.tail<3>());
-    if (angular) target.head<3>() += force.head<3>();
-    target.tail<3>() += force.tail<3>();
+    Eigen::Map<Vector6>(f_lower + 6 * col) += carry_force(map, force);
   };
   if constexpr (Shape == Subspace::free) {
     // [S] invertible: F + [U] D^-1 u = [S]^-T Q, [S]^-T = [S] = diag([R_K]^T, [R_J]^T), and
@@ -469,7 +464,6 @@ void JointDynamics::Impl::solve_inward(int k, Eigen::Ref<MatrixX> x) {
   } else {
     if constexpr (M > 0) {
       const auto [s_k, u_k, d_inv] = joint_factor<M>(k);
-
       for (int col = 0; col < c; ++col) {
         if (idle(col)) continue;
         Vector6 passed = Eigen::Map<const Vector6>(f + 6 * col);
@@ -507,16 +501,11 @@ void JointDynamics::Impl::solve_outward(int k, Eigen::Ref<MatrixX> x) {
   const Eigen::Index stride = x.outerStride();
   double* const a = column_acceleration.data() + 6 * c * k;
   const double* const a_lower = j == kGround ? nullptr : column_acceleration.data() + 6 * c * j;
-  const Vector3 r = l.r;
-  const bool angular = joint_type[at(k)] != JointType::free;
-  // [P] A_J: (a w, v + w x r).
-  const auto carried = [&](int col) {
-    Vector6 out = Vector6::Zero();
-    if (!a_lower) return out;
-    const Eigen::Map<const Vector6> lower(a_lower + 6 * col);
-    if (angular) out.head<3>() = lower.head<3>();
-    out.tail<3>() = lower.tail<3>() + lower.head<3>().cross(r);
-    return out;
+  const BodyMap map = body_map(k);
+  // [P] A_J (zero for a root).
+  const auto carried = [&](int col) -> Vector6 {
+    if (!a_lower) return Vector6::Zero();
+    return map_velocity(map, Eigen::Map<const Vector6>(a_lower + 6 * col));
   };
   if constexpr (Shape == Subspace::free) {
     // A_K from the inward pass; z dot_K = [S]^-1 (A_K - A') = (R_K rel_w, R_J rel_v).
