@@ -7,12 +7,10 @@
 
 #include <atomic>
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#include "sanitizers.hpp"
+
+#if KANEDYN_TEST_ADDRESS_SANITIZER || KANEDYN_TEST_THREAD_SANITIZER
 #define KANEDYN_SANITIZER_OWNS_MALLOC 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define KANEDYN_SANITIZER_OWNS_MALLOC 1
-#endif
 #endif
 
 namespace alloc_counter {

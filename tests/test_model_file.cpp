@@ -19,6 +19,7 @@
 #include "file_support.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "sanitizers.hpp"
 
 namespace kanedyn::io {
 namespace {
@@ -731,12 +732,8 @@ TEST(ModelFile, NonRegularFilesAreRefusedNotReadForever) {
   std::remove(fifo.c_str());
 }
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#if KANEDYN_TEST_ADDRESS_SANITIZER || KANEDYN_TEST_THREAD_SANITIZER
 #define KANEDYN_TEST_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define KANEDYN_TEST_SANITIZED 1
-#endif
 #endif
 
 /// In a death-test child: parses `text` with the address space capped 32 MB above what the

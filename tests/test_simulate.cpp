@@ -5,12 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "file_support.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/model_file.hpp"
@@ -547,8 +546,7 @@ TEST(Examples, Chain64HangsUnderGravity) {
 // centres' heights are cos(pi/2) L, about 3e-17), so a ratio to it would be a huge number.
 // tests/data/horizontal_pendulum.yaml, the text of the model.
 std::string horizontal_pendulum() {
-  std::ifstream in(KANEDYN_SOURCE_DIR "/tests/data/horizontal_pendulum.yaml");
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  return test::slurp(KANEDYN_SOURCE_DIR "/tests/data/horizontal_pendulum.yaml");
 }
 
 TEST(Simulate, EnergyChangeIsMeasuredAgainstTheEnergyThatMoved) {

@@ -413,9 +413,6 @@ bool wait_for_part(const fs::path& out) {
   return false;
 }
 
-using test::kAddressSanitizer;
-using test::kThreadSanitizer;
-
 TEST(StudySweep, StoppedOrKilledAndStartedAgainGivesTheSameTable) {
   // ThreadSanitizer holds asynchronous signals and runs the handler at points of its own (see
   // SimulateCommand's signal test); this test checks the signal and resume paths, not a race:
