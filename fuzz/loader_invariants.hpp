@@ -11,9 +11,11 @@
 #include <typeinfo>
 
 #include "../src/io/model_tree.hpp"
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/data.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/io/model_file.hpp"
+#include "kanedyn/model.hpp"
 
 namespace kanedyn::fuzz {
 
@@ -54,6 +56,32 @@ inline std::string check_error_message(const std::string& what,
   return "";
 }
 
+/// The state rate of an accepted model with joints or constraints, through the one entry
+/// point `kanedyn simulate` integrates (Dynamics::derivative at the file's (q, z), both routes:
+/// for a constrained model the constrained dynamics with its multipliers or its projected
+/// equations). It may refuse the state only with the library's own exception types
+/// (ConstraintError: the equations undefined there; ModelError), each a clean line; anything
+/// else escapes to check_loader, a finding. Non-finite rates are allowed, as above.
+inline std::string check_dynamics_entry_point(const io::ModelFile& file) {
+  for (const Route route : {Route::recursive, Route::assembled}) {
+    const std::string where = "Dynamics (" + to_string(route) + ") ";
+    try {
+      Dynamics dynamics(file.model, route);
+      VectorX v(dynamics.size()), dv(dynamics.size());
+      dynamics.pack(file.q, file.z, v);
+      dynamics.derivative(v, dv);
+      if (dv.size() != dynamics.size()) return where + "gave a rate of the wrong size";
+    } catch (const ConstraintError& e) {
+      if (const std::string m = check_error_message(e.what(), ""); !m.empty())
+        return where + "threw ConstraintError: " + m;
+    } catch (const ModelError& e) {
+      if (const std::string m = check_error_message(e.what(), ""); !m.empty())
+        return where + "threw ModelError: " + m;
+    }
+  }
+  return "";
+}
+
 /// What an accepted file must give: a tree of bodies with positive masses and a finite
 /// initial state with unit Euler parameters, whose dynamics evaluate without crashing.
 inline std::string check_model_file(const io::ModelFile& file) {
@@ -82,6 +110,8 @@ inline std::string check_model_file(const io::ModelFile& file) {
     Data data(model, options);
     forward_dynamics(model, state, data, Route::recursive);
     forward_dynamics(model, state, data, Route::assembled);
+    // Joints and constraints: the kernels simulate runs for them.
+    if (!model.all_free() || model.num_constraints() > 0) return check_dynamics_entry_point(file);
   }
   return "";
 }
