@@ -1,6 +1,6 @@
 // libFuzzer's entry point, shared by every fuzz target and replay driver: the bytes to the
-// target's check_input (fuzz_model_loader.cpp, fuzz_urdf.cpp); a broken invariant aborts, which
-// libFuzzer records as a finding.
+// target's check_input (fuzz_model_loader.cpp, fuzz_urdf.cpp, fuzz_inputs_table.cpp,
+// fuzz_study.cpp); a broken invariant aborts, which libFuzzer records as a finding.
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>

@@ -1,7 +1,8 @@
 // Replays files through a fuzz target's LLVMFuzzerTestOneInput, without libFuzzer (linked with
 // the model loader's target as kanedyn_fuzz_replay, with the URDF import's as
-// kanedyn_fuzz_urdf_replay): the seed and regression corpora run in every build (and under the
-// sanitizer builds) as ctest tests.
+// kanedyn_fuzz_urdf_replay, and as kanedyn_fuzz_inputs_table_replay and kanedyn_fuzz_study_replay):
+// the seed and regression corpora run in every build (and under the sanitizer builds) as ctest
+// tests.
 //
 //   kanedyn_fuzz_replay [-v] [--known-failures FILE] [--timeout SECONDS] PATH...
 //
