@@ -1,29 +1,33 @@
 #!/usr/bin/env bash
-# Fuzzes the model loader and the URDF import for SECONDS in all (default 180) with libFuzzer,
-# ASan and UBSan: installs clang 14 and libFuzzer when missing, builds only the fuzz targets in
-# BUILD_DIR (default build-fuzz), runs each on a copy of its seed corpus (the committed corpora
-# are never written) and prints one summary line per target. With both targets, the model
-# loader gets two thirds of the time and the URDF import the rest (180 s: 120 s and 60 s).
+# Fuzzes the model loader, the URDF import, the inputs table reader and the study file reader
+# for SECONDS in all (default 180) with libFuzzer, ASan and UBSan: installs clang 14 and
+# libFuzzer when missing, builds only the fuzz targets in BUILD_DIR (default build-fuzz), runs
+# each in turn on a copy of its seed corpus (the committed corpora are never written) and prints
+# one summary line per target. The time is shared in the proportions 10 : 5 : 4 : 5 (model
+# loader, URDF, inputs table, study; 120 s: 50, 25, 20 and 25 s), among the targets given.
 # Exits nonzero on any finding (crash, broken invariant, leak, timeout, out of memory) of any
-# target, leaving the reproducers in BUILD_DIR/findings/TARGET/.
-# Usage: scripts/fuzz.sh [SECONDS] [TARGET...]   TARGET: model_loader, urdf (default both)
+# target, after running them all, leaving the reproducers in BUILD_DIR/findings/TARGET/.
+# Usage: scripts/fuzz.sh [SECONDS] [TARGET...]
+#   TARGET: model_loader, urdf, inputs_table, study (default all four)
 # FUZZ_KEEP_GOING=1 runs libFuzzer's fork mode instead, which goes on past findings and so
 # collects all it meets in the time (for triage; its cov and ft are counted differently).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 usage() {
   echo "usage: scripts/fuzz.sh [SECONDS] [TARGET...]  (SECONDS a whole number, default 180;" \
-    "TARGET model_loader or urdf, default both)" >&2
+    "TARGET model_loader, urdf, inputs_table or study, default all four)" >&2
   exit 2
 }
 seconds=${1:-180}
 if ! [[ "$seconds" =~ ^[1-9][0-9]*$ ]]; then usage; fi
 shift || true
 targets=("$@")
-if ((${#targets[@]} == 0)); then targets=(model_loader urdf); fi
-declare -A corpus_of=([model_loader]=fuzz/corpus [urdf]=fuzz/corpus-urdf)
-declare -A dict_of=([model_loader]=fuzz/model.dict [urdf]=fuzz/urdf.dict)
-declare -A share_of=([model_loader]=2 [urdf]=1)
+if ((${#targets[@]} == 0)); then targets=(model_loader urdf inputs_table study); fi
+declare -A corpus_of=([model_loader]=fuzz/corpus [urdf]=fuzz/corpus-urdf
+  [inputs_table]=fuzz/corpus-inputs [study]=fuzz/corpus-study)
+declare -A dict_of=([model_loader]=fuzz/model.dict [urdf]=fuzz/urdf.dict
+  [inputs_table]=fuzz/inputs.dict [study]=fuzz/study.dict)
+declare -A share_of=([model_loader]=10 [urdf]=5 [inputs_table]=4 [study]=5)
 shares=0
 for t in "${targets[@]}"; do
   if [[ -z "${corpus_of[$t]:-}" ]]; then usage; fi
@@ -67,13 +71,15 @@ for t in "${targets[@]}"; do
   fuzzer="$build_dir/fuzz/kanedyn_fuzz_$t"
   work="$build_dir/work/$t"
   findings="$build_dir/findings/$t"
-  mkdir -p "$work" "$findings"
+  # The inputs table target writes each input to a file in a folder of its own under TMPDIR.
+  mkdir -p "$work/tmp" "$findings"
+  tmp=$(realpath "$work/tmp")
   cp -R "${corpus_of[$t]}" "$work/corpus"
   log="$work/fuzz.log"
   echo "fuzz: $t: running $fuzzer${mode[*]:+ ${mode[*]}} for $time_t s (log: $log)"
   status=0
   started=$(date +%s)
-  "$fuzzer" "${mode[@]}" -max_total_time="$time_t" -timeout=10 -rss_limit_mb=2048 \
+  TMPDIR="$tmp" "$fuzzer" "${mode[@]}" -max_total_time="$time_t" -timeout=10 -rss_limit_mb=2048 \
     -dict="${dict_of[$t]}" -print_final_stats=1 -artifact_prefix="$findings/" "$work/corpus" \
     </dev/null >"$log" 2>&1 || status=$?
   elapsed=$(($(date +%s) - started))
