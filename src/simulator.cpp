@@ -165,6 +165,10 @@ void Simulator::step(Eigen::Ref<const VectorX> u, double dt) {
            std::isfinite(dp.state()[i]) ? " exceeds 1e150" : " is not finite");
     max_euler_drift_ = std::max(max_euler_drift_, s.dynamics.project(dp.mutable_state(), project));
     ++steps_;
+    // A long interval is many steps: the caller may stop it between them (on a signal), and
+    // then nothing of it is kept.
+    if (settings_.on_step && dp.time() < t_end && !settings_.on_step(dp.time()))
+      fail("interrupted", -1, t_, t_end, " (on_step asked to stop)");
   }
   s.v = dp.state();
   t_ = t_end;

@@ -278,5 +278,37 @@ TEST(Simulator, FailureNamesTimeAndBodyAndKeepsTheState) {
   }
 }
 
+// on_step stops a long dopri5 interval between its steps (how Python sees Ctrl-C in step()):
+// the step throws, keeps the state of its start, and the simulator goes on from there.
+TEST(Simulator, OnStepStopsALongIntervalAndKeepsTheState) {
+  const io::ModelFile f = io::parse_model_file(kCartPole, "model.yaml");
+  SimulationSettings s = settings_for(Integrator::dopri5);
+  int asked = 0;
+  double last = 0.0;
+  s.on_step = [&](double t) {
+    last = t;
+    return ++asked < 5;
+  };
+  Simulator sim(f.model, f.q, f.z, s);
+  const VectorX q = sim.q(), z = sim.z();
+  try {
+    sim.step(inputs_at(3, 0), 100.0);
+    ADD_FAILURE() << "not stopped";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("interrupted in the step from t = 0 to t = 100"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(asked, 5);
+  EXPECT_GT(last, 0.0);
+  EXPECT_LT(last, 100.0);
+  EXPECT_EQ(sim.time(), 0.0);
+  EXPECT_EQ(sim.q(), q);
+  EXPECT_EQ(sim.z(), z);
+  asked = -1000000;  // no more stops
+  sim.step(inputs_at(3, 0), kDt);
+  EXPECT_EQ(sim.time(), kDt);
+}
+
 }  // namespace
 }  // namespace kanedyn

@@ -15,9 +15,9 @@
 namespace kanedyn {
 
 /// A model's state (q, z) at a time t, advanced by step(u, dt). Of the SimulationSettings it
-/// reads integrator, rtol, atol, max_step, route and project_euler_parameters (t_start is the
-/// initial time); the output, rk4 step and input settings belong to simulate(). The model must
-/// outlive it; not for concurrent calls on one object.
+/// reads integrator, rtol, atol, max_step, route, project_euler_parameters and on_step
+/// (t_start is the initial time); the output, rk4 step and input settings belong to
+/// simulate(). The model must outlive it; not for concurrent calls on one object.
 class Simulator {
  public:
   /// Starts at (q0, z0) at t = settings.t_start; the Euler parameters in q0 (a free body's
@@ -40,8 +40,11 @@ class Simulator {
   /// Throws std::invalid_argument for a wrong size of u, a value not finite, or a dt that is not
   /// > 0 or that does not advance t; std::runtime_error when the state becomes non-finite (or
   /// beyond kStateBound) or dopri5's step underflows, naming the time and the body, and then
-  /// the simulator holds the time and state it had before the call. No heap allocation after
-  /// the first call (but for the exceptions' messages).
+  /// the simulator holds the time and state it had before the call. dopri5 asks
+  /// settings.on_step between its steps inside the interval (with the time reached): false
+  /// stops the step, as a failure does (std::runtime_error "interrupted ...", the time and
+  /// state before the call kept). No heap allocation after the first call (but for the
+  /// exceptions' messages).
   void step(Eigen::Ref<const VectorX> u, double dt);
 
   double time() const { return t_; }
