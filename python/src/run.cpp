@@ -11,7 +11,6 @@
 #include <cstring>
 #include <limits>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "bindings.hpp"
@@ -25,6 +24,7 @@
 #include "kanedyn/joints.hpp"
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/simulate.hpp"
+#include "kanedyn/threads.hpp"
 
 namespace kanedyn::python {
 
@@ -275,7 +275,7 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::ob
           throw py::value_error("U[" + std::to_string(r) + "][" + std::to_string(i) +
                                 "] is not finite");
   }
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const auto cores = static_cast<unsigned>(hardware_threads());
   const py::ssize_t threads = thread_count(threads_obj, cores);
   py::array xd, yd;
   if (out.is_none()) {
@@ -348,20 +348,18 @@ py::tuple derivatives_batch(const PyModel& m, py::object X, py::object Y, py::ob
   std::string start_failure;
   {
     py::gil_scoped_release release;
-    std::vector<std::thread> pool;
-    pool.reserve(static_cast<size_t>(workers));
-    // A thread that cannot be started (a limit on threads or on address space) must not
-    // leave the started ones joinable when the exception unwinds: that calls std::terminate.
+    // The calling thread is worker 0; the others are started by start_threads, which joins
+    // those started when one cannot be (a limit on threads or on address space).
     try {
-      for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
-    } catch (const std::exception& e) {
-      abandoned = true;
-      start_failure = "derivatives_batch(): cannot start thread " +
-                      std::to_string(pool.size() + 2) + " of " + std::to_string(workers) + " (" +
-                      e.what() + "); ask for fewer threads";
+      ThreadGroup pool = start_threads(
+          static_cast<int>(workers - 1), [&work](int i) { work(i + 1); },
+          [&abandoned] { abandoned = true; });
+      work(0);
+    } catch (const ThreadStartError& e) {
+      start_failure = "derivatives_batch(): cannot start thread " + std::to_string(e.thread() + 1) +
+                      " of " + std::to_string(e.count() + 1) + " (" + e.reason() +
+                      "); ask for fewer threads";
     }
-    if (start_failure.empty()) work(0);
-    for (std::thread& th : pool) th.join();
   }
   if (!start_failure.empty()) throw std::runtime_error(start_failure);
   for (size_t w = 0; w < bad_row.size(); ++w)

@@ -3,8 +3,6 @@
 #include "kanedyn/io/files.hpp"
 
 #include <fcntl.h>
-#include <pthread.h>
-#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -25,6 +23,7 @@
 #include "kanedyn/energy.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/kinematics.hpp"
+#include "kanedyn/threads.hpp"
 
 namespace kanedyn::io {
 
@@ -270,8 +269,8 @@ struct BackgroundTrajectoryWriter::Impl {
     wake_at = std::clamp<size_t>(capacity / 4, 1, 32);
     ring.resize(capacity * slot_size());
     try {
-      thread = std::thread([this] { run(); });
-    } catch (const std::exception& e) {
+      thread = start_threads(1, [this](int) { run(); });
+    } catch (const ThreadStartError& e) {
       // A limit on threads or on address space. The run has not begun: the file, holding
       // only the header, goes (the caller gets an exception and nothing to clean up).
       const std::string partial = writer.partial_path();
@@ -281,7 +280,7 @@ struct BackgroundTrajectoryWriter::Impl {
       }
       std::remove(partial.c_str());
       throw std::runtime_error("cannot start the thread that writes '" + partial +
-                               "': " + e.what());
+                               "': " + e.reason());
     }
   }
 
@@ -290,11 +289,9 @@ struct BackgroundTrajectoryWriter::Impl {
   size_t slot_size() const { return 1 + nx + ny + nq + nz + nu + nr; }
   double* slot(size_t i) { return ring.data() + i * slot_size(); }
 
-  /// The thread: block signals (they are for the program's own threads), then write rows.
+  /// The thread (its signals blocked by start_threads: they are for the program's own
+  /// threads): writes rows.
   void run() {
-    sigset_t all;
-    sigfillset(&all);
-    pthread_sigmask(SIG_BLOCK, &all, nullptr);
     std::unique_lock lock(mutex);
     for (;;) {
       consumer_waiting = true;
@@ -371,7 +368,7 @@ struct BackgroundTrajectoryWriter::Impl {
 
   /// Writes the queue out and joins the thread (once); the TrajectoryWriter stays open.
   void stop_thread() {
-    if (!thread.joinable()) return;
+    if (thread.size() == 0) return;
     {
       std::lock_guard lock(mutex);
       stopping = true;
@@ -398,7 +395,7 @@ struct BackgroundTrajectoryWriter::Impl {
   // The producer's own.
   long queued = 0;
   bool closed = false;
-  std::thread thread;
+  ThreadGroup thread;  // one thread
 };
 
 BackgroundTrajectoryWriter::BackgroundTrajectoryWriter(const Model& model, std::string path)
