@@ -10,11 +10,12 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #include "commands.hpp"
 #include "kanedyn/io/study.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/threads.hpp"
+#include "stop_signals.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -23,47 +24,6 @@ struct Options {
   std::string study;
   std::string out;
   int threads = 0;
-};
-
-volatile std::sig_atomic_t g_signal = 0;
-
-extern "C" void on_sweep_signal(int sig) {
-  if (g_signal != 0) {  // a second Ctrl-C: stop at once (the manifest parts are whole)
-    std::signal(sig, SIG_DFL);
-    std::raise(sig);
-    return;
-  }
-  g_signal = sig;
-}
-
-/// SIGINT and SIGTERM set a flag for its lifetime; SIGXFSZ is ignored so that a file size
-/// limit is a write error (reported, the runs recorded before kept), not a kill.
-class SignalGuard {
- public:
-  SignalGuard() {
-    g_signal = 0;
-    struct sigaction action {};
-    action.sa_handler = on_sweep_signal;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, &old_int_);
-    sigaction(SIGTERM, &action, &old_term_);
-    struct sigaction ignore {};
-    ignore.sa_handler = SIG_IGN;
-    sigemptyset(&ignore.sa_mask);
-    sigaction(SIGXFSZ, &ignore, &old_xfsz_);
-  }
-  ~SignalGuard() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-    sigaction(SIGXFSZ, &old_xfsz_, nullptr);
-  }
-  SignalGuard(const SignalGuard&) = delete;
-  SignalGuard& operator=(const SignalGuard&) = delete;
-
- private:
-  struct sigaction old_int_ {};
-  struct sigaction old_term_ {};
-  struct sigaction old_xfsz_ {};
 };
 
 using Clock = std::chrono::steady_clock;
@@ -118,19 +78,19 @@ int run(const Options& o) {
   const io::Study study = io::load_study(o.study);
   io::StudyFolder folder(study, o.out);
   const long before = folder.done();
-  const int threads = o.threads > 0
-                          ? o.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   Progress progress(folder.total(), before);
-  SignalGuard signals;
+  StopSignals signals;
   io::SweepOptions options;
-  options.threads = threads;
-  options.stop = [] { return g_signal != 0; };
+  options.threads = o.threads;  // capped at the machine's threads by the sweep
+  options.stop = [] { return StopSignals::received() != 0; };
   options.progress = [&](long done, long ran) { progress.update(done, ran); };
   const auto start = Clock::now();
   io::SweepResult result;
   try {
     result = io::sweep(study, folder, options);
+  } catch (const ThreadStartError& e) {
+    progress.clear();
+    throw std::runtime_error(std::string(e.what()) + "; ask for fewer threads (-j)");
   } catch (const std::exception& e) {
     progress.clear();
     throw std::runtime_error(std::string(e.what()) + "; " + std::to_string(folder.done()) + " of " +
@@ -144,8 +104,10 @@ int run(const Options& o) {
   for (const auto& [kind, count] : failures) failed += count;
   std::printf("study %s: %ld runs", io::printable(o.study).c_str(), folder.total());
   if (before > 0) std::printf(" (%ld done before, resumed)", before);
-  std::printf("; %ld run now on %d thread%s in %.3g s (%.3g runs/s)\n", result.ran, threads,
-              threads == 1 ? "" : "s", wall,
+  std::printf("; %ld run now", result.ran);
+  if (result.threads > 0)
+    std::printf(" on %d thread%s", result.threads, result.threads == 1 ? "" : "s");
+  std::printf(" in %.3g s (%.3g runs/s)\n", wall,
               wall > 0.0 ? static_cast<double>(result.ran) / wall : 0.0);
   std::printf("  done: %ld of %ld; ok: %ld; failed: %ld\n", folder.done(), folder.total(),
               folder.done() - failed, failed);
@@ -154,13 +116,12 @@ int run(const Options& o) {
   if (result.stopped) {
     std::printf("  results: not written yet (%ld runs missing)\n", folder.total() - folder.done());
     std::fflush(stdout);
-    const int sig = g_signal != 0 ? g_signal : SIGINT;
+    const int sig = StopSignals::received() != 0 ? StopSignals::received() : SIGINT;
     std::fprintf(stderr,
                  "kanedyn: %s: stopped; the %ld finished runs are kept in %s; resume with: kanedyn "
                  "sweep %s -o %s\n",
-                 sig == SIGINT ? "SIGINT" : "SIGTERM", folder.done(),
-                 io::printable(folder.dir()).c_str(), io::printable(o.study).c_str(),
-                 io::printable(o.out).c_str());
+                 signal_name(sig), folder.done(), io::printable(folder.dir()).c_str(),
+                 io::printable(o.study).c_str(), io::printable(o.out).c_str());
     return 128 + sig;
   }
   std::printf("  results: %s\n", io::printable(folder.results_path()).c_str());
@@ -182,7 +143,8 @@ void add_sweep(CLI::App& app) {
       "or every run failed; 130/143 stopped by SIGINT/SIGTERM (finished runs kept).");
   cmd->add_option("STUDY", o->study, "study file (YAML or JSON, docs/studies.md)")->required();
   cmd->add_option("--out,-o", o->out, "output folder (created; its parent must exist)")->required();
-  cmd->add_option("--jobs,-j", o->threads, "threads (default: all cores)")
+  cmd->add_option("--jobs,-j", o->threads,
+                  "threads (default: all cores; more than the machine runs at once are capped)")
       ->check(CLI::Range(1, 4096));
   cmd->callback([o] {
     const int code = run(*o);

@@ -2,7 +2,10 @@
 // (threads, resume after a stop or a kill, failures, the output folder).
 #include <gtest/gtest.h>
 
+#include <dirent.h>
+#include <malloc.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 
 #include <chrono>
@@ -13,6 +16,7 @@
 #include "file_support.hpp"
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/io/study.hpp"
+#include "kanedyn/threads.hpp"
 #include "sanitizers.hpp"
 
 namespace kanedyn::test {
@@ -236,6 +240,34 @@ TEST(StudyFile, RefusalsAreLocatedOneLineErrors) {
        "key: ^inputs[0]",
        "vary[0].key",
        {"no inputs"}},
+      // One number under two spellings: each run would take the later value, the table show
+      // the first's.
+      {"one number, two spellings",
+       "forces[1].stiffness",
+       "bodies[5].mass",
+       "key: ^bodies[5].mass",
+       "vary[1].key",
+       {"'bodies[5].mass'", "vary[0].key 'bodies[head].mass'", "varies already"}},
+      // The study's simulate.t_end overrides the model's in every run: its values would not
+      // be used.
+      {"varied setting overridden",
+       "forces[1].stiffness",
+       "simulation.t_end",
+       "key: ^simulation.t_end",
+       "vary[1].key",
+       {"'simulation.t_end'", "simulate.t_end overrides"}},
+      {"too many runs",
+       "runs: 2",
+       "runs: 1000000000",
+       "runs: ^1000000000",
+       "runs",
+       {"'1000000000' is more than 10^7 runs", "Limits"}},
+      {"too many runs with the grids",
+       "runs: 2",
+       "runs: 2000000",
+       "runs: ^2000000",
+       "runs",
+       {"the grids times `runs` make more than 10^7 runs"}},
   };
   for (const StudyBadCase& c : cases) {
     SCOPED_TRACE(c.label);
@@ -549,6 +581,380 @@ TEST(StudySweep, WritesNothingOutsideItsFolderAndRefusesAnotherStudys) {
   const ToolRun other = run_in(dir, "sweep study.yaml -o out");
   EXPECT_EQ(other.exit_code, 1);
   EXPECT_NE(other.err.find("holds the runs of another study"), std::string::npos) << other.err;
+}
+
+// ---- Refusals of what a study names ----------------------------------------------------------
+
+TEST(StudyFile, AnInputUnderTwoSpellingsIsRefused) {
+  const std::string model = slurp(kRacket) +
+                            "inputs:\n  - name: spin\n    type: torque\n    body: racket\n"
+                            "    axis: [0, 0, 1]\n";
+  const std::string text =
+      "format: kanedyn-study/1\nmodel: racket.yaml\nvary:\n"
+      "  - key: inputs[0]\n    values: [0.0, 0.02]\n"
+      "  - key: inputs[spin]\n    values: [0.1]\n";
+  try {
+    io::parse_study(text, "s.yaml", "", &model);
+    ADD_FAILURE() << "accepted";
+  } catch (const io::StudyFileError& e) {
+    const Location at = locate(text, "key: ^inputs[spin]");
+    EXPECT_EQ(e.line(), at.line) << e.what();
+    EXPECT_EQ(e.column(), at.column) << e.what();
+    EXPECT_EQ(e.key_path(), "vary[1].key");
+    EXPECT_NE(e.problem().find("'inputs[spin]' is the number that vary[0].key 'inputs[0]'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(StudyFile, AModelThatIsNotAModelFileIsNotQuoted) {
+  // `model:` may name any file; a refusal of its contents would show them.
+  const fs::path dir = temp_dir("study_foreign_model");
+  const std::vector<std::pair<std::string, std::string>> foreign = {
+      {"passwd", "root:x:0:0:SECRET:/root:/bin/bash\ndaemon:x:1:1:daemon\n"},
+      {"config.yaml", "password: SECRET\nuser: me\n"},
+      {"study.yaml", "format: kanedyn-study/1\nmodel: SECRET.yaml\n"},
+      {"binary", std::string("\x7f"
+                             "ELF\x02\x01\x01\0\0SECRET\x01\x02[{",
+                             18)},
+      {"broken.yaml", "{SECRET: [unclosed\n"},
+  };
+  for (const auto& [name, contents] : foreign) {
+    SCOPED_TRACE(name);
+    write(dir / name, contents);
+    const std::string text =
+        "format: kanedyn-study/1\nmodel: " + (dir / name).string() + "\nruns: 2\n";
+    for (const bool given : {false, true}) {  // read from the file, or given as text (dask)
+      try {
+        io::parse_study(text, "s.yaml", "", given ? &contents : nullptr);
+        ADD_FAILURE() << "accepted";
+      } catch (const io::ModelFileError& e) {
+        const std::string what = e.what();
+        EXPECT_EQ(what.find("SECRET"), std::string::npos) << what;
+        EXPECT_NE(what.find("is not a model file"), std::string::npos) << what;
+        EXPECT_EQ(e.key_path(), "model") << what;
+        EXPECT_EQ(e.line(), 2) << what;
+      }
+    }
+  }
+  // A model file refused is still told where and why, in its own words.
+  const std::string racket = edit(slurp(kRacket), "mass: 0.3", "mass: -0.3");
+  write(dir / "racket.yaml", racket);
+  try {
+    io::parse_study("format: kanedyn-study/1\nmodel: racket.yaml\n", "s.yaml", dir.string());
+    ADD_FAILURE() << "accepted";
+  } catch (const io::ModelFileError& e) {
+    EXPECT_EQ(e.line(), locate(racket, "mass: ^-0.3").line) << e.what();
+    EXPECT_NE(e.problem().find("must be > 0"), std::string::npos) << e.what();
+  }
+}
+
+// ---- Limits ----------------------------------------------------------------------------------
+
+/// The bytes malloc has handed out and not had back (0 under the sanitizers, which own malloc).
+long heap_bytes() {
+#if KANEDYN_TEST_ADDRESS_SANITIZER || KANEDYN_TEST_THREAD_SANITIZER
+  return 0;
+#else
+  const struct mallinfo2 m = mallinfo2();
+  return static_cast<long>(m.uordblks + m.hblkhd);
+#endif
+}
+
+TEST(StudyFolder, TheMostRunsCostNothingBeforeTheyRun) {
+  // 10^7 runs (the most a study may have): opening the folder and sweeping a few of them holds
+  // nothing per run of the study (a list of the missing runs was 80 MB).
+  const fs::path dir = temp_dir("study_many_runs");
+  fs::copy_file(kRacket, dir / "racket.yaml");
+  write(dir / "study.yaml",
+        "format: kanedyn-study/1\nmodel: racket.yaml\nseed: 1\nruns: 10000000\nvary:\n"
+        "  - key: bodies[racket].initial.angular_velocity[0]\n    uniform: [0.0005, 0.002]\n"
+        "simulate: {t_end: 0.01, dt_out: 0.01}\noutputs:\n  - final: racket.w2\n");
+  const io::Study study = io::load_study((dir / "study.yaml").string());
+  EXPECT_EQ(study.runs, io::kMaxStudyRuns);
+  const long before = heap_bytes();
+  io::StudyFolder folder(study, (dir / "out").string());
+  EXPECT_EQ(folder.next_missing(0), 0);
+  EXPECT_LT(heap_bytes() - before, 1L << 20);
+  long peak = 0;
+  const auto start = std::chrono::steady_clock::now();
+  io::SweepOptions options;
+  options.threads = 2;
+  options.stop = [&] {
+    peak = std::max(peak, heap_bytes() - before);
+    return std::chrono::steady_clock::now() - start > std::chrono::milliseconds(500);
+  };
+  const io::SweepResult result = io::sweep(study, folder, options);
+  EXPECT_TRUE(result.stopped);
+  EXPECT_GT(folder.done(), 0);
+  EXPECT_LT(peak, 16L << 20) << folder.done() << " runs done";
+  // Started again, the folder has the runs done, and the first missing run after them.
+  io::StudyFolder again(study, (dir / "out").string());
+  EXPECT_EQ(again.done(), folder.done());
+  EXPECT_FALSE(again.is_done(again.next_missing(0)));
+}
+
+/// The threads of this process.
+int task_count() {
+  int n = 0;
+  if (DIR* d = opendir("/proc/self/task")) {
+    while (const dirent* e = readdir(d)) n += e->d_name[0] != '.';
+    closedir(d);
+  }
+  return n;
+}
+
+TEST(StudySweep, MoreThreadsThanTheMachineRunsAreCapped) {
+  const fs::path dir = temp_dir("study_600_threads");
+  eight_body_study(dir, 100, kAddressSanitizer ? 0.4 : 2.0);
+  const io::Study study = io::load_study((dir / "study.yaml").string());
+  io::StudyFolder folder(study, (dir / "out").string());
+  const int hardware = hardware_threads();
+  const int before = task_count();
+  int most = 0;
+  io::SweepOptions options;
+  options.threads = 600;
+  options.progress = [&](long, long) { most = std::max(most, task_count() - before); };
+  const io::SweepResult result = io::sweep(study, folder, options);
+  EXPECT_FALSE(result.stopped);
+  EXPECT_EQ(result.threads, std::min(hardware, 200));
+  EXPECT_LE(most, hardware);
+  EXPECT_GT(most, 0);
+  // The tool says how many ran.
+  const ToolRun r = run_in(dir, "sweep study.yaml -o out600 -j 600");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string threads = std::to_string(std::min(hardware, 200)) + " thread";
+  EXPECT_NE(r.out.find("run now on " + threads), std::string::npos) << r.out;
+}
+
+struct Limit {
+  int resource;
+  rlim_t value;
+};
+
+/// spawn_in's `kanedyn ARGS...` in DIR, under resource limits (setrlimit before exec), with
+/// `env` ("NAME=VALUE") added to the environment.
+pid_t spawn_limited(const fs::path& dir, const std::vector<std::string>& args,
+                    const std::vector<Limit>& limits, std::vector<std::string> env = {}) {
+  std::vector<std::string> words{"kanedyn"};
+  words.insert(words.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  std::vector<char*> envp;
+  for (std::string& e : env) envp.push_back(e.data());
+  for (char** e = environ; *e; ++e) envp.push_back(*e);
+  envp.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid != 0) return pid;
+  // The child: only async-signal-safe calls until exec.
+  if (chdir(dir.c_str()) != 0) _exit(99);
+  for (const Limit& l : limits) {
+    const struct rlimit r { l.value, l.value };
+    if (setrlimit(l.resource, &r) != 0) _exit(96);
+  }
+  const int in = open("/dev/null", O_RDONLY);
+  const int out = open("stdout.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  const int err = open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (in < 0 || out < 0 || err < 0 || dup2(in, 0) < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0)
+    _exit(97);
+  execve(kTool.c_str(), argv.data(), envp.data());
+  _exit(98);
+}
+
+/// Waits up to `seconds` for `pid`; its wait status, or -1 (then it is killed) when it has not
+/// ended.
+int wait_for(pid_t pid, double seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  int status = 0;
+  while (waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() > until) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return status;
+}
+
+/// The resident memory of process `pid`, in bytes; -1 if unknown.
+long resident_bytes(pid_t pid) {
+  const std::string status = slurp("/proc/" + std::to_string(pid) + "/status");
+  const size_t at = status.find("VmRSS:");
+  return at == std::string::npos ? -1 : 1024 * std::atol(status.c_str() + at + 6);
+}
+
+/// The runs of the rows of `out`'s manifest, and the runs of its kept trajectories.
+std::pair<std::set<long>, std::set<long>> recorded_runs(const fs::path& out) {
+  std::set<long> rows, trajectories;
+  for (const auto& e : fs::directory_iterator(out / "manifest")) {
+    const auto lines = split(slurp(e.path()), '\n');
+    for (size_t i = 2; i < lines.size(); ++i)
+      if (!lines[i].empty()) rows.insert(std::atol(lines[i].c_str()));
+  }
+  if (fs::exists(out / "runs"))
+    for (const auto& e : fs::directory_iterator(out / "runs"))
+      trajectories.insert(std::atol(e.path().filename().string().substr(4).c_str()));
+  return {rows, trajectories};
+}
+
+constexpr rlim_t kMiB = 1 << 20;
+
+TEST(StudySweep, AThreadThatCannotStartIsAnErrorNotAnAbort) {
+  // Threads' stacks of 1 GiB (glibc takes their size from RLIMIT_STACK) in an address space of
+  // 512 MiB: no thread can start (RLIMIT_NPROC would do for a user, but root is exempt).
+  // OpenBLAS is told to start none of its own: it raises SIGINT when it cannot.
+  if (kAddressSanitizer || kThreadSanitizer)
+    GTEST_SKIP() << "the sanitizers need the address space";
+  const fs::path dir = temp_dir("study_no_thread");
+  racket_study(dir, 2, 0.1);
+  const pid_t pid = spawn_limited(dir, {"sweep", "study.yaml", "-o", "out", "-j", "600"},
+                                  {{RLIMIT_STACK, 1024 * kMiB}, {RLIMIT_AS, 512 * kMiB}},
+                                  {"OPENBLAS_NUM_THREADS=1"});
+  const int status = wait_for(pid, 60);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  const std::string err = slurp(dir / "stderr.txt");
+  EXPECT_NE(err.find("kanedyn: error: cannot start thread 1 of "), std::string::npos) << err;
+  EXPECT_NE(err.find("ask for fewer threads"), std::string::npos) << err;
+  EXPECT_EQ(err.find("terminate"), std::string::npos) << err;
+  // Nothing ran; without the limits it does.
+  EXPECT_FALSE(fs::exists(dir / "out/results.csv"));
+  const ToolRun r = run_in(dir, "sweep study.yaml -o out -j 600");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+/// A study of a million runs of the racket, each a few steps long, keeping every trajectory:
+/// runs finish faster than their trajectories are written.
+void quick_runs_study(const fs::path& dir) {
+  fs::copy_file(kRacket, dir / "racket.yaml");
+  write(dir / "study.yaml",
+        "format: kanedyn-study/1\nmodel: racket.yaml\nseed: 5\nruns: 1000000\nvary:\n"
+        "  - key: bodies[racket].initial.angular_velocity[0]\n    uniform: [0.0005, 0.002]\n"
+        "simulate: {t_end: 0.01, dt_out: 0.01}\noutputs:\n  - final: racket.w2\n"
+        "trajectories: all\n");
+}
+
+TEST(StudySweep, TheRunsWaitForTheWriter) {
+  // The thread that writes stalls for a second (in the stop callback, which it calls between
+  // the writes of trajectories): the threads running quick runs wait for it, and the memory
+  // does not grow (it grew by every run finished meanwhile, with its trajectory).
+  const fs::path dir = temp_dir("study_writer_stalls");
+  quick_runs_study(dir);
+  const io::Study study = io::load_study((dir / "study.yaml").string());
+  io::StudyFolder folder(study, (dir / "out").string());
+  io::SweepOptions options;
+  options.threads = 2;
+  int polls = 0;
+  long grew = 0;
+  options.stop = [&] {
+    if (++polls < 3) return false;
+    const long before = heap_bytes();
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    grew = heap_bytes() - before;
+    return true;
+  };
+  const io::SweepResult result = io::sweep(study, folder, options);
+  EXPECT_TRUE(result.stopped);
+  EXPECT_LT(grew, 1L << 20) << grew;
+  // What finished was recorded, each run with its trajectory.
+  const auto [rows, trajectories] = recorded_runs(dir / "out");
+  EXPECT_EQ(static_cast<long>(rows.size()), folder.done());
+  EXPECT_EQ(rows, trajectories);
+}
+
+TEST(StudySweep, WritingTrajectoriesSlowsTheRunsNotTheMemory) {
+  // Runs that finish faster than their trajectories are written wait for the writer: the
+  // memory stays bounded (an address-space limit too), rows are recorded within about a
+  // second (what a SIGKILL keeps), and a Ctrl-C is honoured within a second.
+  if (kAddressSanitizer || kThreadSanitizer)
+    GTEST_SKIP() << "the sanitizers' memory and timing are their own";
+  const fs::path dir = temp_dir("study_backpressure");
+  quick_runs_study(dir);
+  const auto start = std::chrono::steady_clock::now();
+  const pid_t pid = spawn_limited(dir, {"sweep", "study.yaml", "-o", "out", "-j", "2"},
+                                  {{RLIMIT_AS, 1024 * kMiB}});
+  bool recorded = false;
+  while (!recorded && std::chrono::steady_clock::now() - start < std::chrono::seconds(3)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    recorded = fs::exists(dir / "out/manifest/part_000001.csv");
+  }
+  EXPECT_TRUE(recorded) << "no row recorded within 3 s";
+  const long first = resident_bytes(pid);
+  std::this_thread::sleep_until(start + std::chrono::seconds(3));
+  const long later = resident_bytes(pid);
+  EXPECT_GT(first, 0);
+  EXPECT_LT(later - first, static_cast<long>(32 * kMiB)) << first << " -> " << later;
+  EXPECT_LT(later, static_cast<long>(256 * kMiB));
+  const auto sent = std::chrono::steady_clock::now();
+  kill(pid, SIGINT);
+  const int status = wait_for(pid, 30);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count(), 1.0);
+  ASSERT_TRUE(WIFEXITED(status)) << status << slurp(dir / "stderr.txt");
+  EXPECT_EQ(WEXITSTATUS(status), 130) << slurp(dir / "stderr.txt");
+  // Every run recorded has its trajectory, and every trajectory its row.
+  const auto [rows, trajectories] = recorded_runs(dir / "out");
+  EXPECT_GT(rows.size(), 0u);
+  EXPECT_EQ(rows, trajectories);
+}
+
+TEST(StudySweep, AFileSizeLimitWhileTheRunsWaitFailsCleanly) {
+  // 300 runs of a few steps, then 300 whose trajectories (about 55 kB) are over a file size
+  // limit of 32 kiB: the first of those ends the sweep while the threads wait for the writer.
+  if (kAddressSanitizer || kThreadSanitizer)
+    GTEST_SKIP() << "the sanitizers need the address space";
+  const fs::path dir = temp_dir("study_file_size");
+  fs::copy_file(kRacket, dir / "racket.yaml");
+  write(dir / "study.yaml",
+        "format: kanedyn-study/1\nmodel: racket.yaml\nruns: 300\nvary:\n"
+        "  - key: simulation.t_end\n    grid: [0.01, 3.0]\n"
+        "outputs:\n  - final: racket.w2\ntrajectories: all\n");
+  const pid_t pid = spawn_limited(dir, {"sweep", "study.yaml", "-o", "out", "-j", "2"},
+                                  {{RLIMIT_AS, 1024 * kMiB}, {RLIMIT_FSIZE, 32 * 1024}});
+  const int status = wait_for(pid, 60);
+  const std::string err = slurp(dir / "stderr.txt");
+  ASSERT_TRUE(WIFEXITED(status)) << status << err;
+  EXPECT_EQ(WEXITSTATUS(status), 1) << err;
+  EXPECT_NE(err.find(".csv.partial': File too large"), std::string::npos) << err;
+  EXPECT_NE(err.find(" of 600 runs are kept in out"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "out/results.csv"));
+  const auto [rows, trajectories] = recorded_runs(dir / "out");
+  EXPECT_EQ(rows, trajectories);
+  for (const auto& e : fs::recursive_directory_iterator(dir / "out"))
+    EXPECT_FALSE(e.path().string().ends_with(".partial")) << e.path();
+  // Without the limit it resumes and completes.
+  const ToolRun resumed = run_in(dir, "sweep study.yaml -o out -j 2");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_EQ(split(slurp(dir / "out/results.csv"), '\n').size(), 602u);
+}
+
+TEST(StudySweep, AFolderNotTheStudysIsRefusedNamingWhatIsInTheWay) {
+  const fs::path dir = temp_dir("study_not_ours");
+  racket_study(dir, 2, 0.1);
+  // Beside the study file itself: its study.yaml is the study, not a copy of it.
+  const ToolRun here = run_in(dir, "sweep study.yaml -o .");
+  EXPECT_EQ(here.exit_code, 1);
+  EXPECT_NE(here.err.find("'.' is not empty"), std::string::npos) << here.err;
+  EXPECT_NE(here.err.find("'./racket.yaml' is in the way"), std::string::npos) << here.err;
+  EXPECT_FALSE(fs::exists(dir / "manifest"));
+  // Another folder with a results.csv and runs of its own: left as it was.
+  fs::create_directories(dir / "old/runs");
+  write(dir / "old/results.csv", "mine\n");
+  write(dir / "old/runs/run_000000.csv", "mine too\n");
+  const ToolRun old = run_in(dir, "sweep study.yaml -o old");
+  EXPECT_EQ(old.exit_code, 1);
+  EXPECT_NE(old.err.find("'old/results.csv' is in the way"), std::string::npos) << old.err;
+  EXPECT_EQ(slurp(dir / "old/results.csv"), "mine\n");
+  EXPECT_EQ(slurp(dir / "old/runs/run_000000.csv"), "mine too\n");
+  EXPECT_FALSE(fs::exists(dir / "old/study.yaml"));
+  // An empty folder is taken, and then is the study's.
+  fs::create_directories(dir / "empty");
+  const ToolRun empty = run_in(dir, "sweep study.yaml -o empty");
+  EXPECT_EQ(empty.exit_code, 0) << empty.err;
+  const ToolRun again = run_in(dir, "sweep study.yaml -o empty");
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_NE(again.out.find("0 run now"), std::string::npos) << again.out;
 }
 
 }  // namespace

@@ -11,18 +11,21 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <limits>
 #include <mutex>
 #include <numbers>
 #include <stdexcept>
 #include <thread>
+#include <unordered_set>
 
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/threads.hpp"
 #include "model_tree.hpp"
 
 namespace kanedyn::io {
@@ -35,8 +38,11 @@ using detail::Tree;
 
 constexpr const char* kStudyFormat = "kanedyn-study/1";
 constexpr const char* kManifestLine = "# kanedyn-study manifest 1, fingerprint ";
-/// More runs than a study could do; it bounds the products of grids against overflow.
-constexpr long kMaxRuns = 1'000'000'000'000L;
+/// The refusal of a study of more than kMaxStudyRuns runs: "`what` more than 10^7 runs...".
+std::string too_many_runs(const std::string& what) {
+  return what + " more than 10^7 runs, the most a study may have (its folder holds every run's " +
+         "row in memory; docs/studies.md, \"Limits\")";
+}
 
 // ---- The study file's tree ------------------------------------------------------------------
 
@@ -285,6 +291,37 @@ void read_vary(const StudyReader& r, const YNode& list, Study& study) {
       } catch (const std::invalid_argument& e) {
         r.fail(key_node, path + ".key", quote(v.key) + " names nothing: " + e.what());
       }
+      // A setting of the model's `simulation:` section that the study's `simulate:` sets
+      // too: the run takes simulate's, and the table would show values never used.
+      const std::pair<const char*, bool> settings[] = {
+          {"t_end", study.simulate.t_end.has_value()},
+          {"dt_out", study.simulate.dt_out.has_value()},
+          {"rtol", study.simulate.rtol.has_value()},
+          {"atol", study.simulate.atol.has_value()},
+          {"step", study.simulate.step.has_value()}};
+      for (const auto& [name, overridden] : settings) {
+        if (!overridden) continue;
+        std::optional<uint32_t> node;
+        try {
+          node = study.model.find_number(std::string("simulation.") + name).node;
+        } catch (const std::invalid_argument&) {  // not in the model file: nothing to clash
+        }
+        if (node == v.node)
+          r.fail(key_node, path + ".key",
+                 quote(v.key) + " is the model's simulation." + name +
+                     ", which the study's simulate." + name +
+                     " overrides in every run: vary it without simulate." + name);
+      }
+    }
+    // One number under two spellings (bodies[racket] and bodies[1], inputs[0] and
+    // inputs[push]): each run would take the later entry's value, and the table would show the
+    // earlier one's.
+    for (size_t e = 0; e < study.vary.size(); ++e) {
+      const StudyVary& earlier = study.vary[e];
+      if (v.input >= 0 ? earlier.input == v.input : earlier.input < 0 && earlier.node == v.node)
+        r.fail(key_node, path + ".key",
+               quote(v.key) + " is the number that vary[" + std::to_string(e) + "].key " +
+                   quote(earlier.key) + " varies already; vary it once");
     }
     const auto& [kind, value] =
         *std::find_if(m.begin(), m.end(), [](const auto& e) { return e.first != "key"; });
@@ -310,8 +347,8 @@ void read_vary(const StudyReader& r, const YNode& list, Study& study) {
       v.draw = kind == "choice" ? Draw::choice : Draw::grid;
       v.values = r.numbers(value, at);
       if (v.draw == Draw::grid) {
-        if (study.grid_points > kMaxRuns / static_cast<long>(v.values.size()))
-          r.fail(value, at, "the grids make more than 10^12 runs");
+        if (study.grid_points > kMaxStudyRuns / static_cast<long>(v.values.size()))
+          r.fail(value, at, too_many_runs("the grids make"));
         study.grid_points *= static_cast<long>(v.values.size());
       }
     }
@@ -347,6 +384,34 @@ void read_simulate(const StudyReader& r, const YNode& n, SimulationSection& s) {
   s.step = positive("step");
   s.integrator = choice("integrator", {"dopri5", "rk4"});
   s.route = choice("route", {"recursive", "assembled"});
+}
+
+/// Whether `text` is a model file, however it is refused: a mapping whose `format` is
+/// kanedyn-model/N; when it is not YAML at all, whether it names that format anywhere.
+bool is_model_file(const std::string& text) {
+  try {
+    const auto doc = detail::read_yaml(text, "", "a model file");
+    const Tree& tree = doc->tree;
+    if (tree.nodes.empty()) return false;
+    const YNode root(&tree, tree.root);
+    if (!root.is(Kind::mapping)) return false;
+    for (size_t i = 0; i < root.size(); ++i)
+      if (root.key(i).scalar() == "format")
+        return root.value(i).scalar().starts_with("kanedyn-model/");
+    return false;
+  } catch (const ModelFileError&) {
+    return text.find("kanedyn-model/") != std::string::npos;
+  }
+}
+
+/// The text of the model file that `refusal` was about, read again; rethrows `refusal` when it
+/// cannot be (it then changed under us, and its own message is the truer one).
+std::string reread(const std::string& path, const ModelFileError& refusal) {
+  try {
+    return read_whole_file(open_regular_file(path), std::size_t{256} << 20, "a model file");
+  } catch (const std::exception&) {
+    throw refusal;
+  }
 }
 
 void read_outputs(const StudyReader& r, const YNode& list, Study& study) {
@@ -428,6 +493,10 @@ Study parse_study(std::string text, const std::string& source_name, const std::s
   if (model_it == top.end()) r.fail(root, "model", "missing required key 'model'");
   const std::string model_name = r.text(model_it->second, "model");
   if (model_name.empty()) r.fail(model_it->second, "model", "the model file's name is empty");
+  // An escape ("\0", "\u0000") can put a NUL byte in the name: the C library would end the
+  // name there and read another file.
+  if (model_name.find('\0') != std::string::npos)
+    r.fail(model_it->second, "model", "the model file's name holds a NUL byte");
   const std::filesystem::path model_path(model_name);
   study.model_path = model_path.is_absolute() || base_dir.empty()
                          ? model_name
@@ -439,14 +508,30 @@ Study parse_study(std::string text, const std::string& source_name, const std::s
                              : ModelDocument::load(study.model_path, model_name);
   } catch (const ModelFileError& e) {
     // A file that cannot be read is the study's `model:` key at fault; a model file that is
-    // read and refused says where, in its own message.
-    if (e.line() > 0 || !e.key_path().empty()) throw;
+    // read and refused says where, in its own message. `model:` may name any file, though, and
+    // a refusal of its contents quotes them: a file that is not a model file is told so alone.
+    if (e.line() > 0 || !e.key_path().empty()) {
+      if (!is_model_file(model_text ? *model_text : reread(study.model_path, e)))
+        r.fail(model_it->second, "model",
+               quote(study.model_path) +
+                   " is not a model file (a model file is a mapping starting with 'format: "
+                   "kanedyn-model/1', docs/model-format.md)");
+      throw;
+    }
     r.fail(model_it->second, "model",
            "the model file " + quote(study.model_path) + ": " + e.problem());
   }
 
-  if (const auto it = top.find("runs"); it != top.end())
-    study.runs_per_point = static_cast<long>(r.integer(it->second, "runs", 1, kMaxRuns));
+  if (const auto it = top.find("runs"); it != top.end()) {
+    // Read as any whole number first, so that a count too large is told the limit's reason.
+    const long long runs = r.integer(it->second, "runs", 1, std::numeric_limits<long long>::max());
+    if (runs > kMaxStudyRuns)
+      r.fail(it->second, "runs", too_many_runs(quote(it->second.scalar()) + " is"));
+    study.runs_per_point = static_cast<long>(runs);
+  }
+  // `simulate` before `vary`: a varied setting that `simulate` overrides is refused there.
+  if (const auto it = top.find("simulate"); it != top.end())
+    read_simulate(r, it->second, study.simulate);
   if (const auto it = top.find("vary"); it != top.end()) read_vary(r, it->second, study);
   const bool draws = std::any_of(study.vary.begin(), study.vary.end(),
                                  [](const StudyVary& v) { return v.draw != Draw::grid; });
@@ -464,11 +549,10 @@ Study parse_study(std::string text, const std::string& source_name, const std::s
            "missing key 'seed': a study that draws random numbers needs one, so that its "
            "results can be made again");
   }
-  if (study.grid_points > kMaxRuns / study.runs_per_point)
-    r.fail(root, "runs", "the grids times `runs` make more than 10^12 runs");
+  if (study.grid_points > kMaxStudyRuns / study.runs_per_point)
+    r.fail(top.count("runs") ? top.at("runs") : root, "runs",
+           too_many_runs("the grids times `runs` make"));
   study.runs = study.grid_points * study.runs_per_point;
-  if (const auto it = top.find("simulate"); it != top.end())
-    read_simulate(r, it->second, study.simulate);
   if (const auto it = top.find("outputs"); it != top.end()) read_outputs(r, it->second, study);
   if (const auto it = top.find("trajectories"); it != top.end())
     study.keep_every = read_trajectories(r, it->second);
@@ -812,6 +896,35 @@ std::vector<std::string> read_lines(const std::string& path, bool& whole) {
   return lines;
 }
 
+/// The first entry of the folder `dir` (by name) other than `ignored`; "" when there is none.
+std::string first_entry(const std::string& dir, const std::string& ignored) {
+  std::string first;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name != ignored && (first.empty() || name < first)) first = name;
+  }
+  return first;
+}
+
+/// Whether two paths name the same file (by device and inode).
+bool same_file(const std::string& a, const std::string& b) {
+  struct stat sa {
+  }, sb{};
+  return ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 && sa.st_dev == sb.st_dev &&
+         sa.st_ino == sb.st_ino;
+}
+
+/// write() of all of `text`, again after an interruption; false (errno set) when it fails.
+bool write_all(int fd, std::string_view text) {
+  while (!text.empty()) {
+    const ssize_t n = ::write(fd, text.data(), text.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    text.remove_prefix(static_cast<size_t>(n));
+  }
+  return true;
+}
+
 }  // namespace
 
 StudyFolder::StudyFolder(const Study& study, std::string dir)
@@ -825,7 +938,9 @@ StudyFolder::StudyFolder(const Study& study, std::string dir)
         "' exists and is not a folder; a study writes into a folder of its own");
   make_directory(dir_);
   const std::string copy = dir_ + "/study.yaml";
-  if (::lstat(copy.c_str(), &st) == 0) {
+  // A folder is this study's when its study.yaml is a copy of the study: the study file
+  // itself there (`-o .` beside it) makes it the study's source folder, not its output's.
+  if (::lstat(copy.c_str(), &st) == 0 && !same_file(copy, study.path)) {
     std::string text;
     try {
       text = read_whole_file(open_regular_file(copy), std::size_t{16} << 20, "a study file");
@@ -838,11 +953,29 @@ StudyFolder::StudyFolder(const Study& study, std::string dir)
                                printable(study.path) +
                                "); give a new folder, or remove this one to start again");
   } else {
+    // Any other folder must be empty: its results.csv and runs/ would be overwritten. (A
+    // study.yaml.partial is what a stop while the copy was written leaves.)
+    if (const std::string first = first_entry(dir_, "study.yaml.partial"); !first.empty())
+      throw std::runtime_error("'" + printable(dir_) + "' is not empty and holds no run of " +
+                               printable(study.path) + " ('" + printable(dir_ + "/" + first) +
+                               "' is in the way); give a new or empty folder, or the folder of "
+                               "an earlier start of this study to resume it");
     write_file_atomically(copy, study.text);
   }
   make_directory(dir_ + "/manifest");
   if (study.keep_every > 0) make_directory(dir_ + "/runs");
   read_manifest();
+}
+
+void StudyFolder::add_row(long run, std::string_view row, std::string_view status) {
+  const auto r = static_cast<size_t>(run);
+  // Grown to the highest run done (runs are done about in order), not to the study's count.
+  if (done_.size() <= r) done_.resize(r + 1);
+  done_[r] = true;
+  index_.emplace_back(run, rows_.size());
+  rows_.append(row);
+  rows_ += '\n';
+  if (status != "ok") ++failures_[status_kind(std::string(status))];
 }
 
 void StudyFolder::read_manifest() {
@@ -891,17 +1024,22 @@ void StudyFolder::read_manifest() {
         const std::string& status = (*f)[fields - 2];
         if (status == "ok" && study_->keeps_trajectory(run) && !fs::exists(trajectory_path(run)))
           continue;
-        if (rows_.emplace(run, lines[i]).second && status != "ok")
-          kinds_[run] = status_kind(status);
+        if (!is_done(run)) add_row(run, lines[i], status);
       }
     }
   }
 }
 
+long StudyFolder::next_missing(long from) const {
+  from = std::max(from, 0L);
+  const auto known = static_cast<long>(done_.size());
+  while (from < known && done_[static_cast<size_t>(from)]) ++from;
+  return std::min(from, total());
+}
+
 std::vector<long> StudyFolder::missing() const {
   std::vector<long> m;
-  for (long i = 0; i < study_->runs; ++i)
-    if (!rows_.count(i)) m.push_back(i);
+  for (long i = next_missing(0); i < total(); i = next_missing(i + 1)) m.push_back(i);
   return m;
 }
 
@@ -912,20 +1050,30 @@ std::string StudyFolder::trajectory_path(long run) const {
   return dir_ + "/runs/run_" + digits + ".csv";
 }
 
+void StudyFolder::write_trajectory(StudyRun& run) const {
+  if (run.interrupted || run.trajectory.empty() || is_done(run.run)) return;
+  if (run.run < 0 || run.run >= study_->runs)
+    throw std::out_of_range("run " + std::to_string(run.run));
+  if (study_->keeps_trajectory(run.run))
+    write_file_atomically(trajectory_path(run.run), run.trajectory);
+  std::string().swap(run.trajectory);
+}
+
 void StudyFolder::record(const std::vector<StudyRun>& runs) {
   std::string part =
       kManifestLine + hex(study_->fingerprint) + "\n" + join_columns(study_->columns()) + "\n";
   std::vector<const StudyRun*> fresh;
+  std::unordered_set<long> taken;
   for (const StudyRun& r : runs) {
-    if (r.interrupted || rows_.count(r.run) ||
-        std::any_of(fresh.begin(), fresh.end(), [&](const StudyRun* f) { return f->run == r.run; }))
-      continue;
+    if (r.interrupted || is_done(r.run) || taken.count(r.run)) continue;
     if (r.run < 0 || r.run >= study_->runs) throw std::out_of_range("run " + std::to_string(r.run));
+    taken.insert(r.run);
     fresh.push_back(&r);
   }
   if (fresh.empty()) return;
   // The trajectories first: a row in the manifest says its trajectory is whole. When one
-  // cannot be written (a full disk), the runs before it are still recorded.
+  // cannot be written (a full disk), the runs before it are still recorded. (A trajectory
+  // written by write_trajectory() is no longer in its run.)
   size_t written = 0;
   std::exception_ptr error;
   for (; written < fresh.size(); ++written) {
@@ -947,77 +1095,162 @@ void StudyFolder::record(const std::vector<StudyRun>& runs) {
     std::snprintf(name, sizeof name, "/part_%06ld.csv", next_part_);
     write_file_atomically(dir_ + "/manifest" + name, part);
     ++next_part_;
-    for (size_t i = 0; i < written; ++i) {
-      rows_.emplace(fresh[i]->run, fresh[i]->row);
-      if (fresh[i]->status != "ok") kinds_[fresh[i]->run] = status_kind(fresh[i]->status);
-    }
+    for (size_t i = 0; i < written; ++i) add_row(fresh[i]->run, fresh[i]->row, fresh[i]->status);
   }
   if (error) std::rethrow_exception(error);
 }
 
-void StudyFolder::write_results() const {
+void StudyFolder::write_results() {
   if (done() != total()) throw std::logic_error("write_results: runs are missing");
-  std::string text = join_columns(study_->columns()) + "\n";
-  for (const auto& [run, row] : rows_) {
-    text += row;
-    text += '\n';
+  // Written a piece at a time from the rows kept, not from a copy of them all; by the rules of
+  // write_file_atomically (checked, written to results.csv.partial, renamed when whole).
+  std::sort(index_.begin(), index_.end());
+  const std::string path = results_path(), partial = path + ".partial";
+  check_output_path(path);
+  const int fd = create_partial_file(partial);
+  const auto fail = [&](int err) {
+    ::close(fd);
+    ::unlink(partial.c_str());
+    throw std::runtime_error("cannot write '" + printable(partial) + "': " + std::strerror(err) +
+                             "; nothing written to '" + printable(path) + "'");
+  };
+  std::string piece = join_columns(study_->columns()) + "\n";
+  for (const auto& [run, at] : index_) {
+    piece.append(rows_, at, rows_.find('\n', at) + 1 - at);
+    if (piece.size() >= (std::size_t{1} << 20)) {
+      if (!write_all(fd, piece)) fail(errno);
+      piece.clear();
+    }
   }
-  write_file_atomically(results_path(), text);
+  if (!write_all(fd, piece)) fail(errno);
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(partial.c_str());
+    throw std::runtime_error("cannot write '" + printable(partial) + "': " + std::strerror(err) +
+                             "; nothing written to '" + printable(path) + "'");
+  }
+  try {
+    check_output_path(path);
+  } catch (...) {
+    ::unlink(partial.c_str());
+    throw;
+  }
+  if (std::rename(partial.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(partial.c_str());
+    throw std::runtime_error("cannot rename '" + printable(partial) + "' to '" + printable(path) +
+                             "': " + std::strerror(err));
+  }
 }
 
-std::map<std::string, long> StudyFolder::failures() const {
-  std::map<std::string, long> by_kind;
-  for (const auto& [run, kind] : kinds_) ++by_kind[kind];
-  return by_kind;
-}
+std::map<std::string, long> StudyFolder::failures() const { return failures_; }
 
 // ---- Running on threads ----------------------------------------------------------------------
 
 namespace {
 
-/// Threads that run a list of runs, each taking the next one, and hand the results to the
-/// thread that made the pool (collect()). stop() ends the runs in flight within a step.
+/// Threads that run the runs handed to them (feed()), each taking the next one, and hand the
+/// finished runs to the thread that made the pool (collect()) through a queue of bounded size:
+/// a thread with a finished run waits while the queue is full, so a writer slower than the runs
+/// slows them instead of filling the memory. stop() ends the runs in flight within a step.
 class RunPool {
  public:
-  RunPool(const Study& study, std::vector<long> todo, int threads)
-      : study_(study), todo_(std::move(todo)) {
-    const int n = std::max(1, std::min<int>(threads, static_cast<int>(todo_.size())));
-    for (int i = 0; i < n && !todo_.empty(); ++i) pool_.emplace_back([this] { work(); });
+  /// The queue holds at most `queue_runs` runs, `queue_trajectories` of them with a
+  /// trajectory, and `queue_bytes` bytes of rows and trajectories (but always one run).
+  struct Limits {
+    size_t queue_runs, queue_trajectories, queue_bytes;
+  };
+
+  RunPool(const Study& study, int threads, Limits limits) : study_(study), limits_(limits) {
+    // A thread that cannot start: those started end at once (stopping_), are joined, and the
+    // error goes to the caller.
+    threads_ = start_threads(
+        threads, [this](int) { work(); }, [this] { halt(); });
   }
   ~RunPool() { stop(); }
   RunPool(const RunPool&) = delete;
   RunPool& operator=(const RunPool&) = delete;
 
-  /// Waits up to `wait` for results and moves those finished into `out`; true once every run
-  /// has come back (or the pool has stopped). Rethrows a worker's exception.
-  bool collect(std::chrono::milliseconds wait, std::vector<StudyRun>& out) {
-    std::unique_lock lock(mutex_);
-    finished_.wait_for(lock, wait);
-    if (error_) std::rethrow_exception(error_);
-    received_ += ready_.size();
-    for (StudyRun& r : ready_) out.push_back(std::move(r));
-    ready_.clear();
-    return received_ == todo_.size();
+  int threads() const { return threads_.size(); }
+
+  /// Adds runs to do; `last`: no more will come (the threads end when these are done).
+  void feed(const std::vector<long>& runs, bool last) {
+    {
+      const std::lock_guard lock(mutex_);
+      todo_.insert(todo_.end(), runs.begin(), runs.end());
+      fed_all_ = last;
+    }
+    has_work_.notify_all();
   }
-  /// Stops the runs, waits for the threads, and moves what they finished into `out`.
+  /// The runs fed and not yet taken by a thread.
+  size_t waiting() {
+    const std::lock_guard lock(mutex_);
+    return todo_.size();
+  }
+
+  /// Waits up to `wait` for a finished run, and moves those finished into `out`. Rethrows a
+  /// thread's exception.
+  void collect(std::chrono::milliseconds wait, std::vector<StudyRun>& out) {
+    {
+      std::unique_lock lock(mutex_);
+      finished_.wait_for(lock, wait, [this] { return !ready_.empty() || error_; });
+      if (error_) std::rethrow_exception(error_);
+      for (StudyRun& r : ready_) out.push_back(std::move(r));
+      ready_.clear();
+      ready_bytes_ = ready_trajectories_ = 0;
+    }
+    has_room_.notify_all();
+  }
+  /// Tells the threads to stop, without waiting: the runs in flight end within a step,
+  /// interrupted, and no other begins.
+  void halt() {
+    {
+      const std::lock_guard lock(mutex_);
+      stopping_ = true;
+      stop_runs_.store(true, std::memory_order_relaxed);
+    }
+    has_work_.notify_all();
+    has_room_.notify_all();
+  }
+  /// halt(), then waits for the threads, and moves what they finished into `out`.
   void stop(std::vector<StudyRun>* out = nullptr) {
-    stopping_ = true;
-    for (std::thread& t : pool_) t.join();
-    pool_.clear();
+    halt();
+    threads_.join();
     if (out)
       for (StudyRun& r : ready_) out->push_back(std::move(r));
     ready_.clear();
   }
 
  private:
+  /// Whether the queue takes `r` now (under mutex_).
+  bool room_for(const StudyRun& r) const {
+    if (ready_.empty()) return true;
+    return ready_.size() < limits_.queue_runs &&
+           ready_bytes_ + r.row.size() + r.trajectory.size() <= limits_.queue_bytes &&
+           (r.trajectory.empty() || ready_trajectories_ < limits_.queue_trajectories);
+  }
+
   void work() {
-    const std::function<bool()> stop = [this] { return stopping_.load(std::memory_order_relaxed); };
+    const std::function<bool()> stop = [this] {
+      return stop_runs_.load(std::memory_order_relaxed);
+    };
     try {
-      while (!stopping_) {
-        const size_t i = next_.fetch_add(1);
-        if (i >= todo_.size()) return;
-        StudyRun r = run_study_run(study_, todo_[i], stop);
-        const std::lock_guard lock(mutex_);
+      for (;;) {
+        long run = 0;
+        {
+          std::unique_lock lock(mutex_);
+          has_work_.wait(lock, [this] { return stopping_ || !todo_.empty() || fed_all_; });
+          if (stopping_ || todo_.empty()) return;
+          run = todo_.front();
+          todo_.pop_front();
+        }
+        StudyRun r = run_study_run(study_, run, stop);
+        std::unique_lock lock(mutex_);
+        // A stop lets a finished run in whatever the queue holds: it is recorded, and there
+        // are at most as many as threads.
+        has_room_.wait(lock, [&] { return stopping_ || room_for(r); });
+        ready_bytes_ += r.row.size() + r.trajectory.size();
+        ready_trajectories_ += r.trajectory.empty() ? 0 : 1;
         ready_.push_back(std::move(r));
         finished_.notify_one();
       }
@@ -1025,30 +1258,35 @@ class RunPool {
       const std::lock_guard lock(mutex_);
       if (!error_) error_ = std::current_exception();
       stopping_ = true;
+      stop_runs_.store(true, std::memory_order_relaxed);
       finished_.notify_one();
     }
   }
 
   const Study& study_;
-  const std::vector<long> todo_;
-  std::atomic<size_t> next_{0};
-  std::atomic<bool> stopping_{false};
+  const Limits limits_;
   std::mutex mutex_;
-  std::condition_variable finished_;
-  std::vector<StudyRun> ready_;  // guarded by mutex_
-  size_t received_ = 0;
-  std::exception_ptr error_;  // guarded by mutex_
-  std::vector<std::thread> pool_;
+  std::condition_variable has_work_, has_room_, finished_;
+  // Guarded by mutex_.
+  std::deque<long> todo_;
+  bool fed_all_ = false;
+  bool stopping_ = false;
+  std::vector<StudyRun> ready_;
+  size_t ready_bytes_ = 0, ready_trajectories_ = 0;
+  std::exception_ptr error_;
+  std::atomic<bool> stop_runs_{false};  // stopping_, polled at every step of a run
+  ThreadGroup threads_;
 };
 
 }  // namespace
 
 SweepResult sweep(const Study& study, StudyFolder& folder, const SweepOptions& options) {
   using Clock = std::chrono::steady_clock;
-  const int threads =
-      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  const long to_run = folder.total() - folder.done();
+  const int threads = static_cast<int>(std::min<long>(
+      options.threads > 0 ? options.threads : hardware_threads(), std::max(1L, to_run)));
   SweepResult result;
-  std::vector<StudyRun> pending;
+  std::vector<StudyRun> pending;  // finished runs, their trajectories written: rows to record
   auto last_flush = Clock::now();
   const auto flush = [&] {
     std::vector<StudyRun> batch;
@@ -1057,30 +1295,80 @@ SweepResult sweep(const Study& study, StudyFolder& folder, const SweepOptions& o
     for (const StudyRun& r : batch) result.ran += r.interrupted ? 0 : 1;
     last_flush = Clock::now();
   };
-  RunPool pool(study, folder.missing(), threads);
-  try {
-    bool all_back = folder.done() == folder.total();
-    while (!all_back) {
-      all_back = pool.collect(std::chrono::milliseconds(100), pending);
-      if (options.stop && options.stop()) {
-        pool.stop(&pending);  // the runs in flight end within a step, interrupted
-        break;
-      }
-      if (std::chrono::duration<double>(Clock::now() - last_flush).count() >= options.flush_seconds)
-        flush();
-      if (options.progress)
-        options.progress(folder.done() + static_cast<long>(pending.size()),
-                         result.ran + static_cast<long>(pending.size()));
-    }
-  } catch (...) {
-    // A worker's error, a write error, or the caller's callbacks: keep what finished if the
-    // disk lets us, and report the error.
-    pool.stop(&pending);
+  auto last_poll = Clock::now();
+  // Progress and the stop, about ten times a second; true: stop.
+  const auto poll = [&] {
+    if (Clock::now() - last_poll < std::chrono::milliseconds(100)) return false;
+    last_poll = Clock::now();
+    if (options.progress)
+      options.progress(folder.done() + static_cast<long>(pending.size()),
+                       result.ran + static_cast<long>(pending.size()));
+    return options.stop && options.stop();
+  };
+  if (to_run > 0) {
+    // Finished runs wait in the queue, their trajectories with them: a few per thread (the
+    // writer takes a few ms for each), and no more than 64 MiB. Rows alone are small: a
+    // second's worth of the quickest runs.
+    const RunPool::Limits limits{16384, 4 * static_cast<size_t>(threads) + 4, size_t{64} << 20};
+    RunPool pool(study, threads, limits);
+    result.threads = pool.threads();
+    // The missing runs are handed over a few thousand at a time: nothing is held per run of
+    // the study. Runs handed over are past `cursor`, so none is handed twice.
+    long cursor = folder.next_missing(0);
+    const auto feed = [&] {
+      std::vector<long> runs;
+      for (; cursor < folder.total() && runs.size() < 4096;
+           cursor = folder.next_missing(cursor + 1))
+        runs.push_back(cursor);
+      pool.feed(runs, cursor >= folder.total());
+    };
+    feed();
+    // A finished run: its trajectory written now, its row kept for the next manifest part.
+    const auto take = [&](StudyRun& r) {
+      if (r.interrupted) return;
+      folder.write_trajectory(r);
+      pending.push_back(std::move(r));
+    };
+    const auto flush_due = [&] {
+      return !pending.empty() && std::chrono::duration<double>(Clock::now() - last_flush).count() >=
+                                     options.flush_seconds;
+    };
+    std::vector<StudyRun> got;
+    long received = 0;
+    bool stopping = false;
     try {
-      flush();
+      while (received < to_run && !stopping) {
+        if (cursor < folder.total() && pool.waiting() < 1024) feed();
+        pool.collect(std::chrono::milliseconds(100), got);
+        received += static_cast<long>(got.size());
+        for (StudyRun& r : got) {
+          take(r);
+          if (flush_due()) flush();
+          // A stop asked while trajectories are written is seen between two of them; the
+          // few finished runs still in hand are written all the same.
+          if (!stopping && poll()) {
+            stopping = true;
+            pool.halt();
+          }
+        }
+        got.clear();
+        if (flush_due()) flush();
+        if (!stopping && poll()) stopping = true;
+      }
+      if (stopping) {
+        pool.stop(&got);  // the runs in flight end within a step, interrupted
+        for (StudyRun& r : got) take(r);
+      }
     } catch (...) {
+      // A thread's error, a write error, or the caller's callbacks: keep what finished if the
+      // disk lets us, and report the error.
+      pool.stop();
+      try {
+        flush();
+      } catch (...) {
+      }
+      throw;
     }
-    throw;
   }
   flush();
   if (options.progress) options.progress(folder.done(), result.ran);

@@ -9,6 +9,8 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "kanedyn/io/model_file.hpp"
@@ -60,7 +62,7 @@ struct Study {
   std::vector<StudyOutput> outputs;
   long keep_every = 0;   ///< trajectories: 0 none, 1 all, N every N-th run (runs 0, N, 2N...)
   long grid_points = 1;  ///< the product of the grids' sizes
-  long runs = 1;         ///< grid_points * runs_per_point
+  long runs = 1;         ///< grid_points * runs_per_point, at most kMaxStudyRuns
   std::uint64_t fingerprint = 0;  ///< of the study's and the model's texts
 
   /// The header of results.csv: run, each varied key, each output's name, status, wall_s.
@@ -73,6 +75,10 @@ struct Study {
   /// `simulate:` section overrides key by key).
   SimulationSettings settings(const ModelFile& file) const;
 };
+
+/// The most runs a study may have (`runs` times the grids' sizes): its folder holds the row of
+/// every run done in memory, and results.csv is written from there (docs/studies.md, "Limits").
+inline constexpr long kMaxStudyRuns = 10'000'000L;
 
 /// Reads and checks a study file; throws StudyFileError (the study's own refusals) or
 /// ModelFileError (its model file's).
@@ -111,24 +117,36 @@ std::string status_kind(const std::string& status);
 class StudyFolder {
  public:
   /// Opens `dir` for `study`, creating it (its parent must exist) or finding there the runs of
-  /// an earlier start of the same study, which count as done. Throws std::runtime_error naming
-  /// the file and the problem: `dir` is not a folder, holds another study, or a manifest part
-  /// that cannot be read. Leftover temporary files of a stopped run are removed.
+  /// an earlier start of the same study (its study.yaml), which count as done. Throws
+  /// std::runtime_error naming the file and the problem: `dir` is not a folder, holds another
+  /// study, is not empty without holding this study (the first file in the way is named), or
+  /// holds a manifest part that cannot be read. Leftover temporary files of a stopped run are
+  /// removed.
   StudyFolder(const Study& study, std::string dir);
 
   const std::string& dir() const { return dir_; }
   long total() const { return study_->runs; }
-  long done() const { return static_cast<long>(rows_.size()); }
-  bool is_done(long run) const { return rows_.count(run) > 0; }
+  long done() const { return static_cast<long>(index_.size()); }
+  bool is_done(long run) const {
+    return run >= 0 && static_cast<std::size_t>(run) < done_.size() &&
+           done_[static_cast<std::size_t>(run)];
+  }
+  /// The first run from `from` on that is not done; total() when there is none. A walk over
+  /// the runs not done that holds nothing per run.
+  long next_missing(long from) const;
   std::vector<long> missing() const;  ///< the runs not done, in order
 
-  /// Records finished runs: their kept trajectories (runs/run_NNNNNN.csv; none for a run
-  /// refused before it began), then one manifest part
-  /// with their rows. Runs already done are skipped. Throws std::runtime_error naming the file
-  /// when a write fails (a full disk): what was recorded before stays.
+  /// Writes a finished run's kept trajectory (runs/run_NNNNNN.csv) now and frees it from `run`;
+  /// record() then writes only its row. Nothing for an interrupted run, a run done, or one
+  /// without a trajectory. Throws std::runtime_error naming the file when the write fails.
+  void write_trajectory(StudyRun& run) const;
+  /// Records finished runs: their kept trajectories not yet written (runs/run_NNNNNN.csv; none
+  /// for a run refused before it began), then one manifest part with their rows. Runs already
+  /// done are skipped. Throws std::runtime_error naming the file when a write fails (a full
+  /// disk): what was recorded before stays.
   void record(const std::vector<StudyRun>& runs);
   /// Writes results.csv, the rows in run order; throws std::logic_error unless every run is done.
-  void write_results() const;
+  void write_results();
 
   std::string results_path() const { return dir_ + "/results.csv"; }
   std::string trajectory_path(long run) const;
@@ -137,18 +155,26 @@ class StudyFolder {
 
  private:
   void read_manifest();
+  /// Counts `row` (of manifest part lines, or of a run just recorded) as run `run`'s.
+  void add_row(long run, std::string_view row, std::string_view status);
   const Study* study_;
   std::string dir_;
-  std::map<long, std::string> rows_;   ///< run -> its row
-  std::map<long, std::string> kinds_;  ///< failed run -> its status kind
+  // The rows of the runs done, by the bytes of their rows and no more: their text one after
+  // the other (each with its '\n'), where each begins, and one bit per run of the study.
+  std::vector<bool> done_;
+  std::string rows_;
+  std::vector<std::pair<long, std::size_t>> index_;  ///< (run, offset in rows_), as recorded
+  std::map<std::string, long> failures_;             ///< failed runs by status kind
   long next_part_ = 1;
 };
 
 /// How sweep() runs.
 struct SweepOptions {
-  int threads = 0;  ///< 0: std::thread::hardware_concurrency()
-  /// Polled by the calling thread about ten times a second; true stops the sweep: the runs
-  /// being simulated end (within a step), and every finished run is recorded.
+  /// 0: hardware_threads() (kanedyn/threads.hpp); more than that are capped at it.
+  int threads = 0;
+  /// Polled by the calling thread about ten times a second, between the writes of kept
+  /// trajectories too; true stops the sweep: the runs being simulated end (within a step), and
+  /// every finished run is recorded.
   std::function<bool()> stop;
   /// Called by the calling thread about ten times a second and at the end: runs done (of
   /// folder.total()), and the runs done by this call so far.
@@ -159,11 +185,15 @@ struct SweepOptions {
 struct SweepResult {
   long ran = 0;          ///< runs done by this call
   bool stopped = false;  ///< stopped before every run was done
+  int threads = 0;       ///< the threads the runs ran on
 };
 
 /// Runs the study's missing runs on `threads` threads, recording them in the folder as they
-/// finish; writes results.csv when every run is done. Throws what folder.record() throws (the
-/// runs recorded before stay).
+/// finish; writes results.csv when every run is done. The threads hand finished runs to the
+/// calling thread, which writes them, through a queue of bounded size: when writing trajectories
+/// is slower than running, the threads wait for it, and the memory stays bounded. Throws what
+/// folder.record() and write_trajectory() throw (the runs recorded before stay), and
+/// ThreadStartError (kanedyn/threads.hpp) when a thread cannot be started (nothing ran).
 SweepResult sweep(const Study& study, StudyFolder& folder, const SweepOptions& options);
 
 }  // namespace kanedyn::io
