@@ -146,11 +146,19 @@ void ConstraintEquations::Impl::compute_rows() {
         const Vector3 d = p1.p - p2.p, vrel = p1.v - p2.v, arel = p1.a0 - p2.a0;
         directions.angular_count = 0;
         if (c.type == ConstraintType::distance) {
-          const double length = d.norm();
-          if (!(length > 1e-12 * std::max(1.0, c.length)))
-            throw ConstraintError(where() +
-                                  ": its two points coincide, so the direction "
-                                  "between them is undefined");
+          double length = d.norm();
+          if (!std::isfinite(length)) length = d.stableNorm();  // past 1e154 the squares overflow
+          if (!(length > 1e-12 * std::max(1.0, c.length))) {
+            std::ostringstream m;
+            m.precision(3);
+            m << where() << ": its two points are " << length << " apart";
+            if (length == 0.0)
+              m << " (they coincide)";
+            else
+              m << ", too close beside its length " << c.length;
+            m << ", so the direction between them is undefined";
+            throw ConstraintError(m.str());
+          }
           const Vector3 e = d / length;
           directions.linear[0] = e;
           directions.linear_count = 1;
@@ -324,7 +332,27 @@ namespace {
 // independent equation would need a conditioning of 1e9 to be taken for a redundant one.
 constexpr double kRankThreshold = 1e-9;
 
+[[noreturn]] void throw_independent_count(size_t given, int rank, int n) {
+  std::ostringstream m;
+  m << "independent_speeds: " << given << " speeds given, but the " << rank
+    << " independent constraint equations leave " << n - rank << " speeds free";
+  throw ConstraintError(m.str());
+}
+
 }  // namespace
+
+void check_independent_count(const Model& model, const MatrixX& B) {
+  const size_t given = model.independent_speeds().size();
+  if (given == 0) return;
+  int rank = 0;
+  if (B.rows() > 0) {
+    Eigen::ColPivHouseholderQR<MatrixX> qr(B.transpose());
+    qr.setThreshold(kRankThreshold);
+    rank = static_cast<int>(qr.rank());
+  }
+  const int n = static_cast<int>(B.cols());
+  if (static_cast<int>(given) != n - rank) throw_independent_count(given, rank, n);
+}
 
 SpeedPartition partition_speeds(const Model& model, const MatrixX& B) {
   const int c = static_cast<int>(B.rows()), n = static_cast<int>(B.cols());
@@ -353,12 +381,8 @@ SpeedPartition partition_speeds(const Model& model, const MatrixX& B) {
     for (int i = 0; i < p.rank; ++i) dependent[at(cols_qr.colsPermutation().indices()[i])] = 1;
   }
   for (int i = 0; i < n; ++i) (dependent[at(i)] ? p.dependent : p.independent).push_back(i);
-  if (static_cast<int>(p.dependent.size()) != p.rank) {
-    std::ostringstream m;
-    m << "independent_speeds: " << p.independent.size() << " speeds given, but the " << p.rank
-      << " independent constraint equations leave " << n - p.rank << " speeds free";
-    throw ConstraintError(m.str());
-  }
+  if (static_cast<int>(p.dependent.size()) != p.rank)
+    throw_independent_count(p.independent.size(), p.rank, n);
   if (p.rank > 0) {
     MatrixX BD(p.rank, p.rank);
     for (int j = 0; j < p.rank; ++j) BD.col(j) = Br.col(p.dependent[at(j)]);
@@ -412,18 +436,12 @@ Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX
   eq.evaluate(q, z);
   for (int i = 0; i < eq.rows(); ++i)
     if (eq.holonomic(i)) hol.push_back(i);
-  const auto holonomic_error = [&](int* worst) {
-    double e = 0.0;
-    for (const int i : hol) {
-      if (std::abs(eq.errors()[i]) >= e) {
-        e = std::abs(eq.errors()[i]);
-        if (worst) *worst = i;
-      }
-    }
-    return e;
-  };
-  out.error_before = holonomic_error(nullptr);
+  for (const int i : hol) out.error_before = std::max(out.error_before, std::abs(eq.errors()[i]));
   const VectorX q0 = q;
+  // The count of the given independent speeds is checked before any step: with too many the
+  // dependent coordinates could not remove the errors (none at all when every speed is
+  // named), and the projection would fail for a reason that is not the state's.
+  if (!model.independent_speeds().empty()) check_independent_count(model, eq.B());
   if (!hol.empty()) {
     // The dependent coordinates: pivot columns of the holonomic rows (d phi/dx = those rows of
     // [B] at x = 0, as the tangent rates are the speeds).
@@ -444,18 +462,42 @@ Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX
       for (int i = 0; i < qr.rank(); ++i) cols.push_back(qr.colsPermutation().indices()[i]);
     }
     const int rank = static_cast<int>(cols.size());
+    // Round-off in an error is about machine epsilon times the size of the coordinates
+    // times the row's sensitivity to them (a joint angle of -8194 rad has a spacing of
+    // 1.8e-12 rad): no step can remove that much, so a row's tolerance is never below it.
+    const double q_scale = 1.0 + q.cwiseAbs().maxCoeff();
+    VectorX floor(static_cast<Eigen::Index>(hol.size()));
+    const auto error_floor = [&] {
+      for (size_t r = 0; r < hol.size(); ++r)
+        floor[static_cast<Eigen::Index>(r)] =
+            std::max(tolerance, 16.0 * std::numeric_limits<double>::epsilon() * q_scale *
+                                    eq.B().row(hol[r]).cwiseAbs().sum());
+    };
+    error_floor();
+    const auto worst_excess = [&](int* worst) {
+      double excess = 0.0, error = 0.0;
+      for (size_t r = 0; r < hol.size(); ++r) {
+        const double e = std::abs(eq.errors()[hol[r]]);
+        const double x = e / floor[static_cast<Eigen::Index>(r)];
+        if (x >= excess) {
+          excess = x;
+          error = e;
+          *worst = hol[r];
+        }
+      }
+      return std::pair{excess, error};
+    };
     VectorX phi(static_cast<Eigen::Index>(hol.size()));
     double previous = std::numeric_limits<double>::infinity();
     for (;;) {
       int worst = 0;
-      const double e = holonomic_error(&worst);
-      if (e <= tolerance) break;
-      if (out.iterations >= 50 || !(e < 1e6 * std::max(1.0, previous))) {
+      const auto [excess, e] = worst_excess(&worst);
+      if (excess <= 1.0) break;
+      if (rank == 0 || out.iterations >= 50 || !(e < 1e6 * std::max(1.0, previous))) {
         std::ostringstream m;
         m << "constraint '" << model.constraints()[at(eq.constraint_of_row(worst))].name
           << "': the projection onto the constraints did not converge (error " << e << " after "
-          << out.iterations << " Gauss-Newton steps); is the initial state near "
-          << "an assembly of the mechanism?";
+          << out.iterations << " Gauss-Newton steps)";
         throw ConstraintError(m.str());
       }
       previous = e;
@@ -471,6 +513,7 @@ Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX
       q = retract(model, q, dx);
       ++out.iterations;
       eq.evaluate(q, z);
+      error_floor();
     }
     out.coordinate_change = tangent_difference(model, q0, q).cwiseAbs().maxCoeff();
   }
@@ -552,6 +595,15 @@ struct ConstrainedDynamics::Impl {
   SpeedPartition partition;
   bool partitioned = false;
   int rank = 0;
+  // Redundant rows: whether [B] has been found (or met) to have fewer independent rows than
+  // rows, and the rank-revealing decomposition of [B]^T the multipliers then come from.
+  bool rows_checked = false;
+  bool redundant = false;
+  Eigen::CompleteOrthogonalDecomposition<MatrixX> rows_cod;
+  MatrixX Yr, Br_t;
+  VectorX rhs_r, lambda_r;
+
+  void redundant_multipliers(const MatrixX& Bt, Eigen::Ref<VectorX> zdot);
 
   void multipliers(const VectorX& q, const VectorX& z, const VectorX& u, Eigen::Ref<VectorX> zdot);
   void projected(const VectorX& q, const VectorX& z, const VectorX& u, Eigen::Ref<VectorX> zdot);
@@ -565,6 +617,19 @@ void ConstrainedDynamics::Impl::multipliers(const VectorX& q, const VectorX& z, 
   // [B]^T: each row of [B] a contiguous column for the products below.
   const MatrixX& Bt = equations.B_transpose();
   const Eigen::Index c = Bt.cols();
+  // Redundant rows are usually the mechanism's (a planar hinge's three), found at the first
+  // evaluation, before a c x c system is formed; rows that become dependent later (a singular
+  // pose) are found by the Cholesky factorization below failing. Either way, from then on.
+  if (!rows_checked) {
+    rows_checked = true;
+    rows_cod.setThreshold(kRankThreshold);
+    rows_cod.compute(Bt);
+    redundant = rows_cod.rank() < c;
+  }
+  if (redundant) {
+    redundant_multipliers(Bt, zdot);
+    return;
+  }
   // S = [B] M^-1 [B]^T (its lower triangle, all the Cholesky factorization reads) from the
   // articulated-body factorization the evaluation left: the inward pass over the c columns of
   // [B]^T, O(N c^2), no mass matrix and no outward pass.
@@ -574,8 +639,8 @@ void ConstrainedDynamics::Impl::multipliers(const VectorX& q, const VectorX& z, 
   rhs.resize(c);
   for (Eigen::Index i = 0; i < c; ++i) rhs[i] = -equations.b()[i] - Bt.col(i).dot(zdot);
   // Independent rows (the usual case): S is positive definite and its Cholesky factor gives
-  // lambda; redundant rows make it singular, and the complete orthogonal decomposition gives
-  // the minimum-norm lambda.
+  // lambda. Redundant rows make it singular: redundant_multipliers() then works on the
+  // independent rows alone.
   const double largest = c > 0 ? std::sqrt(S.diagonal().maxCoeff()) : 0.0;
   factor = S;
   if (c > 0 && cholesky_in_place(factor, reciprocals, 1e-6 * largest)) {
@@ -583,15 +648,50 @@ void ConstrainedDynamics::Impl::multipliers(const VectorX& q, const VectorX& z, 
     cholesky_solve_in_place(factor, reciprocals, lambda);
     rank = static_cast<int>(c);
   } else {
-    for (Eigen::Index i = 0; i < c; ++i)
-      for (Eigen::Index j = i + 1; j < c; ++j) S(i, j) = S(j, i);
-    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
-    cod.setThreshold(kRankThreshold);
-    lambda = cod.solve(rhs);
-    rank = static_cast<int>(cod.rank());
+    redundant = true;
+    redundant_multipliers(Bt, zdot);
+    return;
   }
   // z dot += M^-1 [B]^T lambda: one more solve, of one column.
   correction.noalias() = Bt * lambda;
+  tree.solve_mass(correction);
+  zdot += correction.col(0);
+}
+
+// With redundant rows the cost follows the rank r, not the row count c: a complete orthogonal
+// decomposition of [B]^T (n x c, O(n c r)) picks r independent rows; their r x r system
+// [B_r] M^-1 [B_r]^T lambda_r = -(b_r + [B_r] z dot_tree) gives the motion (any solution of
+// the whole system gives the same [B]^T lambda), and the minimum-norm multipliers over all c
+// rows are the minimum-norm solution of [B]^T lambda = [B_r]^T lambda_r, from the same
+// decomposition. A mechanism with a thousand copies of one hinge costs about what one does.
+void ConstrainedDynamics::Impl::redundant_multipliers(const MatrixX& Bt, Eigen::Ref<VectorX> zdot) {
+  rows_cod.setThreshold(kRankThreshold);
+  rows_cod.compute(Bt);
+  const Eigen::Index r = rows_cod.rank();
+  Yr.resize(Bt.rows(), r);
+  rhs_r.resize(r);
+  for (Eigen::Index j = 0; j < r; ++j) {
+    const Eigen::Index row = rows_cod.colsPermutation().indices()[j];
+    Yr.col(j) = Bt.col(row);
+    rhs_r[j] = -equations.b()[row] - Bt.col(row).dot(zdot);
+  }
+  Br_t = Yr;
+  tree.inverse_mass_gram(Yr, S);
+  const double largest = r > 0 ? std::sqrt(S.diagonal().maxCoeff()) : 0.0;
+  factor = S;
+  lambda_r = rhs_r;
+  if (r > 0 && cholesky_in_place(factor, reciprocals, 1e-9 * largest)) {
+    cholesky_solve_in_place(factor, reciprocals, lambda_r);
+  } else if (r > 0) {
+    for (Eigen::Index i = 0; i < r; ++i)
+      for (Eigen::Index j = i + 1; j < r; ++j) S(i, j) = S(j, i);
+    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
+    cod.setThreshold(kRankThreshold);
+    lambda_r = cod.solve(rhs_r);
+  }
+  correction.noalias() = Br_t * lambda_r;
+  lambda = rows_cod.solve(correction.col(0));
+  rank = static_cast<int>(r);
   tree.solve_mass(correction);
   zdot += correction.col(0);
 }

@@ -10,6 +10,8 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
+#include <string>
+#include <string_view>
 
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/energy.hpp"
@@ -289,7 +291,7 @@ class Run {
       if (!std::isfinite(stats_.energy_initial))
         fail_energy(s_.t_start, stats_.energy_initial);
       else
-        integrate();
+        integrate_naming_the_time();
     }
     final_energy();
     // A run that ends with a finite state but a non-finite energy (the potential of a huge
@@ -303,6 +305,17 @@ class Run {
   }
 
  private:
+  /// integrate(), a constraint's failure in an evaluation (its rows undefined at a state the
+  /// run reached) naming the time after which it happened; a projection's names its own.
+  void integrate_naming_the_time() {
+    try {
+      integrate();
+    } catch (const ConstraintError& e) {
+      if (std::string_view(e.what()).starts_with("at t = ")) throw;
+      throw ConstraintError("after t = " + format_time(stats_.t_reached) + ": " + e.what());
+    }
+  }
+
   /// The total energy at the notes' state of q (with the joint springs' potentials of q).
   double energy_of(const State& state, const VectorX& q) {
     compute_kinematics(model_, state, data_);
@@ -436,7 +449,14 @@ class Run {
     }
   }
 
-  double project(VectorX& v) { return dynamics_.project(v, s_.project_euler_parameters); }
+  /// Projects the state of time t; a projection that fails names that time.
+  double project(VectorX& v, double t) {
+    try {
+      return dynamics_.project(v, s_.project_euler_parameters);
+    } catch (const ConstraintError& e) {
+      throw ConstraintError("at t = " + format_time(t) + ": " + e.what());
+    }
+  }
   /// Output time i: t_start + i dt_out, snapped to t_end at the end.
   double output_time(long i) const {
     const double t = s_.t_start + static_cast<double>(i) * s_.dt_out;
@@ -457,7 +477,11 @@ class Run {
         // Dense output between steps lies off the constraints by the interpolation's error:
         // the output is the state projected onto them, as the steps are.
         if (!projector_) projector_.emplace(model_);
-        project_onto_constraints(*projector_, q_, z_state_);
+        try {
+          project_onto_constraints(*projector_, q_, z_state_);
+        } catch (const ConstraintError& e) {
+          throw ConstraintError("at t = " + format_time(t) + ": " + e.what());
+        }
         joint_state(model_, q_, z_state_, out_state_);
       }
       if (sample || (observer_ && s_.observer_kinematics))
@@ -572,7 +596,7 @@ class Run {
             z_ = z_prev_;  // the last good state, for the final energy
             return;
           }
-          step_done(t_new, project(z_));
+          step_done(t_new, project(z_, t_new));
           t = t_new;
           if (!keep_going(t) && !(outputs_done() || (t == s_.t_end))) {
             interrupted(t);
@@ -643,7 +667,7 @@ class Run {
       const double t = dp.time();
       // On failure z_ keeps the last good state, for the final energy.
       if (!check_state(dp.state(), t_old, t)) return;
-      step_done(t, project(dp.mutable_state()));
+      step_done(t, project(dp.mutable_state(), t));
       std::memcpy(z_.data(), dp.state().data(), sizeof(double) * static_cast<size_t>(size_));
       const auto dense = [&](double t_out, VectorX& z) { dp.dense_output(t_out, z); };
       if (t == end && t < s_.t_end) {

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "kanedyn/constraints.hpp"
 #include "kanedyn/dynamics.hpp"
 #include "kanedyn/integrate.hpp"
 #include "kanedyn/joints.hpp"
@@ -124,6 +125,14 @@ void Simulator::step(Eigen::Ref<const VectorX> u, double dt) {
   s.v_prev = s.v;
   s.unpacked = false;
   const bool project = settings_.project_euler_parameters;
+  // A projection that fails names the time it failed at.
+  const auto project_at = [&](VectorX& v, double t) {
+    try {
+      return s.dynamics.project(v, project);
+    } catch (const ConstraintError& e) {
+      throw ConstraintError("at t = " + format_time(t) + ": " + e.what());
+    }
+  };
   if (s.rk4) {
     const long before = s.rk4->evaluations();
     s.rk4->step(t_, dt, s.v);
@@ -132,7 +141,7 @@ void Simulator::step(Eigen::Ref<const VectorX> u, double dt) {
       fail("diverged", i, t_, t_end,
            std::isfinite(s.v[i]) ? " exceeds 1e150 (the first such component in state order)"
                                  : " is not finite (the first such component in state order)");
-    max_euler_drift_ = std::max(max_euler_drift_, s.dynamics.project(s.v, project));
+    max_euler_drift_ = std::max(max_euler_drift_, project_at(s.v, t_end));
     ++steps_;
     t_ = t_end;
     return;
@@ -163,7 +172,7 @@ void Simulator::step(Eigen::Ref<const VectorX> u, double dt) {
     if (const int i = first_diverged(dp.state()); i >= 0)
       fail("diverged", i, t_old, dp.time(),
            std::isfinite(dp.state()[i]) ? " exceeds 1e150" : " is not finite");
-    max_euler_drift_ = std::max(max_euler_drift_, s.dynamics.project(dp.mutable_state(), project));
+    max_euler_drift_ = std::max(max_euler_drift_, project_at(dp.mutable_state(), dp.time()));
     ++steps_;
     // A long interval is many steps: the caller may stop it between them (on a signal), and
     // then nothing of it is kept.

@@ -237,6 +237,23 @@ TEST(ModelFileConstraints, IndependentSpeedsOfTheWrongCountAreRefusedAtTheKey) {
                   "independent_speeds",
                   {"2 speeds given, but the 5 independent constraint equations leave 1 speeds "
                    "free"}});
+  // Every speed of the four-bar, and two of its three: refused at the key, before the
+  // projection (which once crashed on the first, and blamed the initial state on the second).
+  const std::string four_bar = test::slurp(KANEDYN_SOURCE_DIR "/examples/four_bar.yaml");
+  expect_refused({"every speed",
+                  edit(four_bar, "independent_speeds: [crank.jd1]",
+                       "independent_speeds: [crank.jd1, coupler.jd1, rocker.jd1]"),
+                  "independent_speeds: ^[crank.jd1",
+                  "independent_speeds",
+                  {"3 speeds given, but the 2 independent constraint equations leave 1 speeds "
+                   "free"}});
+  expect_refused({"two of three",
+                  edit(four_bar, "independent_speeds: [crank.jd1]",
+                       "independent_speeds: [crank.jd1, rocker.jd1]"),
+                  "independent_speeds: ^[crank.jd1",
+                  "independent_speeds",
+                  {"2 speeds given, but the 2 independent constraint equations leave 1 speeds "
+                   "free"}});
 }
 
 TEST(ModelFileConstraints, IndependentSpeedsThatLeaveTheOthersUndeterminedAreRefused) {

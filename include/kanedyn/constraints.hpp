@@ -107,6 +107,10 @@ struct SpeedPartition {
 /// speeds leave the dependent ones undetermined, naming them.
 SpeedPartition partition_speeds(const Model& model, const MatrixX& B);
 
+/// Throws ConstraintError when the model names independent speeds and their count is not n
+/// minus the rank of [B] (what partition_speeds checks first, without choosing a partition).
+void check_independent_count(const Model& model, const MatrixX& B);
+
 /// [C_I] of a partition of [B] (n x (n - rank)): the identity on the independent speeds and
 /// -[B_D]^-1 [B_I] on the dependent ones, over the partition's independent rows, so that
 /// z = [C_I] z_I satisfies [B] z = 0. Throws ConstraintError when [B_D] is singular at this
@@ -123,8 +127,12 @@ struct Projection {
 
 /// Projects (q, z) onto the constraints: the holonomic errors to below `tolerance` by
 /// Gauss-Newton steps on the dependent coordinates only (the minimum-norm step in them), then
-/// the speeds by least squares (the smallest change with [B]{z} = 0). Throws ConstraintError
-/// naming the constraint with the largest error when 50 steps do not converge.
+/// the speeds by least squares (the smallest change with [B]{z} = 0). A row's tolerance is
+/// never below the round-off of its error at the size of q (16 eps (1 + max|q|) times the sum
+/// of the row's |B| entries), so long runs whose angles grow stay projectable. Throws
+/// ConstraintError when the given independent speeds' count does not fit [B]
+/// (check_independent_count), and naming the constraint with the largest error when 50 steps
+/// do not converge.
 Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z,
                                     double tolerance = 1e-12);
 /// The same with the equations' workspace of the caller (their model's constraints), which a
