@@ -27,6 +27,7 @@
 #include "kanedyn/joint.hpp"
 #include "kanedyn/simulate.hpp"
 #include "options.hpp"
+#include "stop_signals.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -48,53 +49,6 @@ struct Options {
               *route_opt = nullptr, *method_opt = nullptr, *rtol_opt = nullptr, *atol_opt = nullptr,
               *step_opt = nullptr;
 };
-
-// ---------------------------------------------------------------------------------------------
-// Signals: the handler only sets a flag; the integration loop polls it after every step.
-
-volatile std::sig_atomic_t g_signal = 0;
-
-extern "C" void on_signal(int sig) {
-  if (g_signal != 0) {  // a second Ctrl-C: stop at once
-    std::signal(sig, SIG_DFL);
-    std::raise(sig);
-    return;
-  }
-  g_signal = sig;
-}
-
-/// Installs the handlers for SIGINT and SIGTERM for its lifetime, and ignores SIGXFSZ: past a
-/// file size limit (ulimit -f) write() then fails with EFBIG, which the writer reports like a
-/// full disk, instead of the signal killing the process with a row half written.
-class SignalGuard {
- public:
-  SignalGuard() {
-    g_signal = 0;
-    struct sigaction action {};
-    action.sa_handler = on_signal;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, &old_int_);
-    sigaction(SIGTERM, &action, &old_term_);
-    struct sigaction ignore {};
-    ignore.sa_handler = SIG_IGN;
-    sigemptyset(&ignore.sa_mask);
-    sigaction(SIGXFSZ, &ignore, &old_xfsz_);
-  }
-  ~SignalGuard() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-    sigaction(SIGXFSZ, &old_xfsz_, nullptr);
-  }
-  SignalGuard(const SignalGuard&) = delete;
-  SignalGuard& operator=(const SignalGuard&) = delete;
-
- private:
-  struct sigaction old_int_ {};
-  struct sigaction old_term_ {};
-  struct sigaction old_xfsz_ {};
-};
-
-const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : "SIGTERM"; }
 
 using Clock = std::chrono::steady_clock;
 double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
@@ -397,7 +351,7 @@ int run(const Options& o) {
   }
 
   // The handlers first: from the moment OUT.partial exists, a signal leaves it whole.
-  SignalGuard signals;
+  StopSignals signals;
   // Rows are formatted and written on a thread of their own (their kinematics and energy
   // too): the integrating thread only copies each output state (docs/performance.md). The
   // file is created with the first row, once the initial state has passed simulate()'s
@@ -413,7 +367,7 @@ int run(const Options& o) {
   settings.on_step = [&](double t) {
     if (progress.update(t) && writer) writer->flush();
     watch.step(t);
-    return g_signal == 0;
+    return StopSignals::received() == 0;
   };
   const Observer observer = [&](double t, const State& state, const VectorX& q, const VectorX& z,
                                 Data& data) {
@@ -457,7 +411,7 @@ int run(const Options& o) {
                 writer ? io::printable(writer->partial_path()) : std::string("none"),
                 writer ? writer->rows() : rows, columns);
   if (stats.status == SimulationStatus::interrupted) {
-    const int sig = g_signal;
+    const int sig = StopSignals::received();
     std::fprintf(stderr, "kanedyn: %s: %s; %s\n", signal_name(sig), stats.message.c_str(),
                  kept(true, stats.t_reached).c_str());
     return 128 + sig;
