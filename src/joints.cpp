@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "kanedyn/direction.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/kane.hpp"
 #include "kanedyn/rotation.hpp"
@@ -75,12 +76,13 @@ bool speeds_are_coordinate_rates(JointType type) {
 std::string check_joint(const Joint& joint) {
   if (std::abs(joint.frame.norm() - 1.0) > kUnitNormTolerance)
     return "the joint frame's Euler parameters must have unit norm";
-  if (has_axis(joint.type) && !(joint.axis.norm() > 0.0))
-    return std::string("the axis of a ") + to_string(joint.type) + " joint must not be zero";
+  if (has_axis(joint.type) && !scaled_direction(joint.axis))
+    return std::string("the axis of a ") + to_string(joint.type) +
+           " joint must be finite and not zero";
   if (joint.type == JointType::universal) {
-    if (!(joint.axes[0].norm() > 0.0) || !(joint.axes[1].norm() > 0.0))
-      return "the axes of a universal joint must not be zero";
-    const double c = joint.axes[0].normalized().dot(joint.axes[1].normalized());
+    const auto a1 = unit_direction(joint.axes[0]), a2 = unit_direction(joint.axes[1]);
+    if (!a1 || !a2) return "the axes of a universal joint must be finite and not zero";
+    const double c = a1->dot(*a2);
     if (!(std::abs(c) <= kPerpendicularTolerance))
       return "the axes of a universal joint must be perpendicular (|a1 . a2| <= 1e-9)";
   }

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "kanedyn/direction.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/rotation.hpp"
 
@@ -25,8 +26,14 @@ bool all_finite(const auto& m) { return m.allFinite(); }
   throw ModelError(where + ": " + what);
 }
 
+/// A name as messages show it: cut after 80 bytes, so that a long name cannot make a long
+/// message.
+std::string shown(const std::string& name) {
+  return name.size() <= 80 ? name : name.substr(0, 77) + "...";
+}
+
 std::string body_label(int k, const std::string& name) {
-  return "body " + std::to_string(k + 1) + " '" + name + "'";
+  return "body " + std::to_string(k + 1) + " '" + shown(name) + "'";
 }
 
 }  // namespace
@@ -76,7 +83,7 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
     const BodySpec& b = bodies_[static_cast<size_t>(k)];
     const std::string where = body_label(k, b.name);
     if (!valid_name(b.name)) fail(where, "name must be non-empty and use only [A-Za-z0-9_-]");
-    if (!names.insert(b.name).second) fail(where, "duplicate body name '" + b.name + "'");
+    if (!names.insert(b.name).second) fail(where, "duplicate body name '" + shown(b.name) + "'");
     if (b.lower_body != kGround && (b.lower_body < 0 || b.lower_body >= k))
       fail(where, "parent must be 'ground' or an earlier body (L(K) < K), got index " +
                       std::to_string(b.lower_body + 1));
@@ -134,9 +141,10 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
   std::unordered_set<std::string> frame_names;
   for (size_t i = 0; i < frames_.size(); ++i) {
     Frame& f = frames_[i];
-    const std::string where = "frame " + std::to_string(i + 1) + " '" + f.name + "'";
+    const std::string where = "frame " + std::to_string(i + 1) + " '" + shown(f.name) + "'";
     if (!valid_name(f.name)) fail(where, "name must be non-empty and use only [A-Za-z0-9_-]");
-    if (!frame_names.insert(f.name).second) fail(where, "duplicate frame name '" + f.name + "'");
+    if (!frame_names.insert(f.name).second)
+      fail(where, "duplicate frame name '" + shown(f.name) + "'");
     if (names.count(f.name))
       fail(where, "a body has this name too; a frame needs a name of its own");
     if (f.body != kGround && (f.body < 0 || f.body >= n))
@@ -154,15 +162,16 @@ void Model::set_up_constraints() {
   const int n = num_bodies();
   std::unordered_set<std::string> names;
   const auto unit = [](Vector3& v) {
-    if (!all_finite(v) || !(v.norm() > 0.0)) return false;
-    v.normalize();
-    return true;
+    const std::optional<Vector3> u = unit_direction(v);
+    if (u) v = *u;
+    return u.has_value();
   };
   for (size_t i = 0; i < constraints_.size(); ++i) {
     Constraint& c = constraints_[i];
-    const std::string where = "constraint " + std::to_string(i + 1) + " '" + c.name + "'";
+    const std::string where = "constraint " + std::to_string(i + 1) + " '" + shown(c.name) + "'";
     if (!valid_name(c.name)) fail(where, "name must be non-empty and use only [A-Za-z0-9_-]");
-    if (!names.insert(c.name).second) fail(where, "duplicate constraint name '" + c.name + "'");
+    if (!names.insert(c.name).second)
+      fail(where, "duplicate constraint name '" + shown(c.name) + "'");
     if (c.body < 0 || c.body >= n)
       fail(where, "body index " + std::to_string(c.body) + " out of range");
     if (!all_finite(c.at)) fail(where, "at has a non-finite component");
@@ -241,9 +250,12 @@ void Model::set_up_inputs() {
   std::unordered_set<std::string> input_names;
   for (size_t i = 0; i < inputs_.size(); ++i) {
     Input& in = inputs_[i];
-    const std::string where = "input " + std::to_string(i + 1) + " '" + in.name + "'";
+    const std::string where = "input " + std::to_string(i + 1) + " '" + shown(in.name) + "'";
     if (!valid_name(in.name)) fail(where, "name must be non-empty and use only [A-Za-z0-9_-]");
-    if (!input_names.insert(in.name).second) fail(where, "duplicate input name '" + in.name + "'");
+    if (in.name == "t")
+      fail(where, "name 't' is the time column of inputs tables, so no table could drive it");
+    if (!input_names.insert(in.name).second)
+      fail(where, "duplicate input name '" + shown(in.name) + "'");
     if (in.body < 0 || in.body >= n)
       fail(where, "body index " + std::to_string(in.body) + " out of range");
     const Joint& jt = joint(in.body);
@@ -251,8 +263,8 @@ void Model::set_up_inputs() {
       case InputType::joint: {
         const int speeds = speed_count(jt.type);
         if (speeds == 0)
-          fail(where, "speed: body '" + body(in.body).name + "' has a " + to_string(jt.type) +
-                          " joint, which has no speeds to drive");
+          fail(where, "speed: body '" + shown(body(in.body).name) + "' has a " +
+                          to_string(jt.type) + " joint, which has no speeds to drive");
         if (in.speed < 0 || in.speed >= speeds)
           fail(where, "speed: " + std::to_string(in.speed + 1) + " is out of range; body '" +
                           body(in.body).name + "' has " + std::to_string(speeds) + " speed" +
@@ -263,14 +275,18 @@ void Model::set_up_inputs() {
       case InputType::force:
         if (!all_finite(in.direction) || !all_finite(in.point))
           fail(where, "direction and point must be finite");
-        if (in.direction.norm() == 0.0) fail(where, "direction: a zero vector has no direction");
-        in.direction.normalize();
+        if (const auto u = unit_direction(in.direction))
+          in.direction = *u;
+        else
+          fail(where, "direction: a zero vector has no direction");
         body_inputs_ = true;
         break;
       case InputType::torque:
         if (!all_finite(in.axis)) fail(where, "axis must be finite");
-        if (in.axis.norm() == 0.0) fail(where, "axis: a zero vector has no direction");
-        in.axis.normalize();
+        if (const auto u = unit_direction(in.axis))
+          in.axis = *u;
+        else
+          fail(where, "axis: a zero vector has no direction");
         body_inputs_ = true;
         break;
     }
@@ -305,8 +321,10 @@ void Model::set_up_joints() {
     const std::string problem = check_joint(jt);
     if (!problem.empty()) fail(body_label(k, body(k).name), problem);
     jt.frame.normalize();
-    jt.axis.normalize();
-    for (Vector3& a : jt.axes) a.normalize();
+    // Scaled before the norm: an axis of 1e200 or 1e-200 is a direction (check_joint).
+    if (const auto u = unit_direction(jt.axis)) jt.axis = *u;
+    for (Vector3& a : jt.axes)
+      if (const auto u = unit_direction(a)) a = *u;
     q_offset_[at(k + 1)] = q_offset_[at(k)] + coordinate_count(jt.type);
     z_offset_[at(k + 1)] = z_offset_[at(k)] + speed_count(jt.type);
     // F's axis in J components: [R(frame)] maps J to F components.

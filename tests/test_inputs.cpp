@@ -81,15 +81,21 @@ TEST(Inputs, TorqueAndForceInputsAreConstantLoads) {
     ASSERT_TRUE(random_input(m, rng, InputType::torque, in));
     in.reaction = false;
     const double value = uniform(rng, -5, 5);
+    const Model with_input = rebuilt(m, m.forces(), {in});
     auto forces = m.forces();
-    forces.push_back(std::make_shared<ConstantTorque>(in.body, value * in.axis.normalized()));
+    // The axis as the Model normalized it (kanedyn/direction.hpp), for the same bits.
+    forces.push_back(
+        std::make_shared<ConstantTorque>(in.body, value * with_input.inputs()[0].axis));
     VectorX q, z;
     random_joint_state(m, rng, q, z);
-    EXPECT_EQ(zdot_of(rebuilt(m, m.forces(), {in}), q, z, VectorX::Constant(1, value)),
+    EXPECT_EQ(zdot_of(with_input, q, z, VectorX::Constant(1, value)),
               zdot_of(rebuilt(m, forces, {}), q, z, VectorX()));
   }
   // A force input at the mass centre is, at one state, the constant force R_K^T (u d) at G_K:
-  // the same vector added to the same body's resultant, and a zero moment.
+  // the same vector added to the same body's resultant, and a zero moment. To round-off (1e-12
+  // of the largest acceleration), not to the bit: the force element's R_K^T is the staged
+  // kinematics' and is added before the other elements' loads, the input's is the evaluation's
+  // own and is added after them.
   for (int trial = 0; trial < 20; ++trial) {
     const Model m = random_jointed(rng, true);
     Input in;
@@ -108,8 +114,9 @@ TEST(Inputs, TorqueAndForceInputsAreConstantLoads) {
     auto forces = m.forces();
     forces.push_back(std::make_shared<ConstantForce>(
         in.body, data.kinematics.R[static_cast<size_t>(in.body)].transpose() * (value * d)));
-    EXPECT_EQ(zdot_of(with_input, q, z, VectorX::Constant(1, value)),
-              zdot_of(rebuilt(m, forces, {}), q, z, VectorX()));
+    const VectorX a = zdot_of(with_input, q, z, VectorX::Constant(1, value));
+    const VectorX b = zdot_of(rebuilt(m, forces, {}), q, z, VectorX());
+    EXPECT_LE((a - b).cwiseAbs().maxCoeff(), 1e-12 * std::max(1.0, b.cwiseAbs().maxCoeff()));
   }
   // The free body of the all-free eight-body model. A model with inputs runs the staged O(N)
   // route, one with built-in elements only the fused pass: the two agree to round-off (1e-12
@@ -327,6 +334,47 @@ TEST(Inputs, ModelFileSection) {
       "cart}\n",
       "duplicate input name");
   refuses("inputs:\n  - {name: a, type: joint, body: nobody}\n", "nobody");
+  // Tables name their time column t: an input of that name could never be driven.
+  refuses("inputs:\n  - {name: t, type: joint, body: pole}\n", "time column");
+  EXPECT_THROW(Model(m.bodies(), m.gravity(), m.forces(), "", joints_of(m), {},
+                     {Input{"t", InputType::joint, 0, 0}}),
+               ModelError);
+}
+
+// A direction's size does not matter, however large or small (kanedyn/direction.hpp): an
+// input's direction or axis of 1e200 or 1e-200 is the unit one, as a joint's axis is. Its norm
+// taken first once overflowed to infinity and applied no load, or underflowed to 0 and was
+// refused as a zero vector.
+TEST(Inputs, DirectionsOfAnySizeAreScaledBeforeTheirNorm) {
+  const io::ModelFile unit = io::parse_model_file(kCart, "cart.yaml");
+  const VectorX u = (VectorX(3) << 0.5, 2.0, -1.5).finished();
+  const VectorX expected = zdot_of(unit.model, unit.q, unit.z, u);
+  for (const char* scale : {"1e200", "1e-200", "1.7e308"}) {
+    std::string text = kCart;
+    const std::string s = scale;
+    text.replace(text.find("direction: [2, 0, 0]"), 20, "direction: [" + s + ", 0, 0]");
+    text.replace(text.find("axis: [0, 1, 0], reaction"), 25, "axis: [0, " + s + ", 0], reaction");
+    const io::ModelFile f = io::parse_model_file(text, "cart.yaml");
+    EXPECT_EQ(f.model.inputs()[1].direction, Vector3::UnitX()) << scale;
+    EXPECT_EQ(f.model.inputs()[2].axis, Vector3::UnitY()) << scale;
+    EXPECT_EQ(zdot_of(f.model, f.q, f.z, u), expected) << scale;
+  }
+  // The Model itself, built in C++, follows the same rule.
+  const Model& m = unit.model;
+  std::vector<Joint> joints = joints_of(m);
+  Input force = m.inputs()[1];
+  force.direction = Vector3(1e300, 0, 0);
+  Input torque = m.inputs()[2];
+  torque.axis = Vector3(0, 1e-300, 0);
+  const Model scaled(m.bodies(), m.gravity(), m.forces(), "", joints, {},
+                     {m.inputs()[0], force, torque});
+  EXPECT_EQ(scaled.inputs()[1].direction, Vector3::UnitX());
+  EXPECT_EQ(scaled.inputs()[2].axis, Vector3::UnitY());
+  joints[0].axis = Vector3(1e300, 0, 0);
+  joints[1].axis = Vector3(0, 1e-300, 0);
+  const Model axes(m.bodies(), m.gravity(), m.forces(), "", joints, {}, m.inputs());
+  EXPECT_EQ(axes.joint(0).axis, Vector3::UnitX());
+  EXPECT_EQ(axes.joint(1).axis, Vector3::UnitY());
 }
 
 TEST(Inputs, TableHoldsAndInterpolates) {

@@ -353,11 +353,11 @@ TEST(Joints, ValidationNamesEachProblem) {
   Joint j;
   j.type = JointType::revolute;
   j.axis = Vector3::Zero();
-  EXPECT_EQ(check_joint(j), "the axis of a revolute joint must not be zero");
+  EXPECT_EQ(check_joint(j), "the axis of a revolute joint must be finite and not zero");
   j.type = JointType::prismatic;
-  EXPECT_EQ(check_joint(j), "the axis of a prismatic joint must not be zero");
+  EXPECT_EQ(check_joint(j), "the axis of a prismatic joint must be finite and not zero");
   j.type = JointType::cylindrical;
-  EXPECT_EQ(check_joint(j), "the axis of a cylindrical joint must not be zero");
+  EXPECT_EQ(check_joint(j), "the axis of a cylindrical joint must be finite and not zero");
   j.type = JointType::spherical;  // no axis to check
   EXPECT_EQ(check_joint(j), "");
 
@@ -369,7 +369,7 @@ TEST(Joints, ValidationNamesEachProblem) {
   u.axes = {Vector3(3, 0, 0), Vector3(0.5e-9, 2, 0)};  // cos 2.5e-10: accepted, normalized
   EXPECT_EQ(check_joint(u), "");
   u.axes[1] = Vector3::Zero();
-  EXPECT_EQ(check_joint(u), "the axes of a universal joint must not be zero");
+  EXPECT_EQ(check_joint(u), "the axes of a universal joint must be finite and not zero");
 
   Joint f;
   f.frame = Vector4(0, 0, 0, 1.00001);
@@ -425,7 +425,8 @@ TEST(Joints, TreeRefusesBadJointsNamingTheBody) {
     (void)with_joints(model, {Joint{}, bad});
     ADD_FAILURE() << "accepted";
   } catch (const ModelError& e) {
-    EXPECT_EQ(std::string(e.what()), "body 2 'b2': the axis of a revolute joint must not be zero");
+    EXPECT_EQ(std::string(e.what()),
+              "body 2 'b2': the axis of a revolute joint must be finite and not zero");
   }
   EXPECT_THROW((void)with_joints(model, {Joint{}}), ModelError);
 }

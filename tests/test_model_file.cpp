@@ -800,6 +800,47 @@ TEST(ModelFile, MessagesCarryNoControlCharactersFromTheFile) {
   EXPECT_NE(e.problem().find("syntax error"), std::string::npos) << e.what();
 }
 
+// Names are quoted cut short: a body named by a megabyte makes a short message, whether the
+// loader or the Model refuses it, and a byte order mark or a bidirectional control inside a
+// quoted value is shown escaped, not as an invisible character.
+TEST(ModelFile, LongNamesAndInvisibleCharactersMakeShortVisibleMessages) {
+  const std::string huge(1 << 20, 'n');
+  for (const std::string& text :
+       {edit(kBase, "name: pelvis", "name: " + huge),
+        edit(kBase, "parent: pelvis", "parent: " + huge),
+        edit(kBase, "body: thigh", "body: " + huge),
+        edit(edit(kBase, "name: pelvis", "name: " + huge), "name: thigh", "name: " + huge)}) {
+    const ModelFileError e = error_of(text);
+    expect_clean(e.what());
+  }
+  for (const std::string value : {"\"\ufeffbushing\"", "\"bush\u202eing\"", "\"a\u200bb\""}) {
+    SCOPED_TRACE(value);
+    const ModelFileError e = error_of(edit(kBase, "type: bushing", "type: " + value));
+    expect_clean(e.what());
+    const std::string what = e.what();
+    EXPECT_TRUE(what.find("\\ufeff") != std::string::npos ||
+                what.find("\\u202e") != std::string::npos ||
+                what.find("\\u200b") != std::string::npos)
+        << what;
+  }
+}
+
+// A number too small for a double underflows however it is written: with an exponent, or as
+// 400 zeros after the point (once reported as overflowing).
+TEST(ModelFile, NumbersOutOfRangeSayWhichWay) {
+  for (const std::string& tiny : {std::string("1e-400"), "0." + std::string(400, '0') + "1",
+                                  "-0.000" + std::string(400, '0') + "5e2"}) {
+    const ModelFileError e = error_of(edit(kBase, "stiffness: 100", "stiffness: " + tiny));
+    EXPECT_NE(e.problem().find("is too small for a double (it underflows)"), std::string::npos)
+        << e.what();
+  }
+  for (const std::string& huge : {std::string("1e400"), "1" + std::string(400, '0'),
+                                  std::string("0.001e312"), std::string("-0.01e311")}) {
+    const ModelFileError e = error_of(edit(kBase, "stiffness: 100", "stiffness: " + huge));
+    EXPECT_NE(e.problem().find("overflows a double"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ModelFile, NestingIsCappedWithoutRecursion) {
   for (const int depth : {65, 499, 200000}) {
     SCOPED_TRACE(depth);

@@ -238,6 +238,9 @@ bool LineReader::next(std::string& line, std::size_t max_length) {
         throw std::runtime_error("a line is longer than " + std::to_string(max_length) + " bytes");
       line.assign(buffer_, begin_, end - begin_);
       if (!line.empty() && line.back() == '\r') line.pop_back();
+      // A byte order mark before the first line (spreadsheets write one) is no part of it.
+      if (first_line_ && line.starts_with("\xEF\xBB\xBF")) line.erase(0, 3);
+      first_line_ = false;
       begin_ = newline == std::string::npos ? buffer_.size() : newline + 1;
       return true;
     }

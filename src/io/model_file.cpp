@@ -31,9 +31,9 @@
 #include <unordered_map>
 #include <vector>
 
-#include "direction.hpp"
 #include "kanedyn/constraint.hpp"
 #include "kanedyn/constraints.hpp"
+#include "kanedyn/direction.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
@@ -99,11 +99,16 @@ constexpr size_t kHashedMapping = 16;
 /// User text for a message: escaped (io::printable), at most 60 bytes of it.
 std::string printable(std::string_view s, size_t max = 60) { return io::printable(s, max); }
 
-std::string quote(std::string_view s) { return "'" + printable(s) + "'"; }
+std::string quote(std::string_view s) { return "'" + printable(s, 200) + "'"; }
 
+/// The words, comma-separated, each cut after 60 bytes and the list after about 400: names come
+/// from the file, and a message stays one short line however long they are.
 std::string join(const std::vector<std::string>& words) {
   std::string s;
-  for (const auto& w : words) s += (s.empty() ? "" : ", ") + w;
+  for (const auto& w : words) {
+    if (s.size() > 400) return s + ", ...";
+    s += (s.empty() ? "" : ", ") + printable(w, 60);
+  }
   return s;
 }
 
@@ -477,18 +482,11 @@ class Reader {
     if (is_yaml_inf_or_nan(s))
       fail(f, "non-finite number " + quote(s) + "; numbers must be finite");
     if (!is_decimal(s)) fail(f, "expected a number, got " + quote(s));
-    // from_chars: locale-independent, unlike strtod. It takes no leading '+'.
-    const char* first = s.data() + (s[0] == '+' ? 1 : 0);
     double value = 0.0;
-    const auto [end, error] = std::from_chars(first, s.data() + s.size(), value);
-    if (error == std::errc::result_out_of_range) {
-      const size_t e = s.find_first_of("eE");
-      if (e != std::string_view::npos && s[e + 1] == '-')
-        fail(f, quote(s) + " is too small for a double (it underflows)");
-      fail(f, "non-finite number: " + quote(s) + " overflows a double");
-    }
-    if (error != std::errc() || end != s.data() + s.size() || !std::isfinite(value))
-      fail(f, "expected a number, got " + quote(s));
+    const std::string problem = read_decimal(s, value);
+    if (problem.starts_with("is too small")) fail(f, quote(s) + " " + problem);
+    if (problem.starts_with("overflows")) fail(f, "non-finite number: " + quote(s) + " " + problem);
+    if (!problem.empty()) fail(f, "expected a number, got " + quote(s));
     return value;
   }
 
@@ -860,8 +858,9 @@ Vector4 read_rotation(const Reader& r, const Field& f) {
   const Mapping m = r.mapping(f);
   m.allow({"axis", "angle", "angle_deg"});
   const Field axis_field = m.require("axis");
-  // Any non-zero axis is a direction, however large or small its components (direction.hpp).
-  const std::optional<Vector3> axis = detail::scaled_direction(r.vector3(axis_field));
+  // Any non-zero axis is a direction, however large or small its components
+  // (kanedyn/direction.hpp).
+  const std::optional<Vector3> axis = scaled_direction(r.vector3(axis_field));
   if (!axis) r.fail(axis_field, "the rotation axis must not be zero");
   const auto angle = m.get("angle");
   const auto angle_deg = m.get("angle_deg");
@@ -909,7 +908,7 @@ JointType joint_type_of(std::string_view name) {
 /// A direction: three numbers, not all zero, scaled by the largest (so that its norm neither
 /// overflows nor underflows); `what` names it in the message.
 Vector3 read_direction(const Reader& r, const Field& f, const std::string& what) {
-  const std::optional<Vector3> v = detail::scaled_direction(r.vector3(f));
+  const std::optional<Vector3> v = scaled_direction(r.vector3(f));
   if (!v) r.fail(f, what + " must not be zero");
   return *v;
 }
@@ -1331,6 +1330,10 @@ std::vector<Input> read_inputs(const Reader& r, const Field& f, const BodiesSect
     if (!valid_body_name(name))
       r.fail(name_field,
              "input name " + quote(name) + " must be non-empty and use only [A-Za-z0-9_-]");
+    if (name == "t")
+      r.fail(name_field,
+             "input name 't' is the time column of inputs tables, so no table could drive it; "
+             "choose another name");
     for (size_t j = 0; j < inputs.size(); ++j)
       if (inputs[j].name == name)
         r.fail(name_field, "duplicate input name " + quote(name) + " (already used by " +
@@ -1367,14 +1370,14 @@ std::vector<Input> read_inputs(const Reader& r, const Field& f, const BodiesSect
       in.type = InputType::force;
       const Field d = m.require("direction");
       in.direction = r.vector3(d);
-      if (in.direction.norm() == 0.0) r.fail(d, "direction: a zero vector has no direction");
+      if (!scaled_direction(in.direction)) r.fail(d, "direction: a zero vector has no direction");
       in.point = body.com;  // the mass centre unless given
       if (const auto v = m.get("point")) in.point = r.vector3(*v);
     } else {
       in.type = InputType::torque;
       const Field a = m.require("axis");
       in.axis = r.vector3(a);
-      if (in.axis.norm() == 0.0) r.fail(a, "axis: a zero vector has no direction");
+      if (!scaled_direction(in.axis)) r.fail(a, "axis: a zero vector has no direction");
       if (const auto v = m.get("reaction")) {
         const std::string b = r.choice(*v, {"true", "false"}, "value for reaction");
         in.reaction = b == "true";
@@ -1684,9 +1687,10 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
           const std::string prefix = "constraint '" + m.constraints()[i].name + "': ";
           if (what.starts_with(prefix)) {
             const Field& item = constraint_items[i];
-            r.fail(
-                item.mark, item.path.str(),
-                printable("at the initial state: " + std::string(what.substr(prefix.size())), 400));
+            std::string reason = "at the initial state: " + std::string(what.substr(prefix.size()));
+            if (reason.find("did not converge") != std::string::npos)
+              reason += "; is the initial state near an assembly of the mechanism?";
+            r.fail(item.mark, item.path.str(), printable(reason, 400));
           }
         }
         r.fail(kNoPos, "", printable(what, 400));
@@ -2024,6 +2028,10 @@ std::unique_ptr<YamlText> read_yaml(std::string text, const std::string& source_
     Reader r(source_name);
     r.tree_of(text, true);
     doc->tree = r.take_tree();
+    // The tree's text may be the reader's own copy (JSON after leading tabs): copied out
+    // while the reader lives.
+    doc->text = std::string(doc->tree.text);
+    doc->tree.text = doc->text;
   } catch (const ModelFileError& e) {
     // The reader speaks of model files; say which kind of file this is.
     std::string problem = e.problem();
@@ -2031,8 +2039,6 @@ std::unique_ptr<YamlText> read_yaml(std::string text, const std::string& source_
       problem.replace(at, 12, kind), at += kind.size();
     throw ModelFileError(e.file(), e.line(), e.column(), e.key_path(), problem);
   }
-  doc->text = std::string(doc->tree.text);
-  doc->tree.text = doc->text;
   return doc;
 }
 

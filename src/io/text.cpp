@@ -1,8 +1,25 @@
 #include "kanedyn/io/text.hpp"
 
 #include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
 
 namespace kanedyn::io {
+
+namespace {
+
+/// Code points that move no cursor and show nothing, or turn the text's direction: a byte
+/// order mark, zero-width spaces and joiners, the line and paragraph separators, and the
+/// bidirectional embeddings, overrides and isolates. Shown escaped, a message cannot hide
+/// them (a BOM before a key) or reorder what follows.
+bool invisible(unsigned cp) {
+  return cp == 0xfeff || (cp >= 0x200b && cp <= 0x200f) || cp == 0x2028 || cp == 0x2029 ||
+         (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2064) ||
+         (cp >= 0x2066 && cp <= 0x2069);
+}
+
+}  // namespace
 
 std::string printable(std::string_view s, std::size_t max_chars) {
   const std::size_t max = max_chars == 0 ? s.size() : max_chars;
@@ -31,8 +48,12 @@ std::string printable(std::string_view s, std::size_t max_chars) {
       out += std::string("\\x") + hex[c >> 4] + hex[c & 15];
     } else if (c == 0xc2 && byte(i + 1) <= 0x9f) {  // U+0080..U+009F
       out += std::string("\\u00") + hex[byte(i + 1) >> 4] + hex[byte(i + 1) & 15];
-    } else if (c == 0xe2 && byte(i + 1) == 0x80 && (byte(i + 2) == 0xa8 || byte(i + 2) == 0xa9)) {
-      out += byte(i + 2) == 0xa8 ? "\\u2028" : "\\u2029";
+    } else if (const unsigned cp = width == 3 ? ((c & 0x0fu) << 12) | ((byte(i + 1) & 0x3fu) << 6) |
+                                                    (byte(i + 2) & 0x3fu)
+                                              : 0u;
+               invisible(cp)) {
+      out += std::string("\\u") + hex[cp >> 12] + hex[(cp >> 8) & 15] + hex[(cp >> 4) & 15] +
+             hex[cp & 15];
     } else {
       out.append(s.data() + i, width);
     }
@@ -67,6 +88,53 @@ std::string closest_word(std::string_view word, const std::vector<std::string>& 
       best_distance = d;
     }
   return best;
+}
+
+namespace {
+
+/// The decimal exponent of the first nonzero digit of a plain decimal number (1 for 12.5,
+/// -3 for 0.00125): the value lies in [10^(e-1), 10^e). Saturates far beyond any double.
+long long decimal_magnitude(std::string_view s) {
+  std::size_t i = (!s.empty() && (s[0] == '+' || s[0] == '-')) ? 1 : 0;
+  long long before_point = 0, leading_zeros_after = 0;
+  bool point = false, nonzero = false;
+  for (; i < s.size() && (std::isdigit(static_cast<unsigned char>(s[i])) || s[i] == '.'); ++i) {
+    if (s[i] == '.') {
+      point = true;
+      continue;
+    }
+    if (s[i] != '0') nonzero = true;
+    if (!point && nonzero) ++before_point;
+    if (point && !nonzero) ++leading_zeros_after;
+  }
+  long long exponent = 0;
+  if (i < s.size() && (s[i] == 'e' || s[i] == 'E')) {
+    ++i;
+    const bool negative = i < s.size() && s[i] == '-';
+    if (i < s.size() && (s[i] == '-' || s[i] == '+')) ++i;
+    for (; i < s.size() && std::isdigit(static_cast<unsigned char>(s[i])); ++i)
+      exponent = std::min(exponent * 10 + (s[i] - '0'), 1000000000LL);
+    if (negative) exponent = -exponent;
+  }
+  return (before_point > 0 ? before_point : -leading_zeros_after) + exponent;
+}
+
+}  // namespace
+
+std::string read_decimal(std::string_view text, double& value) {
+  const char* first = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+  const char* last = text.data() + text.size();
+  const bool signed_after_plus = first != text.data() && first != last && *first == '-';
+  if (first == last || signed_after_plus ||
+      !(std::isdigit(static_cast<unsigned char>(*first)) || *first == '-' || *first == '.'))
+    return "is not a decimal number";
+  const auto [end, error] = std::from_chars(first, last, value, std::chars_format::general);
+  if (error == std::errc::result_out_of_range && end == last)
+    return decimal_magnitude(text) < 0 ? "is too small for a double (it underflows)"
+                                       : "overflows a double";
+  if (error != std::errc() || end != last || !std::isfinite(value))
+    return "is not a decimal number";
+  return "";
 }
 
 }  // namespace kanedyn::io

@@ -118,11 +118,11 @@ void parse_row(std::string_view line, int line_no, const std::vector<std::string
     throw fail(line_no, "the row has " + std::to_string(f.size()) + " fields, the header " +
                             std::to_string(width));
   for (size_t c = 0; c < width; ++c) {
-    const char* end = f[c].data() + f[c].size();
-    const auto [ptr, ec] = std::from_chars(f[c].data(), end, row[c]);
-    if (ec != std::errc() || ptr != end || !std::isfinite(row[c]))
-      throw fail(line_no, "column '" + columns[c] + "': '" + printable(f[c], 40) +
-                              "' is not a finite number");
+    const std::string problem = read_decimal(f[c], row[c]);
+    if (!problem.empty())
+      throw fail(line_no, "column '" + printable(columns[c], 60) + "': '" + printable(f[c], 40) +
+                              "' " +
+                              (problem.starts_with("is not") ? "is not a finite number" : problem));
   }
 }
 
@@ -360,12 +360,14 @@ InputTable read_input_table(const Model& model, const std::string& path, InputHo
   std::string line;
   // A header of t and every input, each name at most 256 bytes: longer lines are refused.
   const size_t max_line = 32 * static_cast<size_t>(m + 1) + 256 * static_cast<size_t>(m + 1);
+  bool any = false;
   try {
     in.emplace(path);
-    if (!in->next(line, max_line)) throw fail(0, "the file is empty; its first line is the header");
+    any = in->next(line, max_line);
   } catch (const std::runtime_error& e) {
     throw fail(0, std::string(e.what()) + " (the inputs)");
   }
+  if (!any) throw fail(0, "the file is empty; its first line is the header");
   // Column c of the file: -1 for t, else the input's index.
   std::vector<int> column;
   std::vector<std::string> header;
@@ -393,7 +395,8 @@ InputTable read_input_table(const Model& model, const std::string& path, InputHo
                  }());
     }
     if (named[static_cast<size_t>(i)])
-      throw fail(1, "column " + std::to_string(c + 1) + ": input '" + h + "' is named twice");
+      throw fail(1, "column " + std::to_string(c + 1) + ": input '" + printable(h, 60) +
+                        "' is named twice");
     named[static_cast<size_t>(i)] = true;
     column.push_back(i);
   }

@@ -21,7 +21,7 @@
 #include <unordered_set>
 #include <utility>
 
-#include "direction.hpp"
+#include "kanedyn/direction.hpp"
 #include "kanedyn/io/model_writer.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/model.hpp"
@@ -483,9 +483,9 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
         const int k = add_body(*child, &joint, to);
         bodies[k].joint_type = type;
         if (type == "revolute" || type == "prismatic") {
-          // The loader's rule (direction.hpp): any finite axis that is not all zero.
+          // The loader's rule (kanedyn/direction.hpp): any finite axis that is not all zero.
           bodies[k].axis = vec3(joint.axis);
-          if (!detail::scaled_direction(bodies[k].axis))
+          if (!scaled_direction(bodies[k].axis))
             fail(jname, "axis must be a nonzero finite vector, got " + vec(bodies[k].axis));
         }
         to = Place{k, Vec::Zero(), Quat::Identity(), to.absolute};
@@ -496,7 +496,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
           // axis: the mass properties are rewritten in F, and the link hangs in the body
           // turned back by a^-1.
           const Vec axis = vec3(joint.axis);
-          const std::optional<Vec> n = detail::scaled_direction(axis);
+          const std::optional<Vec> n = scaled_direction(axis);
           if (!n) fail(jname, "axis must be a nonzero finite vector, got " + vec(axis));
           const Quat a = Quat::FromTwoVectors(Vec::UnitZ(), n->normalized());
           if (!is_identity(a)) {

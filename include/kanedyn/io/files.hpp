@@ -58,9 +58,9 @@ class LineReader {
   LineReader(const LineReader&) = delete;
   LineReader& operator=(const LineReader&) = delete;
 
-  /// The next line without its '\n' (and without a '\r' before it); false at the end of the
-  /// file. Throws std::runtime_error when the line is longer than `max_length` bytes or the
-  /// file cannot be read.
+  /// The next line without its '\n' (and without a '\r' before it, or a UTF-8 byte order
+  /// mark before the first line); false at the end of the file. Throws std::runtime_error when the
+  /// line is longer than `max_length` bytes or the file cannot be read.
   bool next(std::string& line, std::size_t max_length);
 
  private:
@@ -68,6 +68,7 @@ class LineReader {
   std::string buffer_;
   std::size_t begin_ = 0;
   bool eof_ = false;
+  bool first_line_ = true;
 };
 
 }  // namespace kanedyn::io
