@@ -135,7 +135,7 @@ void add_bench(CLI::App& app) {
     bool json = false;
   };
   auto opt = std::make_shared<Options>();
-  cmd->add_option("MODEL", opt->path, kModelHelp)->required();
+  add_input_file(cmd, "MODEL", opt->path, kModelHelp)->required();
   cmd->add_option("--route", opt->routes, "recursive | assembled (repeatable; default: both)")
       ->check(route_names());
   cmd->add_option("--method", opt->methods)->check(route_names())->group("");

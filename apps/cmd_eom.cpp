@@ -217,7 +217,7 @@ void add_eom(CLI::App& app) {
     StateChoice state;
   };
   auto opt = std::make_shared<Options>();
-  cmd->add_option("MODEL", opt->path, kModelHelp)->required();
+  add_input_file(cmd, "MODEL", opt->path, kModelHelp)->required();
   cmd->add_flag("--json", opt->json, "print the JSON object of docs/model-format.md");
   cmd->add_flag("--full", opt->full,
                 "print [A] as a 6N x 6N table at any N (default: up to 8 bodies; beyond, its "

@@ -86,7 +86,10 @@ void run(const Options& o) {
     throw std::runtime_error(o.model +
                              ": --free: a model with constraints moves along its independent "
                              "speeds (independent_speeds); leave --free out");
-  if (!o.out.empty()) io::check_output_path(o.out, {o.model});
+  // -o - writes the model to standard output, and the report goes to standard error.
+  const bool to_stdout = o.out == "-";
+  std::FILE* const report = to_stdout ? stderr : stdout;
+  if (!o.out.empty() && !to_stdout) io::check_output_path(o.out, input_files());
   StateChoice choice;
   choice.inputs = o.inputs;
   const OperatingPoint op = operating_point(file, choice, "");
@@ -100,15 +103,16 @@ void run(const Options& o) {
   const int n = model.num_speeds();
   const int f = options.free.empty() ? n : static_cast<int>(options.free.size());
   if (model.num_constraints() > 0)
-    std::printf(
-        "static equilibrium of %s from its initial state: Newton along its independent "
-        "speeds, the constraints' reactions balancing the rest\n",
-        io::printable(file.path).c_str());
+    std::fprintf(report,
+                 "static equilibrium of %s from its initial state: Newton along its independent "
+                 "speeds, the constraints' reactions balancing the rest\n",
+                 io::printable(file.path).c_str());
   else
-    std::printf("static equilibrium of %s from its initial state: Newton on %d of %d coordinates\n",
-                io::printable(file.path).c_str(), f, n);
+    std::fprintf(
+        report, "static equilibrium of %s from its initial state: Newton on %d of %d coordinates\n",
+        io::printable(file.path).c_str(), f, n);
   const EquilibriumResult rest = equilibrium(model, op.q, op.u, options);
-  std::printf("  %s\n", rest.message.c_str());
+  std::fprintf(report, "  %s\n", rest.message.c_str());
   if (!rest.converged) {
     std::ostringstream why;
     why << "no rest pose found from the initial state: after " << rest.iterations
@@ -121,16 +125,17 @@ void run(const Options& o) {
     throw std::runtime_error(why.str());
   }
   const VectorX dx = tangent_difference(model, op.q, rest.q);
-  std::printf("  moved from the initial state by:");
+  std::fprintf(report, "  moved from the initial state by:");
   int shown = 0;
   for (int i = 0; i < n; ++i)
     if (std::abs(dx[i]) > 1e-9 && shown++ < 12)
-      std::printf(" %s %+.4g", state[static_cast<size_t>(i)].c_str(), dx[i]);
-  if (shown > 12) std::printf(" ... (%d more)", shown - 12);
-  if (shown == 0) std::printf(" nothing (it rests there)");
-  std::printf("\n");
+      std::fprintf(report, " %s %+.4g", state[static_cast<size_t>(i)].c_str(), dx[i]);
+  if (shown > 12) std::fprintf(report, " ... (%d more)", shown - 12);
+  if (shown == 0) std::fprintf(report, " nothing (it rests there)");
+  std::fprintf(report, "\n");
   if (!rest.unrestrained.empty())
-    std::printf("  neutral (no restoring force): %s\n", names_of(state, rest.unrestrained).c_str());
+    std::fprintf(report, "  neutral (no restoring force): %s\n",
+                 names_of(state, rest.unrestrained).c_str());
   int unstable = 0, marginal = 0;
   const double scale =
       rest.eigenvalues.size() ? std::max(1.0, rest.eigenvalues.cwiseAbs().maxCoeff()) : 1.0;
@@ -141,14 +146,15 @@ void run(const Options& o) {
     if (re > tol) ++unstable;
     if (std::abs(re) <= tol) ++marginal;
   }
-  std::printf("  eigenvalues there (held coordinates locked): %lld, largest real part %+.4g\n",
-              static_cast<long long>(rest.eigenvalues.size()),
-              rest.eigenvalues.size() ? rest.eigenvalues[0].real() : 0.0);
-  std::printf("  the rest pose is %s\n",
-              unstable > 0   ? "unstable (an upright balance: a push topples it)"
-              : marginal > 0 ? "neutrally stable (marginal eigenvalues: no damping, or a "
-                               "coordinate without a restoring force)"
-                             : "stable");
+  std::fprintf(report,
+               "  eigenvalues there (held coordinates locked): %lld, largest real part %+.4g\n",
+               static_cast<long long>(rest.eigenvalues.size()),
+               rest.eigenvalues.size() ? rest.eigenvalues[0].real() : 0.0);
+  std::fprintf(report, "  the rest pose is %s\n",
+               unstable > 0   ? "unstable (an upright balance: a push topples it)"
+               : marginal > 0 ? "neutrally stable (marginal eigenvalues: no damping, or a "
+                                "coordinate without a restoring force)"
+                              : "stable");
   if (o.out.empty()) return;
   std::ostringstream comment;
   comment << "The rest pose of " << file.path << ", found by kanedyn equilibrium: largest\n"
@@ -156,9 +162,13 @@ void run(const Options& o) {
           << " Newton iterations.";
   const std::string text =
       io::model_file_text(model, rest.q, VectorX::Zero(n), file.simulation, comment.str());
-  io::write_file_atomically(o.out, text, {o.model});
-  std::printf("wrote %s (the model with the rest pose as its initial state)\n",
-              io::printable(o.out).c_str());
+  if (to_stdout) {
+    io::write_to_stdout(text);
+    return;
+  }
+  io::write_file_atomically(o.out, text, input_files());
+  std::fprintf(report, "wrote %s (the model with the rest pose as its initial state)\n",
+               io::printable(o.out).c_str());
 }
 
 void add_equilibrium(CLI::App& app) {
@@ -173,17 +183,20 @@ void add_equilibrium(CLI::App& app) {
       "times the largest one at the start (at least 1). The others keep their values, held by "
       "reactions. A run that does not converge exits 1, writes nothing, and names the "
       "coordinates that nothing restrains. docs/analysis.md.");
-  cmd->add_option("MODEL", o->model, kModelHelp)->required();
+  add_input_file(cmd, "MODEL", o->model, kModelHelp)->required();
   cmd->add_option("--out,-o", o->out,
-                  "write the model file (YAML) with the rest pose as its initial state");
+                  "write the model file (YAML) with the rest pose as its initial state (- for "
+                  "standard output; the report then goes to standard error)");
   cmd->add_option("--free", o->free,
                   "the bodies (every coordinate of their joints) or coordinates (NAME.j1, "
                   "NAME.r2, NAME.s3) that move; the others are held (default: all move)")
       ->delimiter(',');
   cmd->add_option("--input", o->inputs, "NAME=VALUE: an input's value (repeatable); others 0");
   cmd->add_option("--tolerance", o->tolerance,
-                  "largest generalized force at rest, relative to the largest at the start")
-      ->check(positive_number());
+                  "largest generalized force at rest, relative to the largest at the start "
+                  "(at most 1e-3)")
+      ->check(positive_number())
+      ->check(CLI::Range(0.0, kMaxEquilibriumTolerance));
   cmd->add_option("--max-iterations", o->max_iterations, "Newton iterations at most")
       ->check(CLI::Range(1, 10000));
   cmd->callback([o] { run(*o); });

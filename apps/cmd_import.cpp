@@ -12,6 +12,7 @@
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/io/urdf.hpp"
+#include "options.hpp"
 
 namespace kanedyn::cli {
 namespace {
@@ -34,7 +35,7 @@ void run(const Options& o) {
   // Before reading anything: a tool without urdfdom says so whatever the file.
   if (!io::urdf_supported()) io::urdf_to_model_yaml("", o.urdf, {}, nullptr);
   const bool to_stdout = o.out == "-";
-  if (!to_stdout) io::check_output_path(o.out, {o.urdf});
+  if (!to_stdout) io::check_output_path(o.out, input_files());
   io::UrdfOptions options;
   options.floating = o.floating;
   std::vector<std::string> notes;
@@ -45,7 +46,7 @@ void run(const Options& o) {
     io::write_to_stdout(yaml);
     return;
   }
-  io::write_file_atomically(o.out, yaml, {o.urdf});
+  io::write_file_atomically(o.out, yaml, input_files());
   std::printf("wrote %s\n", io::printable(o.out).c_str());
 }
 
@@ -57,7 +58,7 @@ void add_import(CLI::App& app) {
       "revolute and continuous joints become revolute, prismatic prismatic, fixed weld, "
       "floating free; joint damping becomes a joint_spring. What is dropped is listed on "
       "stderr. Details: docs/urdf.md.");
-  cmd->add_option("URDF", o->urdf, "robot description (.urdf)")->required();
+  add_input_file(cmd, "URDF", o->urdf, "robot description (.urdf)")->required();
   cmd->add_option("--out,-o", o->out, "model file to write (YAML; - for standard output)")
       ->required();
   cmd->add_flag("--floating", o->floating,

@@ -139,7 +139,7 @@ void add_info(CLI::App& app) {
   auto* cmd =
       app.add_subcommand("info", "Print N, L(K), u_K, each body's chain and the total mass");
   auto path = std::make_shared<std::string>();
-  cmd->add_option("MODEL", *path, kModelHelp)->required();
+  add_input_file(cmd, "MODEL", *path, kModelHelp)->required();
   cmd->callback([path] { print_info(io::load_model_file(*path), std::cout); });
 }
 

@@ -485,7 +485,7 @@ void add_inspect(CLI::App& app) {
     StateChoice state;
   };
   auto opt = std::make_shared<Options>();
-  cmd->add_option("MODEL", opt->path, kModelHelp)->required();
+  add_input_file(cmd, "MODEL", opt->path, kModelHelp)->required();
   cmd->add_flag("--json", opt->json,
                 "print the JSON object of docs/model-format.md, \"Inspection output\"");
   cmd->add_option("--body", opt->bodies, "a body by number (1..N) or name (repeatable)");

@@ -40,11 +40,12 @@ void add_inverse(CLI::App& app) {
       "(error O(h^3) in the row spacing h). The model's own loads are gravity, its force "
       "elements and its inputs at the file's input columns. Columns: t, then NAME.Q1..Qk for "
       "each body with speeds (a free body's w'_K, then s'_K dot).");
-  cmd->add_option("MODEL", o->model, kModelHelp)->required();
-  cmd->add_option("TRAJECTORY", o->trajectory, "trajectory CSV of this model (simulate's)")
+  add_input_file(cmd, "MODEL", o->model, kModelHelp)->required();
+  add_input_file(cmd, "TRAJECTORY", o->trajectory, "trajectory CSV of this model (simulate's)")
       ->required();
   cmd->add_option("--out,-o", o->out,
-                  "generalized forces CSV (default: the trajectory's name with .Q.csv)");
+                  "generalized forces CSV (default: the trajectory's name with .Q.csv; - for "
+                  "standard output)");
   cmd->callback([o] {
     const io::ModelFile file = io::load_model_file(o->model);
     const Model& model = file.model;
@@ -60,7 +61,9 @@ void add_inverse(CLI::App& app) {
                                                                      : t) +
             ".Q.csv";
     }
-    io::check_output_path(out, {o->model, o->trajectory});
+    // -o - writes the table to standard output, and the report goes to standard error.
+    const bool to_stdout = out == "-";
+    if (!to_stdout) io::check_output_path(out, input_files());
     const io::Trajectory trajectory = io::read_trajectory(model, o->trajectory);
     const io::TrajectoryMotion motion = io::trajectory_motion(model, trajectory, o->trajectory);
     std::string text = "t";
@@ -88,7 +91,13 @@ void add_inverse(CLI::App& app) {
       }
       text += '\n';
     }
-    io::write_file_atomically(out, text, {o->model, o->trajectory});
+    if (to_stdout) {
+      io::write_to_stdout(text);
+      std::fprintf(stderr, "inverse dynamics of %s: %zu rows, %d generalized forces each\n",
+                   io::printable(o->trajectory).c_str(), motion.t.size(), model.num_speeds());
+      return;
+    }
+    io::write_file_atomically(out, text, input_files());
     std::printf("inverse dynamics of %s: %zu rows, %d generalized forces each, written to %s\n",
                 io::printable(o->trajectory).c_str(), motion.t.size(), model.num_speeds(),
                 io::printable(out).c_str());

@@ -185,14 +185,14 @@ void add_linearize(CLI::App& app) {
       "the state is every body's coordinates, then its speeds (docs/model-format.md, "
       "\"Linearization output\"). The derivatives are analytic (dual numbers through the "
       "inverse dynamics; docs/analysis.md).");
-  cmd->add_option("MODEL", o->model, kModelHelp)->required();
+  add_input_file(cmd, "MODEL", o->model, kModelHelp)->required();
   cmd->add_flag("--json", o->json, "print the JSON object of docs/model-format.md");
   cmd->add_flag("--modes", o->modes,
                 "also each eigenvector: the state entries it moves most (with --json: a "
                 "\"modes\" array of columns of [re, im] pairs)");
-  cmd->add_option("--state", o->state_file,
-                  "take the operating point from this model file's initial state (the same "
-                  "bodies and joints; e.g. what equilibrium writes)");
+  add_input_file(cmd, "--state", o->state_file,
+                 "take the operating point from this model file's initial state (the same "
+                 "bodies and joints; e.g. what equilibrium writes)");
   add_state_options(cmd, o->state);
   cmd->callback([o] { run(*o); });
 }

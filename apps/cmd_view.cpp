@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <numbers>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -99,8 +100,7 @@ void run(const Options& o) {
   const bool to_stdout = out == "-";
   // Every input, by identity: the default page name of a model called run.html is the model.
   // Checked before the trajectory, which may be long, is read.
-  const std::vector<std::string> inputs{o.model, o.trajectory};
-  if (!to_stdout) io::check_output_path(out, inputs);
+  if (!to_stdout) io::check_output_path(out, input_files());
   if (have_traj && o.mode > 0)
     throw std::runtime_error("--mode animates a mode, not a trajectory: give one of the two");
   std::string source =
@@ -108,12 +108,22 @@ void run(const Options& o) {
   const io::Trajectory traj = have_traj    ? io::read_trajectory(file.model, o.trajectory)
                               : o.mode > 0 ? mode_trajectory(file, o, source)
                                            : view::initial_trajectory(file.model, file.q, file.z);
-  const std::string text = view::page(file.model, file.path, traj, source);
+  std::string text;
+  try {
+    text = view::page(file.model, file.path, traj, source);
+  } catch (const std::invalid_argument& e) {
+    if (o.mode == 0) throw;
+    std::ostringstream m;
+    m << "--mode " << o.mode << " --amplitude " << o.amplitude
+      << ": the mode's shape at this amplitude cannot be drawn (" << e.what()
+      << "); choose a smaller amplitude";
+    throw std::runtime_error(m.str());
+  }
   if (to_stdout) {
     io::write_to_stdout(text);
     return;
   }
-  io::write_file_atomically(out, text, inputs);
+  io::write_file_atomically(out, text, input_files());
   std::printf("wrote %s (%.1f kB; ", io::printable(out).c_str(), text.size() / 1000.0);
   if (have_traj)
     std::printf("%zu rows", traj.rows());
@@ -136,8 +146,9 @@ void add_view(CLI::App& app) {
       "rows are decimated (the page says so). Written to OUT.partial, renamed to OUT at the end; "
       "OUT must be a regular file or not exist, and not one of the inputs. -o - writes the "
       "page to standard output.");
-  cmd->add_option("MODEL", o->model, kModelHelp)->required();
-  cmd->add_option("TRAJECTORY", o->trajectory, "trajectory CSV of this model (kanedyn simulate)");
+  add_input_file(cmd, "MODEL", o->model, kModelHelp)->required();
+  add_input_file(cmd, "TRAJECTORY", o->trajectory,
+                 "trajectory CSV of this model (kanedyn simulate)");
   cmd->add_option("--out,-o", o->out,
                   "web page (default: the trajectory's, else the model's, name with .html, in "
                   "the current folder; - for standard output)");
@@ -149,8 +160,8 @@ void add_view(CLI::App& app) {
                   "with --mode: the largest coordinate's swing (radians or model units; "
                   "default 0.2)")
       ->check(positive_number());
-  cmd->add_option("--state", o->state_file,
-                  "with --mode: the operating point is this model file's initial state");
+  add_input_file(cmd, "--state", o->state_file,
+                 "with --mode: the operating point is this model file's initial state");
   add_state_options(cmd, o->state);
   cmd->callback([o] { run(*o); });
 }

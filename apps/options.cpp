@@ -37,20 +37,15 @@ std::string constraint_summary(const io::ModelFile& file) {
 CLI::Validator decimal_number(bool positive) {
   return CLI::Validator(
       [positive](std::string& text) -> std::string {
-        const char* first = text.c_str() + (text.starts_with('+') ? 1 : 0);
-        const char* last = text.c_str() + text.size();
         double v = 0.0;
-        const auto [end, error] = std::from_chars(first, last, v, std::chars_format::general);
-        const std::string got = ", got '" + io::printable(text, 40) + "'";
-        if (error == std::errc::result_out_of_range)
-          return std::string(text.find_first_of("eE") != std::string::npos &&
-                                     text.find('-', text.find_first_of("eE")) != std::string::npos
-                                 ? "underflows to 0"
-                                 : "overflows a double") +
-                 got;
-        const bool ok = error == std::errc() && end == last && first != last && std::isfinite(v) &&
-                        (!positive || v > 0.0);
-        return ok ? "" : std::string("must be a decimal number") + (positive ? " > 0" : "") + got;
+        const std::string problem = io::read_decimal(text, v);
+        const std::string got = "'" + io::printable(text, 40) + "' ";
+        if (problem.starts_with("overflows") || problem.starts_with("is too small"))
+          return got + problem;
+        const bool ok = problem.empty() && (!positive || v > 0.0);
+        return ok ? ""
+                  : std::string("must be a decimal number") + (positive ? " > 0" : "") + ", got '" +
+                        io::printable(text, 40) + "'";
       },
       positive ? "NUMBER>0" : "NUMBER");
 }
@@ -77,10 +72,46 @@ std::string chain_text(const Model& model, int k) {
   return text + " -> 0";
 }
 
+namespace {
+
+/// The input-file options of every subcommand: only the one that runs has values.
+std::vector<const std::string*>& single_inputs() {
+  static std::vector<const std::string*> paths;
+  return paths;
+}
+
+}  // namespace
+
+namespace {
+
+/// A file name given as '' names no file: refused rather than taken for "none".
+CLI::Validator file_name() {
+  return CLI::Validator(
+      [](const std::string& name) {
+        return name.empty() ? std::string("an empty file name") : std::string();
+      },
+      "FILE");
+}
+
+}  // namespace
+
+CLI::Option* add_input_file(CLI::App* cmd, const std::string& name, std::string& path,
+                            const std::string& help) {
+  single_inputs().push_back(&path);
+  return cmd->add_option(name, path, help)->check(file_name());
+}
+
+std::vector<std::string> input_files() {
+  std::vector<std::string> files;
+  for (const std::string* p : single_inputs())
+    if (!p->empty()) files.push_back(*p);
+  return files;
+}
+
 void add_state_options(CLI::App* cmd, StateChoice& choice) {
-  auto* trajectory = cmd->add_option("--trajectory", choice.trajectory,
-                                     "take the state from a row of this trajectory CSV "
-                                     "(written by simulate for this model); needs --t");
+  auto* trajectory = add_input_file(cmd, "--trajectory", choice.trajectory,
+                                    "take the state from a row of this trajectory CSV "
+                                    "(written by simulate for this model); needs --t");
   auto* t = cmd->add_option("--t", choice.t, "the time of that row (within half a step)")
                 ->check(decimal_number(false));
   trajectory->needs(t);
@@ -106,6 +137,7 @@ State chosen_state(const io::ModelFile& file, const StateChoice& choice, double&
   }
   std::vector<std::string> names;
   for (const Input& in : model.inputs()) names.push_back(in.name);
+  std::vector<char> set(names.size(), 0);
   for (const std::string& given : choice.inputs) {
     const size_t eq = given.find('=');
     if (eq == std::string::npos)
@@ -122,12 +154,14 @@ State chosen_state(const io::ModelFile& file, const StateChoice& choice, double&
                                     : "unknown input '" + io::printable(name, 60) + "'" +
                                           (near.empty() ? "" : " (did you mean '" + near + "'?)")));
     }
+    // Given twice, one value would be silently dropped.
+    if (set[static_cast<size_t>(i)]++)
+      throw std::runtime_error("--input " + io::printable(given, 60) + ": input '" +
+                               io::printable(name, 60) + "' is given twice");
     double v = 0.0;
-    const char* last = value.data() + value.size();
-    const auto [end, error] = std::from_chars(value.data(), last, v);
-    if (error != std::errc() || end != last || value.empty() || !std::isfinite(v))
-      throw std::runtime_error("--input " + io::printable(given, 60) +
-                               ": the value must be a finite decimal number");
+    if (const std::string problem = io::read_decimal(value, v); !problem.empty())
+      throw std::runtime_error("--input " + io::printable(given, 60) + ": the value '" +
+                               io::printable(value, 40) + "' " + problem);
     u[i] = v;
   }
   return chosen_state(file, choice, t, where, q, z);

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "kanedyn/io/model_file.hpp"
 #include "kanedyn/state.hpp"
@@ -14,6 +15,16 @@ namespace kanedyn::cli {
 /// underflows to 0; with `positive`, also > 0.
 CLI::Validator decimal_number(bool positive);
 inline CLI::Validator positive_number() { return decimal_number(true); }
+
+/// Adds an option (or a positional argument) that names a file the command reads. Every file
+/// named so is an input of the command, and no output may be one of them (input_files()):
+/// a command that reads a file through any other kind of option would let its output replace
+/// that file.
+CLI::Option* add_input_file(CLI::App* cmd, const std::string& name, std::string& path,
+                            const std::string& help);
+/// The files named on this command line by the options of add_input_file: what
+/// io::check_output_path compares each output with.
+std::vector<std::string> input_files();
 
 /// The help of every MODEL argument: load_model_file reads all three.
 inline constexpr const char* kModelHelp = "model file: YAML, JSON or URDF (.urdf)";

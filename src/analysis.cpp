@@ -1743,6 +1743,17 @@ EquilibriumResult constrained_equilibrium(const Model& model, const VectorX& q0,
 
 EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
                               const EquilibriumOptions& options) {
+  // A looser tolerance would call a pose with a good part of its forces unbalanced a rest.
+  if (!(options.tolerance > 0.0 && options.tolerance <= kMaxEquilibriumTolerance)) {
+    std::ostringstream m;
+    m << "equilibrium: tolerance " << options.tolerance
+      << " is not in (0, 1e-3]: a rest leaves at most that fraction of the starting forces "
+         "unbalanced";
+    throw std::invalid_argument(m.str());
+  }
+  if (options.max_iterations < 1)
+    throw std::invalid_argument("equilibrium: max_iterations " +
+                                std::to_string(options.max_iterations) + " is not at least 1");
   if (model.num_constraints() > 0) {
     check_size("equilibrium: q", q0.size(), model.num_coordinates());
     check_size("equilibrium: u", u.size(), model.num_inputs());

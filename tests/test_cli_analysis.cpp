@@ -124,6 +124,32 @@ TEST(EquilibriumCommand, WritesTheRestPoseAsAModelFile) {
     ++floats;
   }
   EXPECT_GT(floats, 100);
+  // -o - is standard output, as for view and import: the same model, the report on stderr.
+  const auto piped = run_in(dir, "equilibrium '" + model + "' -o -");
+  ASSERT_EQ(piped.exit_code, 0) << piped.err;
+  EXPECT_EQ(piped.out, text);
+  EXPECT_NE(piped.err.find("the rest pose is stable"), std::string::npos) << piped.err;
+  EXPECT_FALSE(fs::exists(dir / "-"));
+}
+
+// A tolerance so loose that the start counts as a rest would report a pose with most of its
+// forces unbalanced as stable: refused, here and by the library.
+TEST(EquilibriumCommand, ALooseToleranceIsRefused) {
+  const fs::path dir = temp_dir("cli_equilibrium_tolerance");
+  const std::string model = kExamples + "/eight_body.yaml";
+  for (const char* tolerance : {"1e300", "0.5", "0.0011"}) {
+    const auto r = run_in(dir, "equilibrium '" + model + "' --tolerance " + tolerance);
+    EXPECT_EQ(r.exit_code, 2) << tolerance;  // a usage error, as every option out of range
+    EXPECT_NE(r.err.find("--tolerance"), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(run_in(dir, "equilibrium '" + model + "' --tolerance 1e-3").exit_code, 0);
+  const io::ModelFile file = io::load_model_file(model);
+  EquilibriumOptions options;
+  options.tolerance = 1e300;
+  EXPECT_THROW(equilibrium(file.model, file.q, VectorX::Zero(0), options), std::invalid_argument);
+  options.tolerance = 1e-10;
+  options.max_iterations = 0;
+  EXPECT_THROW(equilibrium(file.model, file.q, VectorX::Zero(0), options), std::invalid_argument);
 }
 
 TEST(EquilibriumCommand, FailsHonestlyWhereNothingRestrains) {
@@ -158,6 +184,11 @@ TEST(ViewCommand, ModeAnimatesTheShape) {
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.err.find("has 4 modes"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(dir / "mode5.html"));
+  // What is printed is finite: an amplitude whose shape overflows writes no page of NaN.
+  const auto huge = run_in(dir, "view cart.yaml --mode 3 --amplitude 1e100 -o huge.html");
+  EXPECT_EQ(huge.exit_code, 1);
+  EXPECT_NE(huge.err.find("choose a smaller amplitude"), std::string::npos) << huge.err;
+  EXPECT_FALSE(fs::exists(dir / "huge.html"));
 }
 
 // The writer: every example loads back with the same model and state, bit for bit, apart from

@@ -99,11 +99,71 @@ TEST(InputsCommand, BadTablesAreRefusedBeforeTheRun) {
   refuses("t,elbow\n0,1\n1,x\n", "not a finite number");
   refuses("t,elbow,elbow\n0,1,2\n", "named twice");
   refuses("t,elbow\n", "no rows");
+  refuses("t,elbow\n0,1\n1,1e-400\n", "'1e-400' is too small for a double (it underflows)");
+  refuses("t,elbow\n0,1\n1,0." + std::string(400, '0') + "1\n", "underflows");
+  refuses("t,elbow\n0,1\n1,1e400\n", "'1e400' overflows a double");
+  // An empty file is named once, and says what is missing.
+  {
+    std::ofstream(dir / "u.csv").flush();
+    const auto r = run_in(dir, "simulate '" + kArm + "' --inputs u.csv -o run.csv");
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find("error: u.csv: the file is empty; its first line is the header"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("u.csv: u.csv"), std::string::npos) << r.err;
+  }
   // A model without inputs.
   std::ofstream(dir / "u.csv") << "t,a\n0,1\n";
   const auto r = run_in(dir, "simulate '" + kExamples + "/eight_body.yaml' --inputs u.csv");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("has no inputs"), std::string::npos) << r.err;
+}
+
+// Spreadsheets save CSV with a byte order mark: it is no part of the header's first name.
+TEST(InputsCommand, ATableWithAByteOrderMarkIsRead) {
+  const fs::path dir = temp_dir("cli_inputs_bom");
+  std::ofstream(dir / "u.csv") << "\xEF\xBB\xBF" << slurp(kTorques);
+  const auto r = run_in(dir, "simulate '" + kArm + "' --inputs u.csv --t-end 0.1 -o run.csv");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+// The inputs table is an input like the model: no output of the run may replace it, by any
+// name (docs/cli.md, "Files"), and '' names no file.
+TEST(InputsCommand, NoOutputReplacesTheInputsTable) {
+  const fs::path dir = temp_dir("cli_inputs_identity");
+  const std::string table = slurp(kTorques);
+  std::ofstream(dir / "u.csv") << table;
+  std::ofstream(dir / "u.csv.partial") << table;
+  fs::create_directory(dir / "sub");
+  const struct {
+    std::string args, message;
+  } cases[] = {
+      {"--inputs u.csv -o u.csv", "output 'u.csv' is the input file 'u.csv'"},
+      {"--inputs u.csv -o ./u.csv", "output './u.csv' is the input file 'u.csv'"},
+      {"--inputs u.csv -o sub/../u.csv", "output 'sub/../u.csv' is the input file 'u.csv'"},
+      {"--inputs u.csv.partial -o u.csv",
+       "output 'u.csv.partial' is the input file 'u.csv.partial'"},
+      {"--inputs ''", "--inputs: an empty file name"},
+  };
+  for (const auto& c : cases) {
+    const auto r = run_in(dir, "simulate '" + kArm + "' --t-end 0.1 " + c.args);
+    EXPECT_NE(r.exit_code, 0) << c.args;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << c.args << ": " << r.err;
+  }
+  EXPECT_EQ(slurp(dir / "u.csv"), table);
+  EXPECT_EQ(slurp(dir / "u.csv.partial"), table);
+}
+
+// One value per input: the same input given twice would drop one of them.
+TEST(InputsCommand, AnInputGivenTwiceIsRefused) {
+  const fs::path dir = temp_dir("cli_inputs_twice");
+  const auto r = run_in(dir, "eom '" + kArm + "' --input elbow=1 --input elbow=2");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--input elbow=2: input 'elbow' is given twice"), std::string::npos)
+      << r.err;
+  const auto tiny = run_in(dir, "eom '" + kArm + "' --input elbow=1e-400");
+  EXPECT_EQ(tiny.exit_code, 1);
+  EXPECT_NE(tiny.err.find("'1e-400' is too small for a double"), std::string::npos) << tiny.err;
 }
 
 TEST(InputsCommand, EomTakesInputValues) {
@@ -137,6 +197,13 @@ TEST(InputsCommand, InverseWritesTheGeneralizedForces) {
   // The default name, and a trajectory of another model refused.
   EXPECT_EQ(run_in(dir, "inverse '" + kArm + "' run.csv").exit_code, 0);
   EXPECT_TRUE(fs::exists(dir / "run.Q.csv"));
+  // -o - is standard output, as for view and import; the report goes to standard error.
+  const auto piped = run_in(dir, "inverse '" + kArm + "' run.csv -o -");
+  ASSERT_EQ(piped.exit_code, 0) << piped.err;
+  EXPECT_EQ(piped.out, slurp(dir / "Q.csv"));
+  EXPECT_NE(piped.err.find("inverse dynamics of run.csv: 101 rows"), std::string::npos)
+      << piped.err;
+  EXPECT_FALSE(fs::exists(dir / "-"));
   const auto other = run_in(dir, "inverse '" + kExamples + "/eight_body.yaml' run.csv -o X.csv");
   EXPECT_EQ(other.exit_code, 1);
   EXPECT_FALSE(fs::exists(dir / "X.csv"));

@@ -128,12 +128,16 @@ struct ModeReading {
 ModeReading read_eigenvalue(std::complex<double> lambda, double tolerance);
 
 /// Static equilibrium (docs/analysis.md): the coordinates at which the model rests, z = 0.
+/// The largest tolerance equilibrium() takes.
+inline constexpr double kMaxEquilibriumTolerance = 1e-3;
+
 struct EquilibriumOptions {
   /// Which tangent coordinates (0..n-1) Newton moves; empty: all. The others keep their values
   /// (held by reactions that the result does not report).
   std::vector<int> free;
-  double tolerance = 1e-10;  ///< on the largest generalized force, relative to the scale below
-  int max_iterations = 50;
+  /// On the largest generalized force, relative to the scale below: in (0, 1e-3].
+  double tolerance = 1e-10;
+  int max_iterations = 50;  ///< at least 1
 };
 
 struct EquilibriumResult {
@@ -160,7 +164,8 @@ struct EquilibriumResult {
 
 /// Newton's method with the analytic Jacobian on Q(q) = 0 over the free coordinates, with
 /// Q the generalized active forces at z = 0 and z dot = 0 (the inverse dynamics, equal to
-/// [M] z dot at z = 0), from q0, at inputs u.
+/// [M] z dot at z = 0), from q0, at inputs u. Throws std::invalid_argument for options out of
+/// range.
 EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const VectorX& u,
                               const EquilibriumOptions& options = {});
 

@@ -14,7 +14,9 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -282,6 +284,16 @@ std::string page_data(const Model& model, const std::string& model_file,
     const bool wide = c == 0 || centre || c == energy;
     (wide ? f64_columns : f32_columns).push_back(c);
     for (const std::size_t r : kept) {
+      // A page of NaN draws nothing and plots nothing: refused, naming the first such value.
+      const double v = traj.at(r, c);
+      if (!std::isfinite(v) || (!wide && std::abs(v) > std::numeric_limits<float>::max())) {
+        std::ostringstream m;
+        m << "view::page: column '" << io::printable(traj.columns[c], 60)
+          << "' at t = " << traj.at(r, 0) << " is "
+          << (std::isfinite(v) ? "beyond a float's range" : "not finite") << " (" << v
+          << "): the page would draw nothing there";
+        throw std::invalid_argument(m.str());
+      }
       if (wide)
         f64.push_back(traj.at(r, c));
       else
