@@ -235,7 +235,10 @@ std::vector<double> sample_numbers() {
   std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
   std::uniform_int_distribution<int> exponent(-20, 10);
   std::vector<double> v(4096);
-  for (double& x : v) x = std::ldexp(mantissa(rng), exponent(rng));
+  for (double& x : v) {
+    const double m = mantissa(rng);  // before the exponent: argument order is unspecified
+    x = std::ldexp(m, exponent(rng));
+  }
   return v;
 }
 

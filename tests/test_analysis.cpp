@@ -44,10 +44,12 @@ Model random_loaded_jointed(std::mt19937& rng) {
     const JointType t = base.joint(k).type;
     if (speeds_are_coordinate_rates(t)) {
       const int c = coordinate_count(t);
+      // One draw after the other: the order of a call's arguments is unspecified.
+      const double stiffness = uniform(rng, 1, 20), damping = uniform(rng, 0, 2);
+      const double rest = uniform(rng, -0.5, 0.5), load = uniform(rng, -1, 1);
       forces.push_back(std::make_shared<JointLoad>(
-          k, VectorX::Constant(c, uniform(rng, 1, 20)), VectorX::Constant(c, uniform(rng, 0, 2)),
-          VectorX::Constant(c, uniform(rng, -0.5, 0.5)), VectorX::Constant(c, uniform(rng, -1, 1)),
-          "joint_spring"));
+          k, VectorX::Constant(c, stiffness), VectorX::Constant(c, damping),
+          VectorX::Constant(c, rest), VectorX::Constant(c, load), "joint_spring"));
       break;
     }
   }

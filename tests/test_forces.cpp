@@ -33,6 +33,16 @@ BodySpec unit_body(const char* name, int lower) {
   return b;
 }
 
+// A bushing on body k with random stiffness and damping, drawn one after the other (the
+// order of a call's arguments is unspecified, so drawing in them differs between compilers).
+std::shared_ptr<Bushing> random_bushing(std::mt19937& rng, int k) {
+  const Vector3 stiffness = test::random_vector(rng, 5.0, 100.0);
+  const Vector3 damping = test::random_vector(rng, 0.0, 3.0);
+  const double torsion = test::uniform(rng, 1.0, 20.0);
+  const double torsion_damping = test::uniform(rng, 0.0, 1.0);
+  return std::make_shared<Bushing>(k, stiffness, damping, torsion, torsion_damping);
+}
+
 // The loads of `model` at `state` (compute_kinematics, then compute_resultants).
 Loads loads_at(const Model& model, const State& state) {
   Data data(model);
@@ -117,9 +127,7 @@ TEST(Forces, BushingActionAndReactionBetweenKAndItsLowerBody) {
       b->com = test::random_vector(rng, -0.4, 0.4);
       b->joint = test::random_vector(rng, -0.5, 0.5);
     }
-    const auto bushing = std::make_shared<Bushing>(
-        1, test::random_vector(rng, 5.0, 100.0), test::random_vector(rng, 0.0, 3.0),
-        test::uniform(rng, 1.0, 20.0), test::uniform(rng, 0.0, 1.0));
+    const auto bushing = random_bushing(rng, 1);
     const Model model({j, k}, Vector3::Zero(), {bushing});
     const State state = test::random_state(model, rng, 0.3, 2.0, 1.0);
     const Matrix3 rj = reference_rotation(state.euler_parameters(0));
@@ -318,9 +326,7 @@ TEST(Forces, GeneralizedForcesOfOneBushing) {
     Model bare = test::random_tree(rng, opt);
     const int n = bare.num_bodies();
     const int k = test::uniform_int(rng, 0, n - 1);
-    const auto bushing = std::make_shared<Bushing>(
-        k, test::random_vector(rng, 5.0, 100.0), test::random_vector(rng, 0.0, 3.0),
-        test::uniform(rng, 1.0, 20.0), test::uniform(rng, 0.0, 1.0));
+    const auto bushing = random_bushing(rng, k);
     const Model model(bare.bodies(), Vector3::Zero(), {bushing});
     const State state = test::random_state(model, rng);
     Data data(model);

@@ -121,8 +121,8 @@ std::vector<Case> comparison_cases(unsigned seed) {
     for (int k = 0; k < 35; ++k)
       types.push_back(test::uniform_int(rng, 0, 3) == 0 ? JointType::prismatic
                                                         : JointType::revolute);
-    out.push_back(make_case("deep chain of 1-DOF joints", test::random_loaded_model(rng, 35, true),
-                            types, rng));
+    Model deep = test::random_loaded_model(rng, 35, true);
+    out.push_back(make_case("deep chain of 1-DOF joints", std::move(deep), types, rng));
   }
   for (int n : {30, 40}) {
     Model m = test::random_loaded_model(rng, n, true);
@@ -132,14 +132,17 @@ std::vector<Case> comparison_cases(unsigned seed) {
   {
     std::vector<int> star(31, 0);
     star[0] = kGround;
-    out.push_back(make_case("star of 30", loaded_model(rng, star), random_types(rng, 31), rng));
+    // One draw after the other: the order of a call's arguments is unspecified.
+    Model star_model = loaded_model(rng, star);
+    out.push_back(make_case("star of 30", std::move(star_model), random_types(rng, 31), rng));
     std::vector<int> two_levels{kGround};
     for (int a = 0; a < 6; ++a) {
       two_levels.push_back(0);
       const int arm = static_cast<int>(two_levels.size()) - 1;
       for (int b = 0; b < 5; ++b) two_levels.push_back(arm);
     }
-    out.push_back(make_case("two levels of 6 x 5", loaded_model(rng, two_levels),
+    Model levels = loaded_model(rng, two_levels);
+    out.push_back(make_case("two levels of 6 x 5", std::move(levels),
                             random_types(rng, static_cast<int>(two_levels.size())), rng));
   }
   // Gravity and joint loads only: with no force element the routes take gravity as the
@@ -420,7 +423,8 @@ TEST(JointDynamics, AllWeldToOneFreeRoot) {
 // were, and it computes what a new workspace computes.
 TEST(JointDynamics, CopiesAreIndependentWorkspaces) {
   std::mt19937 rng(10);
-  Case c = make_case("forest", test::random_loaded_model(rng, 10), random_types(rng, 10), rng);
+  Model forest = test::random_loaded_model(rng, 10);
+  Case c = make_case("forest", std::move(forest), random_types(rng, 10), rng);
   VectorX q2, z2;
   test::random_joint_state(c.model, rng, q2, z2);
   for (Route route : {Route::recursive, Route::assembled}) {
@@ -509,8 +513,8 @@ TEST(JointDynamics, FiniteDifferenceOfARunMatchesTheDerivative) {
                 {JointType::free, JointType::planar, JointType::planar, JointType::universal,
                  JointType::cylindrical, JointType::planar, JointType::weld, JointType::revolute},
                 rng));
-  cases.push_back(
-      make_case("forest", test::random_loaded_model(rng, 9), random_types(rng, 9), rng));
+  Model forest = test::random_loaded_model(rng, 9);
+  cases.push_back(make_case("forest", std::move(forest), random_types(rng, 9), rng));
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     JointDynamics dyn(c.model);

@@ -173,10 +173,15 @@ inline Model random_tree(std::mt19937& rng, const RandomTreeOptions& opt = {}) {
                                 uniform(rng, 0.0, 1.0) < opt.second_bushing_probability
                             ? 2
                             : 1;
-      for (int i = 0; i < count; ++i)
-        forces.push_back(std::make_shared<Bushing>(
-            k, random_vector(rng, 5.0, 100.0), c * random_vector(rng, 0.0, 3.0),
-            uniform(rng, 1.0, 20.0), c * uniform(rng, 0.0, 1.0)));
+      for (int i = 0; i < count; ++i) {
+        // One draw after the other: the order of a call's arguments is unspecified.
+        const Vector3 stiffness = random_vector(rng, 5.0, 100.0);
+        const Vector3 damping = c * random_vector(rng, 0.0, 3.0);
+        const double torsion = uniform(rng, 1.0, 20.0),
+                     torsion_damping = c * uniform(rng, 0.0, 1.0);
+        forces.push_back(
+            std::make_shared<Bushing>(k, stiffness, damping, torsion, torsion_damping));
+      }
     }
     if (opt.forces && uniform(rng, 0.0, 1.0) < 0.5)
       forces.push_back(std::make_shared<ConstantForce>(k, random_vector(rng, -10.0, 10.0)));

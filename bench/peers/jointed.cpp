@@ -37,7 +37,9 @@ double uniform(std::mt19937& rng, double lo, double hi) {
 
 Vector3 random_unit(std::mt19937& rng) {
   for (;;) {
-    const Vector3 v(uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, -1, 1));
+    // Braces: the three draws in order (a constructor call's argument order is unspecified,
+    // and g++ and clang differ, so the two builds would time different cases).
+    const Vector3 v{uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, -1, 1)};
     if (v.norm() > 0.1 && v.norm() <= 1.0) return v.normalized();
   }
 }
@@ -137,12 +139,14 @@ std::unique_ptr<JointedCase> every_joint_type(unsigned seed) {
     if (types[k] != JointType::free) j.frame = random_turn(rng, M_PI);
     const Vector3 a1 = random_unit(rng);
     j.axes = {a1, a1.cross(random_unit(rng)).normalized()};
-    j.translation = Vector3(uniform(rng, -0.05, 0.05), uniform(rng, -0.05, 0.05), -0.02);
+    j.translation = Vector3{uniform(rng, -0.05, 0.05), uniform(rng, -0.05, 0.05), -0.02};
     const int count = kanedyn::coordinate_count(types[k]);
     if (types[k] != JointType::free && types[k] != JointType::spherical &&
-        types[k] != JointType::weld)
-      loads.push_back(load(k, count, uniform(rng, 5, 50), uniform(rng, 0.1, 1),
-                           uniform(rng, -0.3, 0.3), uniform(rng, -2, 2)));
+        types[k] != JointType::weld) {
+      const double stiffness = uniform(rng, 5, 50), damping = uniform(rng, 0.1, 1);
+      const double rest = uniform(rng, -0.3, 0.3), constant = uniform(rng, -2, 2);
+      loads.push_back(load(k, count, stiffness, damping, rest, constant));
+    }
     joints.push_back(j);
   }
   auto c = std::make_unique<JointedCase>(
