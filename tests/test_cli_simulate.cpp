@@ -222,6 +222,45 @@ TEST(SimulateCommand, UsageAndSettingErrors) {
   EXPECT_FALSE(fs::exists(dir / "eight_body.csv"));
 }
 
+// Signals are seen between steps, so a step must not take long whatever the model: the
+// four-bar with its hinge written 1000 times (5000 rows, 2 independent) once spent minutes on
+// each step's c x c system and took 196 s to stop. A hang check with room for a loaded or
+// sanitized build, not a speed measurement: the benchmark of the route is bench/.
+TEST(SimulateCommand, ManyRedundantConstraintRowsStillStopAtOnce) {
+  const fs::path dir = temp_dir("cli_sigterm_rows");
+  const std::string text = slurp(kExamples + "/four_bar.yaml");
+  const size_t from = text.find("  - name: closure"), to = text.find("independent_speeds:");
+  ASSERT_NE(from, std::string::npos);
+  ASSERT_NE(to, std::string::npos);
+  {
+    std::ofstream out(dir / "many.yaml");
+    out << text.substr(0, from);
+    for (int i = 0; i < 1000; ++i) {
+      std::string hinge = text.substr(from, to - from);
+      hinge.replace(hinge.find("closure"), 7, "c" + std::to_string(i));
+      out << hinge;
+    }
+    out << text.substr(to);
+  }
+  const pid_t pid = test::spawn_in(dir, {"simulate", "many.yaml", "--t-end", "1e6", "-o", "m.csv"});
+  ASSERT_GE(pid, 0);
+  const fs::path partial = dir / "m.csv.partial";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(partial) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fs::exists(partial)) << slurp(dir / "stderr.txt");
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
+  const auto sent = std::chrono::steady_clock::now();
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  const double waited =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
+  EXPECT_LT(waited, 5.0);
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << slurp(dir / "stderr.txt");
+}
+
 TEST(SimulateCommand, SigtermKeepsThePartialFile) {
   const fs::path dir = temp_dir("cli_sigterm");
   const std::string model = kExamples + "/chain64.yaml";
