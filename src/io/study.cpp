@@ -497,10 +497,6 @@ Study parse_study(std::string text, const std::string& source_name, const std::s
   // name there and read another file.
   if (model_name.find('\0') != std::string::npos)
     r.fail(model_it->second, "model", "the model file's name holds a NUL byte");
-  // An escape ("\0", "\u0000") can put a NUL byte in the name: the C library would end the
-  // name there and read another file.
-  if (model_name.find('\0') != std::string::npos)
-    r.fail(model_it->second, "model", "the model file's name holds a NUL byte");
   const std::filesystem::path model_path(model_name);
   study.model_path = model_path.is_absolute() || base_dir.empty()
                          ? model_name
