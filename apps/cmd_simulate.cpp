@@ -283,8 +283,9 @@ std::string duration(double seconds) {
 
 class StepWatch {
  public:
-  StepWatch(double t_start, double t_end, double dt_out)
-      : t_end_(t_end), dt_out_(dt_out), window_t_(t_start) {}
+  /// `table`: the inputs table driving the run, if any (its rows cut the steps).
+  StepWatch(double t_start, double t_end, double dt_out, const InputTable* table)
+      : t_end_(t_end), dt_out_(dt_out), window_t_(t_start), table_(table) {}
   void step(double t) {
     ++steps_;
     if (warned_ || (steps_ & 255) != 0) return;  // the clock every 256 steps
@@ -294,13 +295,24 @@ class StepWatch {
     const double mean_step = (t - window_t_) / static_cast<double>(steps_ - window_steps_);
     if (seconds(now - start_) >= kWindowSeconds && mean_step < kCollapsedFraction * dt_out_) {
       const double rate = (t - window_t_) / window;  // simulated time per wall second
+      // Every row of an inputs table ends a step: when the rows crossed are most of the
+      // steps, the table, not the model, sets the step.
+      const long steps = steps_ - window_steps_;
+      const long rows = table_ ? rows_between(window_t_, t) : 0;
+      const std::string cause =
+          4 * rows >= steps
+              ? ". The inputs table sets the steps: it has " + std::to_string(rows) +
+                    " rows in this stretch, and the integrator restarts at every row "
+                    "(docs/simulation.md, \"Inputs and controllers\"); a table with fewer rows "
+                    "runs faster"
+              : ". The model is stiff (a very stiff bushing on a light body, say): see "
+                "docs/simulation.md, \"Stiff models\"";
       warn("the steps have averaged " + format("%.3g", mean_step) + " over the last " +
            format("%.2g", window) + " s of wall time (" + format("%.2g", mean_step / dt_out_) +
            " of dt_out); at this rate t_end is " +
            (rate > 0.0 ? "about " + duration((t_end_ - t) / rate) + " away"
                        : std::string("never reached")) +
-           ". The model is stiff (a very stiff bushing on a light body, say): see "
-           "docs/simulation.md, \"Stiff models\"");
+           cause);
       warned_ = true;
     }
     window_start_ = now;
@@ -309,10 +321,18 @@ class StepWatch {
   }
 
  private:
+  /// The table's rows with a time in (from, to].
+  long rows_between(double from, double to) const {
+    const std::vector<double>& times = table_->times();
+    return std::upper_bound(times.begin(), times.end(), to) -
+           std::upper_bound(times.begin(), times.end(), from);
+  }
+
   static constexpr double kWindowSeconds = 2.0;
   static constexpr double kCollapsedFraction = 1e-3;
   double t_end_, dt_out_;
   double window_t_;
+  const InputTable* table_;
   long steps_ = 0, window_steps_ = 0;
   bool warned_ = false;
   Clock::time_point start_ = Clock::now(), window_start_ = start_;
@@ -335,7 +355,7 @@ int run(const Options& o) {
     throw std::runtime_error(o.model + ": " + e.what());
   }
   if (!o.no_output) {
-    io::check_output_path(out, {o.model});
+    io::check_output_path(out, input_files());
     warn_disk_space(file, base, out);
   }
   warn_rk4_stability(model, base);
@@ -362,7 +382,7 @@ int run(const Options& o) {
     return *writer;
   };
   Progress progress(base.t_start, base.t_end);
-  StepWatch watch(base.t_start, base.t_end, base.dt_out);
+  StepWatch watch(base.t_start, base.t_end, base.dt_out, settings.inputs.get());
   settings.observer_kinematics = false;
   settings.on_step = [&](double t) {
     if (progress.update(t) && writer) writer->flush();
@@ -428,7 +448,7 @@ void add_simulate(CLI::App& app) {
       "defaults above. The trajectory streams to OUT.partial, renamed to OUT when the run "
       "completes; a summary goes to stdout. Exit codes: 0 completed; 1 error (the partial file "
       "is kept); 130/143 interrupted by SIGINT/SIGTERM (kept too).");
-  cmd->add_option("MODEL", o->model, kModelHelp)->required();
+  add_input_file(cmd, "MODEL", o->model, kModelHelp)->required();
   o->t_end_opt =
       cmd->add_option("--t-end", o->t_end, "end time (default 10)")->check(positive_number());
   o->dt_out_opt = cmd->add_option("--dt-out", o->dt_out, "time between output rows (default 0.01)")
@@ -455,8 +475,8 @@ void add_simulate(CLI::App& app) {
   auto* no_output = cmd->add_flag("--no-output", o->no_output,
                                   "write no trajectory: the run and its summary only");
   out_opt->excludes(no_output);
-  auto* inputs_opt = cmd->add_option(
-      "--inputs", o->inputs,
+  auto* inputs_opt = add_input_file(
+      cmd, "--inputs", o->inputs,
       "CSV of input values over time: a header 't' and input names, then rows; held between "
       "rows (zero-order) unless --inputs-hold linear; the integrator restarts at every row");
   cmd->add_option("--inputs-hold", o->inputs_hold, "zero-order (default) or linear")

@@ -15,6 +15,7 @@
 #include "kanedyn/io/study.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/threads.hpp"
+#include "options.hpp"
 #include "stop_signals.hpp"
 
 namespace kanedyn::cli {
@@ -141,7 +142,7 @@ void add_sweep(CLI::App& app) {
       "when every run is done, results.csv. Started again with the same DIR, it runs only the "
       "missing runs. Exit codes: 0 done (some runs may have failed: see their status); 1 error, "
       "or every run failed; 130/143 stopped by SIGINT/SIGTERM (finished runs kept).");
-  cmd->add_option("STUDY", o->study, "study file (YAML or JSON, docs/studies.md)")->required();
+  add_input_file(cmd, "STUDY", o->study, "study file (YAML or JSON, docs/studies.md)")->required();
   cmd->add_option("--out,-o", o->out, "output folder (created; its parent must exist)")->required();
   cmd->add_option("--jobs,-j", o->threads,
                   "threads (default: all cores; more than the machine runs at once are capped)")
