@@ -207,15 +207,17 @@ std::vector<int> free_coordinates(const Model& model, py::handle free) {
   return out;
 }
 
+/// The most Newton iterations equilibrium() takes: the tool's --max-iterations range.
+constexpr long long kMaxIterations = 10000;
+
 py::dict equilibrium_of(const PyModel& m, py::object free, py::object u_obj, py::object state,
-                        double tolerance, py::object max_iterations, py::object q_obj) {
+                        py::object tolerance_obj, py::object max_iterations, py::object q_obj) {
   const Model& model = m.model();
   EquilibriumOptions options;
-  if (!(std::isfinite(tolerance) && tolerance > 0.0))
-    throw py::value_error("tolerance must be a finite number > 0");
+  const double tolerance = positive_setting(tolerance_obj, "tolerance");
   options.tolerance = tolerance;
   options.max_iterations =
-      static_cast<int>(integer_argument(max_iterations, "max_iterations", 0, 1000000));
+      static_cast<int>(integer_argument(max_iterations, "max_iterations", 1, kMaxIterations));
   if (!free.is_none()) options.free = free_coordinates(model, free);
   VectorX q, z, u;
   model_state(m, state, q_obj, py::none(), q, z);

@@ -188,6 +188,88 @@ long long integer_argument(py::handle obj, const std::string& name, long long lo
                         std::to_string(hi));
 }
 
+long long index_argument(py::handle obj, const std::string& name, long long lo, long long hi) {
+  try {
+    return integer_argument(obj, name, lo, hi);
+  } catch (const py::value_error& e) {
+    throw py::index_error(e.what());
+  }
+}
+
+namespace {
+
+std::string type_name(py::handle obj) { return py::str(obj.get_type().attr("__name__")); }
+
+}  // namespace
+
+std::shared_ptr<PyModel> model_argument(py::handle obj, const char* name) {
+  if (!py::isinstance<PyModel>(obj))
+    throw py::type_error(std::string(name) + " must be a kanedyn.Model (kanedyn.load(...)), got " +
+                         type_name(obj));
+  return obj.cast<std::shared_ptr<PyModel>>();
+}
+
+std::string shown_value(py::handle value) {
+  std::string shown;
+  try {
+    shown = py::repr(value);
+  } catch (py::error_already_set&) {  // str() of an int of more than 4300 digits raises
+    return "an integer of more than 4300 digits";
+  }
+  if (shown.size() > 40)
+    shown = shown.substr(0, 20) + "... (" + std::to_string(shown.size()) + " characters)";
+  return shown;
+}
+
+double number_argument(py::handle obj, const char* name) {
+  if (PyFloat_Check(obj.ptr())) return PyFloat_AS_DOUBLE(obj.ptr());
+  const auto refuse = [&] {
+    return py::type_error(std::string(name) + " must be a number, got " + type_name(obj));
+  };
+  // A bool is a number to Python, but True for a time or a tolerance is a mistake.
+  if (PyBool_Check(obj.ptr()) || PyUnicode_Check(obj.ptr()) || PyBytes_Check(obj.ptr()))
+    throw refuse();
+  const double v = PyFloat_AsDouble(obj.ptr());
+  if (v == -1.0 && PyErr_Occurred()) {
+    // An int beyond the range of a double is a number, just not a finite one.
+    const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError) && PyIndex_Check(obj.ptr());
+    PyErr_Clear();
+    if (!overflow) throw refuse();
+    const int negative = PyObject_RichCompareBool(obj.ptr(), py::int_(0).ptr(), Py_LT);
+    if (negative < 0) throw py::error_already_set();
+    return negative ? -std::numeric_limits<double>::infinity()
+                    : std::numeric_limits<double>::infinity();
+  }
+  return v;
+}
+
+double finite_argument(py::handle obj, const char* name) {
+  const double v = number_argument(obj, name);
+  if (!std::isfinite(v))
+    throw py::value_error(std::string(name) + " must be finite, got " + shown_value(obj));
+  return v;
+}
+
+double positive_setting(py::handle obj, const char* name) {
+  const double v = number_argument(obj, name);
+  if (!(std::isfinite(v) && v > 0.0))
+    throw py::value_error(std::string(name) + " must be a finite number > 0, got " +
+                          shown_value(obj));
+  return v;
+}
+
+std::string string_argument(py::handle obj, const char* name) {
+  if (!PyUnicode_Check(obj.ptr()))
+    throw py::type_error(std::string(name) + " must be a str, got " + type_name(obj));
+  return obj.cast<std::string>();
+}
+
+bool bool_argument(py::handle obj, const char* name) {
+  if (PyBool_Check(obj.ptr())) return obj.ptr() == Py_True;
+  if (py::isinstance(obj, py::module_::import("numpy").attr("bool_"))) return obj.cast<bool>();
+  throw py::type_error(std::string(name) + " must be True or False, got " + type_name(obj));
+}
+
 namespace {
 
 /// The notes' x, y of a Python State of the notes, checked for this model: N, finite, unit

@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -180,6 +181,55 @@ py::str path_str(const std::string& path);
 /// bool. TypeError otherwise; ValueError "NAME VALUE is not in LO..HI" when out of the range,
 /// however large (pybind11's own conversion would raise TypeError for an int beyond 64 bits).
 long long integer_argument(py::handle obj, const std::string& name, long long lo, long long hi);
+/// integer_argument for an index (a run of a study): IndexError when out of the range.
+long long index_argument(py::handle obj, const std::string& name, long long lo, long long hi);
+
+/// The Model of a Python argument: TypeError "NAME must be a kanedyn.Model ..., got TYPE" for
+/// anything else, None included (pybind11 would hand None to a holder argument as a null
+/// pointer).
+std::shared_ptr<PyModel> model_argument(py::handle obj, const char* name);
+/// A number: a Python int or float or a numpy number, not a bool nor a str. TypeError "NAME
+/// must be a number, got TYPE" otherwise; an int beyond the range of a double is inf.
+double number_argument(py::handle obj, const char* name);
+/// A finite number: ValueError "NAME must be finite, got VALUE" otherwise.
+double finite_argument(py::handle obj, const char* name);
+/// A finite number > 0 (a tolerance, a step, a time span): ValueError "NAME must be a finite
+/// number > 0, got VALUE" otherwise.
+double positive_setting(py::handle obj, const char* name);
+/// A str: TypeError "NAME must be a str, got TYPE" otherwise (pybind11's own conversion would
+/// raise its generic "incompatible function arguments").
+std::string string_argument(py::handle obj, const char* name);
+/// True or False (a bool or a numpy.bool_): TypeError naming the argument otherwise.
+bool bool_argument(py::handle obj, const char* name);
+/// repr(value) for a message, cut to its first characters when long (an int of 10**400).
+std::string shown_value(py::handle value);
+
+/// What a long computation without the GIL does between its steps (simulate()'s on_step,
+/// Simulator.step's dopri5 steps): about every 50 ms it takes the GIL to let Python run its
+/// signal handlers (Ctrl-C) and, every 0.1 s, the progress callback (None: none). An
+/// exception of either stops the computation (operator() returns false) and is kept, to be
+/// raised by restore() once the GIL is held again.
+class StepHook {
+ public:
+  StepHook(py::object progress, double t_end);
+  ~StepHook();
+  StepHook(const StepHook&) = delete;
+  StepHook& operator=(const StepHook&) = delete;
+
+  /// Called without the GIL; force: check now (and call the progress callback).
+  bool operator()(double t, bool force = false);
+  bool failed() const { return type_ != nullptr; }
+  /// Sets the kept exception as Python's error (ownership passes to it).
+  void restore();
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  bool stash();
+  py::object progress_;
+  double t_end_;
+  Clock::time_point last_check_ = Clock::now(), last_progress_ = last_check_;
+  PyObject *type_ = nullptr, *value_ = nullptr, *trace_ = nullptr;
+};
 
 /// C-contiguous float64 copies.
 py::array_t<double> to_numpy(const VectorX& v);

@@ -126,8 +126,9 @@ py::dict partition_at(const PyModel& m, py::object first, py::object second) {
   return d;
 }
 
-py::dict project_state(const PyModel& m, py::object first, py::object second, double tolerance) {
-  if (!(tolerance > 0.0)) throw py::value_error("tolerance must be > 0");
+py::dict project_state(const PyModel& m, py::object first, py::object second,
+                       py::object tolerance_obj) {
+  const double tolerance = positive_setting(tolerance_obj, "tolerance");
   VectorX q, z;
   state_arguments(m, first, second, q, z, "project()");
   const Projection p = constraint_call([&] {
@@ -145,7 +146,8 @@ py::dict project_state(const PyModel& m, py::object first, py::object second, do
 }
 
 py::dict constrained_forward(const PyModel& m, py::object first, py::object second,
-                             py::object u_obj, const std::string& method) {
+                             py::object u_obj, py::object method_obj) {
+  const std::string method = string_argument(method_obj, "method");
   if (method != "multipliers" && method != "projected")
     throw py::value_error("method must be 'multipliers' or 'projected', got '" + method + "'");
   VectorX q, z, u;

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -161,6 +162,9 @@ struct PySimulator {
   /// Set while a call runs without the GIL (models of kReleaseGilBodies or more, _time_steps),
   /// so that another thread's step() or set_state() is refused rather than racing it.
   std::atomic<bool> busy{false};
+  /// What the simulator's on_step asks between dopri5's steps within one step() (Ctrl-C), or
+  /// null: set by step() for its call.
+  StepHook* hook = nullptr;
 };
 
 /// Holds PySimulator::busy for a call; RuntimeError when another thread holds it.
@@ -184,7 +188,8 @@ class Busy {
   throw py::error_already_set();
 }
 
-/// One step with u held; C++ errors as Python's (ValueError; SimulationError for a failure).
+/// One step with u held; C++ errors as Python's (ValueError; SimulationError for a failure; a
+/// Python exception raised between dopri5's steps, KeyboardInterrupt for Ctrl-C, as it is).
 void step_with(PySimulator& s, py::handle u_obj, double dt) {
   const Busy busy(s);  // before s.u is touched
   const int count = s.model->model().num_inputs();
@@ -200,8 +205,18 @@ void step_with(PySimulator& s, py::handle u_obj, double dt) {
     data = s.u.data();
   }
   const Eigen::Map<const VectorX> u(data, count);
+  // dopri5 may take any number of steps to cover dt (1e6 s takes minutes): it runs without the
+  // GIL and looks at Python's signals between its steps, as simulate() does. rk4 is one step,
+  // held under the GIL for small models (releasing it costs about 0.1 us).
+  std::optional<StepHook> hook;
+  if (s.sim->settings().integrator == Integrator::dopri5) hook.emplace(py::none(), 0.0);
+  s.hook = hook ? &*hook : nullptr;
+  struct Unhook {  // before the hook goes, however the step ends
+    PySimulator& s;
+    ~Unhook() { s.hook = nullptr; }
+  } unhook{s};
   try {
-    if (s.model->N() >= kReleaseGilBodies) {
+    if (hook || s.model->N() >= kReleaseGilBodies) {
       py::gil_scoped_release release;
       s.sim->step(u, dt);
     } else {
@@ -210,6 +225,10 @@ void step_with(PySimulator& s, py::handle u_obj, double dt) {
   } catch (const std::invalid_argument& e) {
     throw py::value_error(e.what());
   } catch (const std::runtime_error& e) {
+    if (hook && hook->failed()) {
+      hook->restore();
+      throw py::error_already_set();
+    }
     raise_simulation_error(e.what());
   }
 }
@@ -271,44 +290,37 @@ PyMethodDef step_method = {
     "error-controlled steps landing on t + dt, restarted at t. Returns None. dt defaults to the "
     "Simulator's dt=. ValueError for a wrong u or dt; kanedyn.SimulationError when the state "
     "becomes non-finite or dopri5's step underflows (the simulator then keeps the time and "
-    "state it had)."};
+    "state it had). dopri5 runs without the GIL, and Ctrl-C stops it between its steps "
+    "within about 50 ms: KeyboardInterrupt, the simulator keeping the time and state it had."};
 
-std::unique_ptr<PySimulator> make_simulator(const std::shared_ptr<PyModel>& model,
-                                            py::object initial, const std::string& integrator,
-                                            py::object dt, py::object rtol, py::object atol,
-                                            py::object max_step, py::object route, double t,
-                                            bool project) {
+std::unique_ptr<PySimulator> make_simulator(py::object model_obj, py::object initial,
+                                            py::object integrator, py::object dt, py::object rtol,
+                                            py::object atol, py::object max_step, py::object route,
+                                            py::object t_obj, py::object project) {
+  // The model first: None would reach the library as a null model.
+  const std::shared_ptr<PyModel> model = model_argument(model_obj, "model");
   SimulationSettings s = io::simulation_settings(model->file().simulation);
   try {
-    s.integrator = parse_integrator(integrator);
-    if (!route.is_none()) s.route = parse_route(route.cast<std::string>());
+    s.integrator = parse_integrator(string_argument(integrator, "integrator"));
+    if (!route.is_none()) s.route = parse_route(string_argument(route, "route"));
   } catch (const std::invalid_argument& e) {
     throw py::value_error(e.what());
   }
+  // As simulate() and the tool take them: tolerances and steps finite and > 0.
   const auto set = [](py::handle value, const char* name, double& field) {
-    if (value.is_none()) return;
-    double v = 0.0;
-    if (py::isinstance<py::bool_>(value) || py::isinstance<py::str>(value))
-      throw py::type_error(std::string(name) + " must be a number");
-    v = value.cast<double>();
-    if (!(std::isfinite(v) && v > 0.0) && !(std::string(name) != "max_step" && v == 0.0))
-      throw py::value_error(std::string(name) + " must be a finite number > 0");
-    field = v;
+    if (!value.is_none()) field = positive_setting(value, name);
   };
   set(rtol, "rtol", s.rtol);
   set(atol, "atol", s.atol);
   set(max_step, "max_step", s.max_step);
-  if (!std::isfinite(t)) throw py::value_error("t must be finite");
+  const double t = finite_argument(t_obj, "t");
   s.t_start = s.t_end = t;
-  s.project_euler_parameters = project;
+  s.project_euler_parameters = bool_argument(project, "project_euler_parameters");
   auto out = std::make_unique<PySimulator>();
   out->model = model;
-  if (!dt.is_none()) {
-    double step = 0.0;
-    set(dt, "dt", step);
-    if (!(step > 0.0)) throw py::value_error("dt must be a finite number > 0");
-    out->dt = step;
-  }
+  set(dt, "dt", out->dt);
+  // dopri5 asks between its steps (step_with sets the hook for its call).
+  s.on_step = [p = out.get()](double t_reached) { return !p->hook || (*p->hook)(t_reached); };
   VectorX q, z;
   model_state(*model, initial, q, z);
   try {
@@ -391,7 +403,7 @@ void register_simulator(py::module_& m) {
           [](PySimulator& s, py::object state, py::object t_obj) {
             VectorX q, z;
             model_state(*s.model, state, q, z);
-            const double t = t_obj.is_none() ? s.sim->time() : t_obj.cast<double>();
+            const double t = t_obj.is_none() ? s.sim->time() : finite_argument(t_obj, "t");
             const Busy busy(s);
             try {
               s.sim->set_state(q, z, t);

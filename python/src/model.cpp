@@ -181,8 +181,9 @@ std::vector<int> body_indices(const Model& model, py::handle bodies) {
   std::vector<int> out;
   if (bodies.is_none()) return out;
   std::vector<py::object> items;
-  if (py::isinstance<py::str>(bodies) || py::isinstance<py::int_>(bodies) || is_integer(bodies))
-    items.push_back(py::reinterpret_borrow<py::object>(bodies));
+  if (py::isinstance<py::str>(bodies) || py::isinstance<py::int_>(bodies) || is_integer(bodies) ||
+      !py::isinstance<py::iterable>(bodies))
+    items.push_back(py::reinterpret_borrow<py::object>(bodies));  // refused below unless a body
   else
     for (py::handle item : bodies) items.push_back(py::reinterpret_borrow<py::object>(item));
   for (const py::object& item : items) {
@@ -398,7 +399,11 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
       py::arg("path"));
   m.def(
       "_load_text",
-      [](const std::string& text, const std::string& name) {
+      [](const std::string& text, py::handle name_obj) {
+        // The name stands for a file's in messages and Model.path, which later writes
+        // compare with their outputs: a NUL byte would cut it, as it would a path.
+        const std::string name = string_argument(name_obj, "name");
+        if (name.find('\0') != std::string::npos) throw py::value_error("embedded null byte");
         try {
           py::gil_scoped_release release;
           return std::make_shared<PyModel>(io::parse_model_file(text, name));
@@ -516,8 +521,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "fixed joints)")
       .def(
           "frame",
-          [](const PyModel& p, const std::string& name, py::object state_obj) {
-            const Target f = frame_argument(p, name);
+          [](const PyModel& p, py::handle name, py::object state_obj) {
+            const Target f = frame_argument(p, string_argument(name, "name"));
             VectorX q, z;
             model_state(p, state_obj, q, z);
             PyModel::Lease work(p);
@@ -540,8 +545,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "to frame components, as a body's [R_K]).")
       .def(
           "jacobian",
-          [](const PyModel& p, const std::string& name, py::object state_obj) {
-            const Target f = frame_argument(p, name);
+          [](const PyModel& p, py::handle name, py::object state_obj) {
+            const Target f = frame_argument(p, string_argument(name, "name"));
             VectorX q, z;
             model_state(p, state_obj, q, z);
             const int n = p.model().num_speeds();
@@ -563,8 +568,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "[v_P,y][C] and [R_K]^T [w'_K,y][C] (docs/theory.md, \"Frames and Jacobians\").")
       .def(
           "frame_acceleration",
-          [](const PyModel& p, const std::string& name, py::object state_obj, py::object zdot_obj) {
-            const Target f = frame_argument(p, name);
+          [](const PyModel& p, py::handle name, py::object state_obj, py::object zdot_obj) {
+            const Target f = frame_argument(p, string_argument(name, "name"));
             VectorX q, z, zdot;
             model_state(p, state_obj, q, z);
             speed_vector(p, zdot_obj, zdot, "zdot");
@@ -586,7 +591,8 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "acceleration and its 'angular' acceleration.")
       .def(
           "body_number",
-          [](const PyModel& p, const std::string& name) {
+          [](const PyModel& p, py::handle name_obj) {
+            const std::string name = string_argument(name_obj, "name");
             const int k = p.model().body_index(name);
             if (k < 0) throw py::key_error("no body named '" + io::printable(name, 60) + "'");
             return k + 1;
@@ -619,8 +625,9 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
            "dense [A]).")
       .def(
           "inspect",
-          [](const PyModel& p, py::object state_obj, double t, py::object bodies, py::object q_obj,
-             py::object z_obj, py::object u_obj) {
+          [](const PyModel& p, py::object state_obj, py::object t_obj, py::object bodies,
+             py::object q_obj, py::object z_obj, py::object u_obj) {
+            const double t = finite_argument(t_obj, "t");
             const std::vector<int> selected = body_indices(p.model(), bodies);
             VectorX q, z, u;
             model_state(p, state_obj, q_obj, z_obj, q, z);
@@ -642,10 +649,13 @@ void register_model(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>
           "joints holds [C] and the projected equations.")
       .def(
           "symbolic_partial",
-          [](const PyModel& p, py::object body, const std::string& point, bool rate) {
+          [](const PyModel& p, py::object body, py::handle point, py::handle rate_obj) {
+            if (body.is_none())
+              throw py::type_error("body must be a body number K (1..N) or a name, got None");
             const std::vector<int> k = body_indices(p.model(), body);
             if (k.size() != 1) throw py::value_error("body: give one body number K or name");
-            const Point pt = point_argument(point);
+            const Point pt = point_argument(string_argument(point, "point"));
+            const bool rate = bool_argument(rate_obj, "rate");
             return format_symbolic(p.model(), k[0], pt, rate, 1) + "\n" +
                    format_symbolic(p.model(), k[0], pt, rate, 2);
           },

@@ -240,7 +240,8 @@ py::ssize_t thread_count(py::handle obj, unsigned cores) {
   int overflow = 0;
   const long long asked = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
   if (overflow < 0 || (overflow == 0 && asked < 0))
-    throw py::value_error("threads must be >= 0 (0: every core), got a negative number");
+    throw py::value_error("threads must be >= 0 (0: one per core; more than the cores are " +
+                          std::string("capped), got ") + shown_value(obj));
   if (overflow > 0 || asked == 0 || asked > static_cast<long long>(cores)) return cores;
   return static_cast<py::ssize_t>(asked);
 }
@@ -374,38 +375,6 @@ py::array_t<double> adopt(std::vector<double>&& values, std::vector<py::ssize_t>
   return py::array_t<double>(shape, heap->data(), owner);
 }
 
-/// repr(value), cut to its first digits when long (an int of 10**400, say).
-std::string shown_value(py::handle value) {
-  std::string shown;
-  try {
-    shown = py::repr(value);
-  } catch (py::error_already_set&) {  // str() of an int of more than 4300 digits raises
-    return "an integer of more than 4300 digits";
-  }
-  if (shown.size() > 40)
-    shown = shown.substr(0, 20) + "... (" + std::to_string(shown.size()) + " characters)";
-  return shown;
-}
-
-double positive_setting(py::handle value, const char* name) {
-  double v = 0.0;
-  const bool is_bool = py::isinstance<py::bool_>(value);
-  try {
-    if (is_bool || py::isinstance<py::str>(value)) throw py::cast_error();
-    v = value.cast<double>();
-  } catch (const py::cast_error&) {
-    // An int beyond the range of a double is a number, just not a finite one.
-    if (is_bool || !py::isinstance<py::int_>(value))
-      throw py::type_error(std::string(name) + " must be a number, got " +
-                           std::string(py::str(value.get_type().attr("__name__"))));
-    v = std::numeric_limits<double>::infinity();
-  }
-  if (!(std::isfinite(v) && v > 0.0))
-    throw py::value_error(std::string(name) + " must be a finite number > 0, got " +
-                          shown_value(value));
-  return v;
-}
-
 /// The input table of simulate(inputs=(t, U), inputs_hold=...): t (T,) increasing, U (T, m)
 /// (or (T,) for a model of one input).
 InputTable input_table(const PyModel& m, py::handle table, py::handle hold_obj) {
@@ -460,9 +429,9 @@ SimulationSettings settings_from(const PyModel& m, const py::dict& given) {
   set("step", s.step);
   set("max_step", s.max_step);
   if (given.contains("integrator") && !given["integrator"].is_none())
-    s.integrator = parse_integrator(given["integrator"].cast<std::string>());
+    s.integrator = parse_integrator(string_argument(given["integrator"], "integrator"));
   if (given.contains("route") && !given["route"].is_none())
-    s.route = parse_route(given["route"].cast<std::string>());
+    s.route = parse_route(string_argument(given["route"], "route"));
   const auto given_object = [&](const char* key) {
     return given.contains(key) ? py::object(given[key]) : py::object(py::none());
   };
@@ -525,10 +494,10 @@ namespace {
 /// (q dot, z dot) of any model at (q, z) (or a State; default: the initial state), by the
 /// route.
 py::tuple joint_derivatives(const PyModel& m, py::object q_obj, py::object z_obj,
-                            const std::string& route_name, py::object u_obj) {
+                            py::object route_obj, py::object u_obj) {
   Route route = Route::recursive;
   try {
-    route = parse_route(route_name);
+    route = parse_route(string_argument(route_obj, "route"));
   } catch (const std::invalid_argument& e) {
     throw py::value_error(e.what());
   }
@@ -557,8 +526,10 @@ struct Rows {
 };
 
 /// simulate(controller=f): f(t, state) -> u called from the run, which holds no GIL. Its
-/// exception (or a value that is not m finite numbers) is kept, to be raised (chained) when
-/// simulate() returns, and stops the run as the library's controller_error.
+/// exception (or a value that is not m finite numbers, None included: elsewhere u=None means
+/// zeros, but a controller that returns nothing has most likely forgotten its return) is
+/// kept, to be raised (chained) when simulate() returns, and stops the run as the library's
+/// controller_error.
 class PythonController {
  public:
   PythonController(std::shared_ptr<PyModel> model, py::object f)
@@ -576,6 +547,11 @@ class PythonController {
     py::gil_scoped_acquire acquire;
     try {
       const py::object value = f_(t, py::cast(make_state(model_, q, z)));
+      if (value.is_none())
+        throw py::type_error(
+            "the controller returned None; it must return u, " +
+            std::to_string(model_->model().num_inputs()) +
+            " finite numbers (one per input of Model.inputs); did it forget its return?");
       input_values(*model_, value, u_, "the controller's value");
       u = u_;
       return;
@@ -603,69 +579,16 @@ class PythonController {
   std::unique_ptr<py::error_already_set> error_;
 };
 
-/// What on_step does while the GIL is released: about every 50 ms it takes the GIL to let
-/// Python run its signal handlers (Ctrl-C) and, every 0.1 s, the progress callback. An
-/// exception of either stops the run and is raised when simulate() returns.
-class StepHook {
- public:
-  StepHook(py::object progress, double t_end) : progress_(std::move(progress)), t_end_(t_end) {}
-  ~StepHook() {
-    if (type_) {
-      py::gil_scoped_acquire acquire;
-      Py_XDECREF(type_);
-      Py_XDECREF(value_);
-      Py_XDECREF(trace_);
-    }
-  }
-  StepHook(const StepHook&) = delete;
-  StepHook& operator=(const StepHook&) = delete;
-
-  bool operator()(double t, bool force = false) {
-    const auto now = Clock::now();
-    if (!force && now - last_check_ < std::chrono::milliseconds(50)) return true;
-    last_check_ = now;
-    py::gil_scoped_acquire acquire;
-    if (PyErr_CheckSignals() != 0) return stash();
-    if (!progress_.is_none() && (force || now - last_progress_ >= std::chrono::milliseconds(100))) {
-      last_progress_ = now;
-      try {
-        progress_(t, t_end_);
-      } catch (py::error_already_set& e) {
-        e.restore();
-        return stash();
-      }
-    }
-    return true;
-  }
-  bool failed() const { return type_ != nullptr; }
-  /// Sets the stashed exception as Python's error (ownership passes to it).
-  void restore() {
-    PyErr_Restore(type_, value_, trace_);
-    type_ = value_ = trace_ = nullptr;
-  }
-
- private:
-  using Clock = std::chrono::steady_clock;
-  bool stash() {
-    PyErr_Fetch(&type_, &value_, &trace_);
-    PyErr_NormalizeException(&type_, &value_, &trace_);
-    return false;
-  }
-  py::object progress_;
-  double t_end_;
-  Clock::time_point last_check_ = Clock::now(), last_progress_ = last_check_;
-  PyObject *type_ = nullptr, *value_ = nullptr, *trace_ = nullptr;
-};
-
 std::string kept_note(const io::BackgroundTrajectoryWriter& writer) {
   return "partial trajectory (" + std::to_string(writer.rows()) + " rows) kept in " +
          writer.partial_path();
 }
 
 py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& given,
-                          py::object initial_obj, py::object output, bool store,
+                          py::object initial_obj, py::object output, py::object store_obj,
                           py::object progress) {
   const PyModel& m = *self;
+  const bool store = bool_argument(store_obj, "store");
   const Model& model = m.model();
   const SimulationSettings base = settings_from(m, given);
   VectorX q0, z0;
@@ -832,16 +755,17 @@ double reader_norm(const double* values, py::ssize_t stride) {
 /// naming the array, the row and the column: a non-finite number, Euler parameters (or a
 /// spherical joint's) not of unit norm within 1e-6, a time before the previous row's, no rows;
 /// and a mass centre that overflows (the writer would refuse that row). Checked before any
-/// file is created, so that a refused to_csv leaves nothing behind.
-void check_rows(const PyModel& m, const py::array& t, const py::array& x, const py::array& y,
-                const py::array& energy, const py::array& qa, const py::array& za) {
+/// file is created, so that a refused to_csv (or view, `caller`) leaves nothing behind.
+void check_rows(const PyModel& m, const std::string& caller, const py::array& t, const py::array& x,
+                const py::array& y, const py::array& energy, const py::array& qa,
+                const py::array& za) {
   const Model& model = m.model();
   const int n = m.N();
   // A model with joints has joint columns (docs/model-format.md, "Trajectory CSV").
   const Model* tree = m.notes_layout() ? nullptr : &m.model();
   const py::ssize_t rows = t.shape(0);
-  const auto fail = [](const std::string& problem) {
-    throw py::value_error("to_csv: " + problem + "; nothing was written");
+  const auto fail = [&caller](const std::string& problem) {
+    throw py::value_error(caller + ": " + problem + "; nothing was written");
   };
   if (rows == 0) fail("the result has no rows (a trajectory CSV has at least one)");
   const auto none = [](py::ssize_t) { return std::string(); };
@@ -900,54 +824,79 @@ void check_rows(const PyModel& m, const py::array& t, const py::array& x, const 
   }
 }
 
+/// A result's arrays, converted and checked (checked_rows).
+struct StoredRows {
+  py::array t, x, y, energy, q, z, u, reactions;
+  bool has_u = false;  // u given (else every input is 0)
+};
+
+/// The arrays of a Result as float64 arrays of its model's shapes, checked as the trajectory
+/// reader would check their CSV (check_rows), and the inputs' values and the reactions finite.
+/// ValueError "CALLER: problem; nothing was written".
+StoredRows checked_rows(const PyModel& m, const std::string& caller, py::handle t_obj,
+                        py::handle x_obj, py::handle y_obj, py::handle energy_obj, py::handle q_obj,
+                        py::handle z_obj, py::handle u_obj, py::handle reactions_obj) {
+  const Model& model = m.model();
+  const int n = m.N();
+  StoredRows out;
+  out.t = float64_array(t_obj, "t", {-1}, "(T,)");
+  const py::ssize_t rows = out.t.shape(0);
+  out.x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
+  out.y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
+  out.energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
+  // A model with joints has joint columns (docs/model-format.md, "Trajectory CSV").
+  if (!m.notes_layout()) {
+    const int nq = model.num_coordinates(), nz = model.num_speeds();
+    out.q = float64_array(q_obj, "q", {rows, nq}, "(T, " + std::to_string(nq) + ")");
+    out.z = float64_array(z_obj, "z", {rows, nz}, "(T, " + std::to_string(nz) + ")");
+  }
+  check_rows(m, caller, out.t, out.x, out.y, out.energy, out.q, out.z);
+  const auto fail = [&caller](const std::string& problem) {
+    throw py::value_error(caller + ": " + problem + "; nothing was written");
+  };
+  // A model with inputs has input columns: the values in force at each row (None: zero).
+  const int nu = model.num_inputs();
+  if (nu > 0 && !u_obj.is_none()) {
+    out.u = float64_array(u_obj, "u", {rows, nu}, "(T, " + std::to_string(nu) + ")");
+    out.has_u = true;
+    const std::string problem = first_non_finite(out.u, "u", rows, nu, [&](py::ssize_t c) {
+      return "input '" + model.inputs()[static_cast<size_t>(c)].name + "'";
+    });
+    if (!problem.empty()) fail(problem);
+  }
+  // A model with constraints has reaction columns: the stored reactions of each row (they are
+  // the run's, at its output states; there is no default).
+  const int nr = reaction_count(model);
+  if (nr > 0) {
+    if (reactions_obj.is_none())
+      fail("this model has constraints and the result holds no reactions");
+    out.reactions =
+        float64_array(reactions_obj, "reactions", {rows, nr}, "(T, " + std::to_string(nr) + ")");
+    const std::string problem =
+        first_non_finite(out.reactions, "reactions", rows, nr,
+                         [&](py::ssize_t) { return std::string("a constraint reaction"); });
+    if (!problem.empty()) fail(problem);
+  }
+  return out;
+}
+
 /// Writes stored rows as the trajectory CSV: the kinematics of each row are computed again
 /// (compute_kinematics gives the same bits as at run time), the energy is the stored one.
-/// The rows are checked first (check_rows): the file is written whole or not at all.
+/// The rows are checked first (checked_rows): the file is written whole or not at all.
 void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::handle x_obj,
                py::handle y_obj, py::handle energy_obj, py::handle q_obj, py::handle z_obj,
                py::handle u_obj, py::handle reactions_obj) {
   const Model& model = m.model();
   const int n = m.N();
   const std::string path = path_argument(path_obj, "path");
-  const auto t = float64_array(t_obj, "t", {-1}, "(T,)");
+  const StoredRows checked = checked_rows(m, "to_csv", t_obj, x_obj, y_obj, energy_obj, q_obj,
+                                          z_obj, u_obj, reactions_obj);
+  const py::array &t = checked.t, &x = checked.x, &y = checked.y, &energy = checked.energy;
+  const py::array &qa = checked.q, &za = checked.z, &ua = checked.u, &ra = checked.reactions;
   const py::ssize_t rows = t.shape(0);
-  const auto x = float64_array(x_obj, "x", {rows, 7 * n}, "(T, 7N)");
-  const auto y = float64_array(y_obj, "y", {rows, 6 * n}, "(T, 6N)");
-  const auto energy = float64_array(energy_obj, "energy", {rows}, "(T,)");
-  // A model with joints has joint columns (docs/model-format.md, "Trajectory CSV").
   const Model* tree = m.notes_layout() ? nullptr : &m.model();
   const int nq = tree ? tree->num_coordinates() : 0, nz = tree ? tree->num_speeds() : 0;
-  py::array qa, za;
-  if (tree) {
-    qa = float64_array(q_obj, "q", {rows, nq}, "(T, " + std::to_string(nq) + ")");
-    za = float64_array(z_obj, "z", {rows, nz}, "(T, " + std::to_string(nz) + ")");
-  }
-  check_rows(m, t, x, y, energy, qa, za);
-  // A model with inputs has input columns: the values in force at each row (None: zero).
-  const int nu = model.num_inputs();
-  py::array ua;
-  if (nu > 0 && !u_obj.is_none()) {
-    ua = float64_array(u_obj, "u", {rows, nu}, "(T, " + std::to_string(nu) + ")");
-    const std::string problem = first_non_finite(ua, "u", rows, nu, [&](py::ssize_t c) {
-      return "input '" + model.inputs()[static_cast<size_t>(c)].name + "'";
-    });
-    if (!problem.empty()) throw py::value_error("to_csv: " + problem + "; nothing was written");
-  }
-  // A model with constraints has reaction columns: the stored reactions of each row (they are
-  // the run's, at its output states; there is no default).
-  const int nr = reaction_count(model);
-  py::array ra;
-  if (nr > 0) {
-    if (reactions_obj.is_none())
-      throw py::value_error(
-          "to_csv: this model has constraints and the result holds no reactions; nothing was "
-          "written");
-    ra = float64_array(reactions_obj, "reactions", {rows, nr}, "(T, " + std::to_string(nr) + ")");
-    const std::string problem = first_non_finite(ra, "reactions", rows, nr, [&](py::ssize_t) {
-      return std::string("a constraint reaction");
-    });
-    if (!problem.empty()) throw py::value_error("to_csv: " + problem + "; nothing was written");
-  }
+  const int nu = model.num_inputs(), nr = reaction_count(model);
   io::check_output_path(path, {m.file().path});
   io::TrajectoryWriter writer(model, path);
   Data data(model, DataOptions::recursive_only());
@@ -959,7 +908,7 @@ void write_csv(const PyModel& m, py::handle path_obj, py::handle t_obj, py::hand
     compute_kinematics(model, state, data);
     for (int i = 0; i < nq; ++i) q[i] = doubles(qa)[r * stride(qa, 0) + i * stride(qa, 1)];
     for (int i = 0; i < nz; ++i) z[i] = doubles(za)[r * stride(za, 0) + i * stride(za, 1)];
-    if (ua) {
+    if (checked.has_u) {
       for (int i = 0; i < nu; ++i)
         data.inputs[i] = doubles(ua)[r * stride(ua, 0) + i * stride(ua, 1)];
     }
@@ -1007,6 +956,47 @@ double time_derivatives(const PyModel& m, py::object state_obj, py::handle calls
 
 }  // namespace
 
+StepHook::StepHook(py::object progress, double t_end)
+    : progress_(std::move(progress)), t_end_(t_end) {}
+
+StepHook::~StepHook() {
+  if (type_) {
+    py::gil_scoped_acquire acquire;
+    Py_XDECREF(type_);
+    Py_XDECREF(value_);
+    Py_XDECREF(trace_);
+  }
+}
+
+bool StepHook::operator()(double t, bool force) {
+  const auto now = Clock::now();
+  if (!force && now - last_check_ < std::chrono::milliseconds(50)) return true;
+  last_check_ = now;
+  py::gil_scoped_acquire acquire;
+  if (PyErr_CheckSignals() != 0) return stash();
+  if (!progress_.is_none() && (force || now - last_progress_ >= std::chrono::milliseconds(100))) {
+    last_progress_ = now;
+    try {
+      progress_(t, t_end_);
+    } catch (py::error_already_set& e) {
+      e.restore();
+      return stash();
+    }
+  }
+  return true;
+}
+
+void StepHook::restore() {
+  PyErr_Restore(type_, value_, trace_);
+  type_ = value_ = trace_ = nullptr;
+}
+
+bool StepHook::stash() {
+  PyErr_Fetch(&type_, &value_, &trace_);
+  PyErr_NormalizeException(&type_, &value_, &trace_);
+  return false;
+}
+
 void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>& cls) {
   // A method descriptor of the class, as a def() would make, without pybind11's dispatcher.
   cls.attr("derivatives") = py::reinterpret_steal<py::object>(
@@ -1023,6 +1013,15 @@ void register_run(py::module_& m, py::class_<PyModel, std::shared_ptr<PyModel>>&
       .def("_simulate", &simulate_model, py::arg("settings"), py::arg("initial"), py::arg("output"),
            py::arg("store"), py::arg("progress"))
       .def("_read_csv", &read_csv, py::arg("path"))
+      .def(
+          "_check_rows",
+          [](const PyModel& self, const std::string& caller, py::handle t, py::handle x,
+             py::handle y, py::handle energy, py::handle q, py::handle z, py::handle u,
+             py::handle reactions) {
+            checked_rows(self, caller, t, x, y, energy, q, z, u, reactions);
+          },
+          py::arg("caller"), py::arg("t"), py::arg("x"), py::arg("y"), py::arg("energy"),
+          py::arg("q"), py::arg("z"), py::arg("u"), py::arg("reactions"))
       .def("_write_csv", &write_csv, py::arg("path"), py::arg("t"), py::arg("x"), py::arg("y"),
            py::arg("energy"), py::arg("q") = py::none(), py::arg("z") = py::none(),
            py::arg("u") = py::none(), py::arg("reactions") = py::none())

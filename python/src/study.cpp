@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "kanedyn/io/files.hpp"
 #include "kanedyn/io/study.hpp"
 
 namespace kanedyn::python {
@@ -31,11 +32,14 @@ StudyPtr parse(const std::string& text, const std::string& source_name, const st
   }
 }
 
-std::vector<RunTuple> run_chunk(const io::Study& study, const std::vector<long>& runs) {
-  for (const long r : runs)
-    if (r < 0 || r >= study.runs)
-      throw py::index_error("run " + std::to_string(r) + " is not one of the study's 0.." +
-                            std::to_string(study.runs - 1));
+/// A run number of the study: an integer in 0..runs-1 (IndexError otherwise, however large).
+long run_number(const io::Study& study, py::handle obj) {
+  return static_cast<long>(index_argument(obj, "run", 0, study.runs - 1));
+}
+
+std::vector<RunTuple> run_chunk(const io::Study& study, py::handle runs_obj) {
+  std::vector<long> runs;
+  for (py::handle r : runs_obj) runs.push_back(run_number(study, r));
   std::vector<io::StudyRun> done;
   {
     py::gil_scoped_release release;
@@ -56,14 +60,41 @@ struct PyFolder {
   std::unique_ptr<io::StudyFolder> folder;
 };
 
+/// The most threads a sweep from Python starts: the tool's `sweep --jobs` range.
+constexpr long long kMaxSweepThreads = 4096;
+
+/// results.csv (or any table) as text, by the readers' rule: opened without blocking, read
+/// only when it is a regular file (a FIFO or a device is refused, not waited on). ValueError
+/// "PATH: problem".
+py::str read_table_text(py::handle path_obj) {
+  const std::string path = path_argument(path_obj, "path");
+  std::string text;
+  try {
+    py::gil_scoped_release release;
+    text =
+        io::read_whole_file(io::open_regular_file(path), std::size_t{1} << 30, "a results table");
+  } catch (const std::runtime_error& e) {
+    throw py::value_error(path + ": " + e.what());
+  }
+  PyObject* decoded =
+      PyUnicode_DecodeUTF8(text.data(), static_cast<Py_ssize_t>(text.size()), nullptr);
+  if (!decoded) {
+    PyErr_Clear();
+    throw py::value_error(path + ": the file is not UTF-8 text (a results table is)");
+  }
+  return py::reinterpret_steal<py::str>(decoded);
+}
+
 }  // namespace
 
 void register_study(py::module_& m) {
+  m.def("_read_table_text", &read_table_text, py::arg("path"));
   py::class_<io::Study, StudyPtr>(m, "_Study",
                                   "A checked study file (docs/studies.md); kanedyn.Study wraps it.")
       .def_static(
           "load",
-          [](const std::string& path) -> StudyPtr {
+          [](py::handle path_obj) -> StudyPtr {
+            const std::string path = path_argument(path_obj, "path");
             try {
               return std::make_shared<io::Study>(io::load_study(path));
             } catch (const io::ModelFileError& e) {
@@ -76,29 +107,37 @@ void register_study(py::module_& m) {
       .def_property_readonly("runs", [](const io::Study& s) { return s.runs; })
       .def_property_readonly("columns", &io::Study::columns)
       .def_property_readonly("text", [](const io::Study& s) { return s.text; })
-      .def_property_readonly("path", [](const io::Study& s) { return s.path; })
+      .def_property_readonly("path", [](const io::Study& s) { return path_str(s.path); })
       .def_property_readonly("model_text", [](const io::Study& s) { return s.model.text(); })
       .def_property_readonly("model_name", [](const io::Study& s) { return s.model.source_name(); })
       .def_property_readonly("fingerprint", [](const io::Study& s) { return s.fingerprint; })
-      .def("parameters", &io::Study::parameters, py::arg("run"))
       .def(
-          "run_chunk",
-          [](const StudyPtr& s, const std::vector<long>& runs) { return run_chunk(*s, runs); },
+          "parameters",
+          [](const io::Study& s, py::handle run) { return s.parameters(run_number(s, run)); },
+          py::arg("run"))
+      .def(
+          "run_chunk", [](const StudyPtr& s, py::handle runs) { return run_chunk(*s, runs); },
           py::arg("runs"),
           "Runs these runs one after the other (without the GIL): a list of (run, row, "
           "trajectory or None, status).");
 
   py::class_<PyFolder>(m, "_StudyFolder", "A study's output folder (docs/studies.md).")
-      .def(py::init([](StudyPtr study, const std::string& dir) {
-             PyFolder f{study, nullptr};
-             f.folder = std::make_unique<io::StudyFolder>(*study, dir);
+      .def(py::init([](py::handle study_obj, py::handle dir_obj) {
+             // Checked before the folder is made: None would be a null study, and a name cut
+             // at a NUL byte another folder.
+             if (!py::isinstance<io::Study>(study_obj))
+               throw py::type_error("study must be a kanedyn._Study, got " +
+                                    std::string(py::str(study_obj.get_type().attr("__name__"))));
+             const std::string dir = path_argument(dir_obj, "out");
+             PyFolder f{study_obj.cast<StudyPtr>(), nullptr};
+             f.folder = std::make_unique<io::StudyFolder>(*f.study, dir);
              return f;
            }),
            py::arg("study"), py::arg("dir"))
       .def_property_readonly("done", [](const PyFolder& f) { return f.folder->done(); })
       .def_property_readonly("total", [](const PyFolder& f) { return f.folder->total(); })
       .def_property_readonly("results_path",
-                             [](const PyFolder& f) { return f.folder->results_path(); })
+                             [](const PyFolder& f) { return path_str(f.folder->results_path()); })
       .def("missing", [](const PyFolder& f) { return f.folder->missing(); })
       .def("failures", [](const PyFolder& f) { return f.folder->failures(); })
       .def(
@@ -120,9 +159,15 @@ void register_study(py::module_& m) {
       .def("write_results", [](const PyFolder& f) { f.folder->write_results(); })
       .def(
           "sweep",
-          [](PyFolder& f, int threads, std::function<void(long, long)> progress) {
+          [](PyFolder& f, py::handle threads_obj, py::object progress_obj) {
             io::SweepOptions options;
-            options.threads = threads;
+            options.threads =
+                static_cast<int>(integer_argument(threads_obj, "threads", 0, kMaxSweepThreads));
+            if (!progress_obj.is_none() && !PyCallable_Check(progress_obj.ptr()))
+              throw py::type_error("progress must be a callable(done, ran) or None");
+            std::function<void(long, long)> progress;
+            if (!progress_obj.is_none())
+              progress = progress_obj.cast<std::function<void(long, long)>>();
             bool interrupted = false;
             // Ctrl-C reaches Python's handler, which only sets a flag: look at it from here.
             options.stop = [&interrupted] {
@@ -145,7 +190,7 @@ void register_study(py::module_& m) {
             }
             return std::make_tuple(result.ran, result.stopped, interrupted);
           },
-          py::arg("threads"), py::arg("progress") = nullptr,
+          py::arg("threads"), py::arg("progress") = py::none(),
           "Runs the missing runs on threads (as `kanedyn sweep`): (runs done now, stopped, "
           "stopped by Ctrl-C).");
 }

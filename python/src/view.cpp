@@ -1,5 +1,6 @@
 // Result.view(): the page of `kanedyn view` for a trajectory held in Python, by the same code
 // (the kanedyn_view library), so that it is the page the tool writes from the same rows.
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -30,8 +31,21 @@ size_t write_view(const PyModel& m, py::object path_obj, py::object table_obj,
       float64_array(table_obj, "table", {-1, columns}, "(T, " + std::to_string(columns) + ")");
   traj.values.reserve(static_cast<size_t>(table.shape(0) * columns));
   for (py::ssize_t r = 0; r < table.shape(0); ++r)
-    for (py::ssize_t c = 0; c < columns; ++c)
-      traj.values.push_back(doubles(table)[r * stride(table, 0) + c * stride(table, 1)]);
+    for (py::ssize_t c = 0; c < columns; ++c) {
+      const double v = doubles(table)[r * stride(table, 0) + c * stride(table, 1)];
+      // `kanedyn view` reads its rows through the trajectory reader, which refuses a number
+      // that is not finite: no page is drawn from one here either.
+      if (!std::isfinite(v))
+        throw py::value_error("view: row " + std::to_string(r) + ", column '" +
+                              traj.columns[static_cast<size_t>(c)] + "' is " +
+                              (std::isnan(v) ? "nan"
+                               : v > 0       ? "inf"
+                                             : "-inf") +
+                              "; nothing was written");
+      traj.values.push_back(v);
+    }
+  if (table.shape(0) == 0)
+    throw py::value_error("view: the result has no rows; nothing was written");
   const std::string text = view::page(model, m.file().path, traj, source);
   io::write_file_atomically(path, text, {m.file().path, input});
   return text.size();
