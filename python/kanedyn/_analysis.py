@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import operator
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Union
 
@@ -93,7 +94,17 @@ class Linearization:
         in that mode. Needs linearize(modes=True)."""
         if self.modes is None:
             raise ValueError("mode(): this linearization has no modes; call linearize(..., modes=True)")
-        return {name: complex(v) for name, v in zip(self.state, self.modes[:, i])}
+        count = self.modes.shape[1]
+        if isinstance(i, (bool, np.bool_)):
+            raise TypeError("i must be an integer, got a bool")
+        try:
+            index = operator.index(i)
+        except TypeError:
+            raise TypeError(f"i must be an integer, got {type(i).__name__}") from None
+        if not -count <= index < count:
+            shown = str(index) if index.bit_length() < 128 else f"of {index.bit_length()} bits"
+            raise IndexError(f"mode {shown} is not in 0..{count - 1}")
+        return {name: complex(v) for name, v in zip(self.state, self.modes[:, index])}
 
     def summary(self, tolerance: Optional[float] = None) -> str:
         """A readable summary: each eigenvalue with its frequency, damping ratio and time
@@ -202,14 +213,13 @@ def _equilibrium(
     coordinate names of Model.tangent_state_names (e.g. "arm.j1", "torso.r2") and indices
     0..n-1; the others keep their values, held by reactions the result does not report.
     tolerance: on the largest generalized force, relative to the force scale (the largest at
-    the start, at least 1).
+    the start, at least 1); a finite number > 0. max_iterations: 1..10000, as the tool's
+    --max-iterations.
 
     Newton that does not converge does not raise: the result has converged False, the last
     iterate, the residual, a message, and the coordinates nothing restrains (what to fix or
     leave out of free). Check result.converged (or bool(result))."""
-    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float, np.floating, np.integer)):
-        raise TypeError(f"tolerance must be a number, not {type(tolerance).__name__}")
-    d = self._equilibrium(free, u, state, float(tolerance), max_iterations, q)
+    d = self._equilibrium(free, u, state, tolerance, max_iterations, q)
     lin = d.pop("linearization")
     return Equilibrium(**d, linearization=None if lin is None else Linearization(**lin))
 

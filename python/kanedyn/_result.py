@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import operator
 import os
 import pathlib
 import sys
@@ -10,6 +11,8 @@ import time
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
+
+from ._kanedyn import Model
 
 _SUFFIXES = ("x", "y", "z", "e1", "e2", "e3", "e4", "s1", "s2", "s3", "w1", "w2", "w3", "sd1", "sd2", "sd3")
 
@@ -49,6 +52,7 @@ class Result:
         u: Optional[np.ndarray] = None,
         reactions: Optional[np.ndarray] = None,
     ) -> None:
+        _require_model(model)
         self.model = model
         self.t = t
         self.x = x
@@ -134,10 +138,19 @@ class Result:
         return np.ascontiguousarray(array[index])
 
     def state(self, row: int) -> Any:
-        """The State of one row (a copy)."""
+        """The State of one row (a copy); row counts from 0 (from -T: from the end)."""
         from ._kanedyn import State
 
-        return State(self.x[row], self.y[row])
+        if isinstance(row, (bool, np.bool_)):
+            raise TypeError("row must be an integer, got a bool")
+        try:
+            index = operator.index(row)
+        except TypeError:
+            raise TypeError(f"row must be an integer, got {type(row).__name__}") from None
+        if not -len(self) <= index < len(self):
+            shown = str(index) if index.bit_length() < 128 else f"of {index.bit_length()} bits"
+            raise IndexError(f"row {shown} is not in 0..{len(self) - 1} (or -{len(self)}..-1 from the end)")
+        return State(self.x[index], self.y[index])
 
     def table(self) -> np.ndarray:
         """Every column of the CSV, (T, 2 + 16N) (more with joint columns), in the order of
@@ -170,7 +183,10 @@ class Result:
         self-contained HTML file that animates the model and plots the columns. The default
         path is the CSV's name (when the run streamed one), else the model file's, with .html,
         in the current folder. The same rows give the page `kanedyn view MODEL TRAJ.csv` writes.
-        Returns the path written."""
+        Returns the path written. The rows are checked first, as to_csv checks them (the tool's
+        view reads them through the trajectory reader, which refuses a number that is not
+        finite): ValueError naming the array, row and column, and no page is written."""
+        self.model._check_rows("view", self.t, self.x, self.y, self.energy, self.q, self.z, self.u, self.reactions)
         if path is None:
             named = self.path or (self.model.path if not self.model.path.startswith("<") else None)
             if named is None:
@@ -185,6 +201,7 @@ class Result:
         """A trajectory CSV of this model, read back to the same doubles by the tool's own
         reader (the header must be this model's, every row whole, times in order); ValueError
         names the file, the line and the problem."""
+        _require_model(model)
         table = model._read_csv(path)
         path = os.fsdecode(path)
         n = model.N
@@ -229,6 +246,11 @@ class Result:
             u,
             reactions,
         )
+
+
+def _require_model(model: Any) -> None:
+    if not isinstance(model, Model):
+        raise TypeError(f"model must be a kanedyn.Model (kanedyn.load(...)), got {type(model).__name__}")
 
 
 def _reaction_columns(model: Any) -> List[str]:

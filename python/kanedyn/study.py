@@ -13,8 +13,10 @@ results.csv is the same file, byte for byte but for the wall_s column.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
+import operator
 import os
 import sys
 import time
@@ -22,7 +24,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from ._kanedyn import _Study, _StudyFolder
+from ._kanedyn import _read_table_text, _Study, _StudyFolder
 
 __all__ = ["Study", "read_results"]
 
@@ -46,28 +48,86 @@ def _run_chunk(payload: _Payload, runs: Sequence[int]) -> List[Tuple[int, str, O
     return study.run_chunk(list(runs))
 
 
-def read_results(path: Union[str, os.PathLike]) -> Any:
+def _integer(value: Any, name: str, lo: int, hi: int) -> int:
+    """An int (or a numpy integer), not a bool, in lo..hi: TypeError or ValueError naming the
+    argument and the range otherwise, as the module's own integer arguments are checked."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be an integer, got a bool")
+    try:
+        number = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}") from None
+    if not lo <= number <= hi:
+        shown = str(number) if number.bit_length() < 128 else f"of {number.bit_length()} bits"
+        raise ValueError(f"{name} {shown} is not in {lo}..{hi}")
+    return number
+
+
+# The most threads run() starts: the tool's `sweep --jobs` range (0: one per core).
+_MAX_THREADS = 4096
+
+
+def _table_rows(path: Any) -> Tuple[str, List[Tuple[int, List[str]]]]:
+    """The file's name and its CSV rows with their line numbers, read by the rule of every
+    reader of the module: a regular file only (a FIFO or a device is refused, not waited on)."""
+    text = _read_table_text(path)
+    name = os.fsdecode(os.fspath(path))
+    reader = csv.reader(io.StringIO(text, newline=""))
+    rows = []
+    try:
+        for row in reader:
+            if row:
+                rows.append((reader.line_num, row))
+    except csv.Error as e:
+        raise ValueError(f"{name}:{reader.line_num}: not CSV: {e}") from None
+    return name, rows
+
+
+def read_results(path: Union[str, bytes, os.PathLike]) -> Any:
     """A results.csv as a numpy structured array: `run` (int64), the varied keys and the
     outputs (float64; nan where a failed run has none), `status` (str) and `wall_s` (float64).
-    A pandas DataFrame of the same columns when pandas is installed."""
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    header, body = rows[0], rows[1:]
+    A pandas DataFrame of the same columns when pandas is installed. A path that is not a
+    regular file, or a file that is not a results table, raises ValueError naming the file
+    (and the line)."""
+    name, rows = _table_rows(path)
+    what = "a results table (run, the varied keys and outputs, status, wall_s)"
+    if not rows:
+        raise ValueError(f"{name}: the file is empty, not {what}")
+    (_, header), body = rows[0], rows[1:]
+    if len(header) < 3 or header[0] != "run" or header[-2:] != ["status", "wall_s"]:
+        shown = ",".join(header)
+        shown = shown if len(shown) <= 80 else shown[:77] + "..."
+        raise ValueError(f"{name}:1: the header {shown!r} is not that of {what}")
     numeric = header[1:-2]
-    status_width = max([len(r[-2]) for r in body] + [2])
+
+    def number(line: int, column: str, text: str) -> float:
+        try:
+            return float(text) if text != "" or column == "wall_s" else math.nan
+        except ValueError:
+            raise ValueError(f"{name}:{line}: column {column!r}: {text[:40]!r} is not a number") from None
+
+    values = []
+    for line, r in body:
+        if len(r) != len(header):
+            raise ValueError(f"{name}:{line}: the row has {len(r)} fields, the header {len(header)}")
+        try:
+            run = int(r[0])
+        except ValueError:
+            run = -1
+        if not 0 <= run < 2**63:
+            raise ValueError(f"{name}:{line}: column 'run': {r[0][:40]!r} is not a run number")
+        values.append(
+            (run, *[number(line, c, v) for c, v in zip(numeric, r[1:-2])], r[-2], number(line, "wall_s", r[-1]))
+        )
+    status_width = max([len(v[-2]) for v in values] + [2])
     dtype = (
         [("run", np.int64)]
-        + [(name, np.float64) for name in numeric]
+        + [(column, np.float64) for column in numeric]
         + [("status", f"U{status_width}"), ("wall_s", np.float64)]
     )
-    table = np.empty(len(body), dtype=dtype)
-    for i, r in enumerate(body):
-        table[i] = (
-            int(r[0]),
-            *[float(v) if v != "" else math.nan for v in r[1:-2]],
-            r[-2],
-            float(r[-1]),
-        )
+    table = np.empty(len(values), dtype=dtype)
+    for i, v in enumerate(values):
+        table[i] = v
     try:
         import pandas  # noqa: PLC0415 (optional)
     except ImportError:
@@ -80,12 +140,17 @@ class Study:
     at once: a refusal raises kanedyn.ModelError with the tool's one-line message. A dict's
     `model` is relative to the current folder, a file's to the file's folder."""
 
-    def __init__(self, source: Union[str, os.PathLike, Mapping[str, Any]]):
+    def __init__(self, source: Union[str, bytes, os.PathLike, Mapping[str, Any]]):
         if isinstance(source, Mapping):
+            # The model's path, as every path the module takes: a NUL byte would end it there
+            # and read another file.
+            model = source.get("model")
+            if isinstance(model, str) and "\x00" in model:
+                raise ValueError("embedded null byte")
             text = json.dumps(source, allow_nan=False)
             self._core = _Study.parse(text, "<dict>", "", None)
-        elif isinstance(source, (str, os.PathLike)):
-            self._core = _Study.load(os.fspath(source))
+        elif isinstance(source, (str, bytes, os.PathLike)):
+            self._core = _Study.load(source)
         else:
             raise TypeError(f"Study() takes a path or a dict, not {type(source).__name__}")
 
@@ -105,7 +170,7 @@ class Study:
 
     def run(
         self,
-        out: Union[str, os.PathLike],
+        out: Union[str, bytes, os.PathLike],
         client: Any = None,
         *,
         threads: int = 0,
@@ -119,8 +184,17 @@ class Study:
         thread, at most 256 runs each); each worker parses the study and the model once from
         their texts, sent with its first chunk. A lost worker's chunks are run again by dask.
         The caller writes the folder as chunks come back. Ctrl-C stops, keeping every finished
-        run (KeyboardInterrupt); run() again with the same folder does only the missing runs."""
-        folder = _StudyFolder(self._core, os.fspath(out))
+        run (KeyboardInterrupt); run() again with the same folder does only the missing runs.
+        threads is 0..4096 and chunk_size at least 1 (ValueError otherwise); everything is
+        checked before the folder is created."""
+        threads = _integer(threads, "threads", 0, _MAX_THREADS)
+        if chunk_size is not None:
+            chunk_size = _integer(chunk_size, "chunk_size", 1, 2**31 - 1)
+        if client is not None and not (hasattr(client, "submit") and hasattr(client, "nthreads")):
+            raise TypeError(f"client must be a dask.distributed Client or None, got {type(client).__name__}")
+        if not isinstance(progress, (bool, np.bool_)):
+            raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
+        folder = _StudyFolder(self._core, out)
         if client is None:
             self._run_here(folder, threads, progress)
         else:
@@ -143,8 +217,6 @@ class Study:
             if chunk_size is None:
                 threads = sum(client.nthreads().values()) or 1
                 chunk_size = max(1, min(256, math.ceil(len(missing) / (8 * threads))))
-            if chunk_size < 1:
-                raise ValueError("chunk_size must be at least 1")
             core = self._core
             payload: _Payload = (core.text, core.path, core.model_text)
             # The texts go with every chunk (a few kB): a worker that joins or restarts needs
