@@ -619,5 +619,7 @@ def test_ctrl_c_stops_a_long_simulator_step(tmp_path) -> None:
     assert out.startswith("KeyboardInterrupt after"), out
     assert waited < 2.0, (waited, out)
     assert "t = 0.0, " in out, out  # the state before the step is kept
+    # A step that held the GIL would leave the other thread no tick from start to end (>= 0.5 s);
+    # the margin is for a loaded machine.
     gap = float(out.rsplit("largest gap ", 1)[1].split()[0])
-    assert gap < 0.25, out
+    assert gap < 0.4, out
