@@ -825,6 +825,17 @@ TEST(ModelFile, LongNamesAndInvisibleCharactersMakeShortVisibleMessages) {
   }
 }
 
+// A file that is no mapping is no model file, whichever file the user named by mistake: its
+// content is not quoted back.
+TEST(ModelFile, PlainTextIsRefusedWithoutQuotingIt) {
+  const ModelFileError e = error_of("root:x:0:0:root:/root:/bin/bash\nsecret words\n", "passwd");
+  const std::string what = e.what();
+  EXPECT_NE(what.find("must be a mapping"), std::string::npos) << what;
+  EXPECT_NE(what.find("not shown"), std::string::npos) << what;
+  EXPECT_EQ(what.find("root:x"), std::string::npos) << what;
+  EXPECT_EQ(what.find("secret"), std::string::npos) << what;
+}
+
 // A number too small for a double underflows however it is written: with an exponent, or as
 // 400 zeros after the point (once reported as overflowing).
 TEST(ModelFile, NumbersOutOfRangeSayWhichWay) {

@@ -436,9 +436,13 @@ class Reader {
            "the file is empty; a model file is a mapping starting with 'format: " +
                std::string(kFormat) + "'");
     const Node root(&tree_, tree_.root);
+    // A file that is no mapping is no model file: what it holds is not quoted (it may be any
+    // file the user named by mistake).
     if (!root.IsMap())
       fail(root.mark(), "",
-           "a model file must be a mapping (key: value lines), got " + describe(root));
+           "a model file must be a mapping (key: value lines), got " +
+               (root.IsSequence() ? describe(root)
+                                  : std::string("plain text (not shown: this is no model file)")));
     return root;
   }
 

@@ -105,7 +105,9 @@ class StudyReader {
     for (size_t i = 0; i < n.size(); ++i) {
       const YNode k = n.key(i);
       const std::string key(k.scalar());
-      const std::string at = path.empty() ? key : path + "." + key;
+      // The key as messages show it: a key the YAML reader lets through may hold a tab.
+      const std::string shown = printable(key, 60);
+      const std::string at = path.empty() ? shown : path + "." + shown;
       if (!k.is(Kind::scalar)) fail(k, path, "keys must be plain words, got " + describe(k));
       if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
         std::string problem = "unknown key " + quote(key);
@@ -470,7 +472,11 @@ Study parse_study(std::string text, const std::string& source_name, const std::s
                std::string(kStudyFormat) + "'");
   const YNode root(&tree, tree.root);
   if (!root.is(Kind::mapping))
-    r.fail(root, "", "a study file must be a mapping (key: value lines), got " + describe(root));
+    r.fail(root, "",
+           "a study file must be a mapping (key: value lines), got " +
+               (root.is(Kind::sequence) ? describe(root)
+                                        : std::string("plain text (not shown: this is no study "
+                                                      "file)")));
   // The format first: a file of another kind is told so, not about its keys.
   std::optional<YNode> format;
   for (size_t i = 0; i < root.size(); ++i)
@@ -611,7 +617,10 @@ std::vector<double> Study::parameters(long run) const {
       case Draw::grid:
         break;
       case Draw::uniform:
-        p[j] = v.a + (v.b - v.a) * u(j, 0);
+        // low + (high - low) u, the formula of docs/studies.md; a range wider than the largest
+        // double (high - low overflows) is drawn as the same point written without the width.
+        p[j] = std::isfinite(v.b - v.a) ? v.a + (v.b - v.a) * u(j, 0)
+                                        : v.a * (1.0 - u(j, 0)) + v.b * u(j, 0);
         break;
       case Draw::choice: {
         const auto n = v.values.size();
