@@ -126,6 +126,13 @@ bool write_all(int fd, std::string_view text) {
 
 void write_file_atomically(const std::string& path, std::string_view text,
                            const std::vector<std::string>& inputs) {
+  write_file_atomically(
+      path, [&](const PieceWriter& write) { write(text); }, inputs);
+}
+
+void write_file_atomically(const std::string& path,
+                           const std::function<void(const PieceWriter&)>& produce,
+                           const std::vector<std::string>& inputs) {
   check_output_path(path, inputs);
   const std::string partial = path + ".partial";
   const int fd = create_partial_file(partial);
@@ -134,10 +141,14 @@ void write_file_atomically(const std::string& path, std::string_view text,
     return std::runtime_error(what + " " + quoted(partial) + ": " + std::strerror(err) +
                               "; nothing written to " + quoted(path));
   };
-  if (!write_all(fd, text)) {
-    const int err = errno;
+  try {
+    produce([&](std::string_view piece) {
+      if (!write_all(fd, piece)) throw fail("cannot write", errno);
+    });
+  } catch (...) {
     ::close(fd);
-    throw fail("cannot write", err);
+    ::unlink(partial.c_str());
+    throw;
   }
   if (::close(fd) != 0) throw fail("cannot write", errno);
   // The check again, just before the rename: what was a regular file or nothing at the start

@@ -923,17 +923,6 @@ bool same_file(const std::string& a, const std::string& b) {
          sa.st_ino == sb.st_ino;
 }
 
-/// write() of all of `text`, again after an interruption; false (errno set) when it fails.
-bool write_all(int fd, std::string_view text) {
-  while (!text.empty()) {
-    const ssize_t n = ::write(fd, text.data(), text.size());
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    text.remove_prefix(static_cast<size_t>(n));
-  }
-  return true;
-}
-
 }  // namespace
 
 StudyFolder::StudyFolder(const Study& study, std::string dir)
@@ -1111,45 +1100,19 @@ void StudyFolder::record(const std::vector<StudyRun>& runs) {
 
 void StudyFolder::write_results() {
   if (done() != total()) throw std::logic_error("write_results: runs are missing");
-  // Written a piece at a time from the rows kept, not from a copy of them all; by the rules of
-  // write_file_atomically (checked, written to results.csv.partial, renamed when whole).
+  // Written a piece at a time from the rows kept, not from a copy of them all.
   std::sort(index_.begin(), index_.end());
-  const std::string path = results_path(), partial = path + ".partial";
-  check_output_path(path);
-  const int fd = create_partial_file(partial);
-  const auto fail = [&](int err) {
-    ::close(fd);
-    ::unlink(partial.c_str());
-    throw std::runtime_error("cannot write '" + printable(partial) + "': " + std::strerror(err) +
-                             "; nothing written to '" + printable(path) + "'");
-  };
-  std::string piece = join_columns(study_->columns()) + "\n";
-  for (const auto& [run, at] : index_) {
-    piece.append(rows_, at, rows_.find('\n', at) + 1 - at);
-    if (piece.size() >= (std::size_t{1} << 20)) {
-      if (!write_all(fd, piece)) fail(errno);
-      piece.clear();
+  write_file_atomically(results_path(), [&](const PieceWriter& write) {
+    std::string piece = join_columns(study_->columns()) + "\n";
+    for (const auto& [run, at] : index_) {
+      piece.append(rows_, at, rows_.find('\n', at) + 1 - at);
+      if (piece.size() >= (std::size_t{1} << 20)) {
+        write(piece);
+        piece.clear();
+      }
     }
-  }
-  if (!write_all(fd, piece)) fail(errno);
-  if (::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(partial.c_str());
-    throw std::runtime_error("cannot write '" + printable(partial) + "': " + std::strerror(err) +
-                             "; nothing written to '" + printable(path) + "'");
-  }
-  try {
-    check_output_path(path);
-  } catch (...) {
-    ::unlink(partial.c_str());
-    throw;
-  }
-  if (std::rename(partial.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(partial.c_str());
-    throw std::runtime_error("cannot rename '" + printable(partial) + "' to '" + printable(path) +
-                             "': " + std::strerror(err));
-  }
+    write(piece);
+  });
 }
 
 std::map<std::string, long> StudyFolder::failures() const { return failures_; }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -30,6 +31,15 @@ int create_partial_file(const std::string& partial);
 /// inputs). On failure removes the partial file (a file cut short is of no use), leaves PATH
 /// as it was and throws std::runtime_error naming the file.
 void write_file_atomically(const std::string& path, std::string_view text,
+                           const std::vector<std::string>& inputs = {});
+
+/// Writes one piece of an output (write_file_atomically's `produce` calls it in order).
+using PieceWriter = std::function<void(std::string_view)>;
+/// The same with the text made in pieces by `produce(write)`, so that a large output (a
+/// study's results) is never held whole. An exception from `produce` removes the partial file
+/// and propagates.
+void write_file_atomically(const std::string& path,
+                           const std::function<void(const PieceWriter&)>& produce,
                            const std::vector<std::string>& inputs = {});
 
 /// Writes `text` to standard output whole (the "-" output of `view` and `import`); throws
