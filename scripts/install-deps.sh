@@ -10,7 +10,7 @@ set -euo pipefail
 pkgs=(build-essential cmake g++ pkg-config libeigen3-dev libyaml-dev liburdfdom-dev libcli11-dev
       nlohmann-json3-dev liblapack-dev libopenblas-dev libgtest-dev libgmock-dev libbenchmark-dev
       python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib
-      python3-scipy)
+      python3-scipy python3-venv python3-pip python3-setuptools python3-wheel)
 for arg in "$@"; do
   case "$arg" in
     --peers) pkgs+=(libsimbody-dev libmujoco-dev libdart-dev libdart-utils-urdf-dev) ;;
