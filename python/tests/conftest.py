@@ -18,8 +18,10 @@ MODELS = ["eight_body.yaml", "chain64.yaml", "satellite.yaml", "tennis_racket.ya
 
 
 def tool() -> str:
-    """The kanedyn tool of the same build (ctest sets KANEDYN_TOOL)."""
-    path = os.environ.get("KANEDYN_TOOL", str(ROOT / "build" / "kanedyn"))
+    """The kanedyn tool of the same build: KANEDYN_TOOL (ctest sets it), else the one in a package
+    installed by pip (kanedyn/bin/kanedyn), else build/kanedyn."""
+    shipped = pathlib.Path(kanedyn.__file__).resolve().parent / "bin" / "kanedyn"
+    path = os.environ.get("KANEDYN_TOOL", str(shipped if shipped.is_file() else ROOT / "build" / "kanedyn"))
     if not os.access(path, os.X_OK):
         pytest.fail(f"the kanedyn tool is not at {path}: build it, or set KANEDYN_TOOL")
     return path
