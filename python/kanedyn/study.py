@@ -212,24 +212,53 @@ class Study:
     def _run_dask(self, folder: _StudyFolder, client: Any, chunk_size: Optional[int], progress: bool) -> None:
         from distributed import as_completed  # noqa: PLC0415 (only for this path)
 
-        missing = list(folder.missing())
-        if missing:
+        total = folder.total
+        first = folder.next_missing(0)
+        if first < total:
             if chunk_size is None:
                 threads = sum(client.nthreads().values()) or 1
-                chunk_size = max(1, min(256, math.ceil(len(missing) / (8 * threads))))
+                left = total - folder.done
+                chunk_size = max(1, min(256, math.ceil(left / (8 * threads))))
+                in_flight = 4 * threads
+            else:
+                in_flight = 4 * (sum(client.nthreads().values()) or 1)
             core = self._core
             payload: _Payload = (core.text, core.path, core.model_text)
+            cursor = first
+
+            def next_chunk() -> List[int]:
+                # The missing runs walked a chunk at a time: nothing is held per run of the
+                # study, however many it has.
+                nonlocal cursor
+                chunk: List[int] = []
+                while cursor < total and len(chunk) < chunk_size:
+                    chunk.append(cursor)
+                    cursor = folder.next_missing(cursor + 1)
+                return chunk
+
             # The texts go with every chunk (a few kB): a worker that joins or restarts needs
-            # nothing from the others.
-            chunks = [missing[i : i + chunk_size] for i in range(0, len(missing), chunk_size)]
-            futures = [client.submit(_run_chunk, payload, chunk, pure=False) for chunk in chunks]
+            # nothing from the others. At most `in_flight` chunks wait on the cluster at once,
+            # so the caller's memory does not grow with the study either.
+            running = set()
+            for _ in range(in_flight):
+                chunk = next_chunk()
+                if not chunk:
+                    break
+                running.add(client.submit(_run_chunk, payload, chunk, pure=False))
+            waiting = as_completed(list(running))
             bar = _Bar(folder.total) if progress else None
             pending: List[Tuple[int, str, Optional[str], str]] = []
             last = time.monotonic()
             try:
-                for future in as_completed(futures):
+                for future in waiting:
                     pending.extend(future.result())
+                    running.discard(future)
                     future.release()
+                    chunk = next_chunk()
+                    if chunk:
+                        submitted = client.submit(_run_chunk, payload, chunk, pure=False)
+                        running.add(submitted)
+                        waiting.add(submitted)
                     if time.monotonic() - last >= 1.0:
                         folder.record(pending)
                         pending = []
@@ -239,7 +268,7 @@ class Study:
                 folder.record(pending)
             except KeyboardInterrupt:
                 folder.record(pending)
-                client.cancel(futures)
+                client.cancel(list(running))
                 _stopped(folder, True)
             finally:
                 if bar:

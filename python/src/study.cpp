@@ -139,6 +139,10 @@ void register_study(py::module_& m) {
       .def_property_readonly("results_path",
                              [](const PyFolder& f) { return path_str(f.folder->results_path()); })
       .def("missing", [](const PyFolder& f) { return f.folder->missing(); })
+      .def(
+          "next_missing", [](const PyFolder& f, long from) { return f.folder->next_missing(from); },
+          py::arg("start"),
+          "The first run from `start` on that is not done; total when there is none.")
       .def("failures", [](const PyFolder& f) { return f.folder->failures(); })
       .def(
           "record",

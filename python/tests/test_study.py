@@ -127,6 +127,47 @@ def test_dask_one_worker_is_the_sweep(study: pathlib.Path, client_one: object) -
     same_trajectories(out, study.parent / "sweep")
 
 
+class CountingClient:
+    """A client whose submit counts the chunks on the cluster at once."""
+
+    def __init__(self, client: object) -> None:
+        self._client = client
+        self.outstanding = 0
+        self.most = 0
+        self.submitted = 0
+
+    def nthreads(self) -> object:
+        return self._client.nthreads()  # type: ignore[attr-defined]
+
+    def cancel(self, futures: object) -> object:
+        return self._client.cancel(futures)  # type: ignore[attr-defined]
+
+    def submit(self, *args: object, **kwargs: object) -> object:
+        future = self._client.submit(*args, **kwargs)  # type: ignore[attr-defined]
+        self.outstanding += 1
+        self.submitted += 1
+        self.most = max(self.most, self.outstanding)
+
+        def done(_: object) -> None:
+            self.outstanding -= 1
+
+        future.add_done_callback(done)
+        return future
+
+
+def test_dask_keeps_a_bounded_number_of_chunks_in_flight(study: pathlib.Path, client_one: object) -> None:
+    # 40 runs in chunks of 2 on one thread: 20 chunks, at most 4 on the cluster at once, so the
+    # caller's memory does not grow with the study's runs (submitting all at once, as before,
+    # had about 20 out). One more is allowed: a chunk's done callback may run just after the
+    # loop has taken its result and submitted the next.
+    counting = CountingClient(client_one)
+    out = study.parent / "dask_bounded"
+    kanedyn.Study(study).run(out=out, client=counting, chunk_size=2)
+    assert counting.submitted == 20
+    assert 1 <= counting.most <= 5
+    assert without_wall(out / "results.csv") == without_wall(study.parent / "sweep" / "results.csv")
+
+
 class Cluster:
     """A scheduler and worker processes on 127.0.0.1, started as a user starts them on
     machines (`dask scheduler`, `dask worker`), each worker in one process (no nanny) so that a
