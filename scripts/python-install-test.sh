@@ -11,7 +11,8 @@
 #    `import kanedyn; kanedyn.load('examples/eight_body.yaml')` and `kanedyn --help` work.
 # KANEDYN_CMAKE_BUILD_DIR (e.g. build, configured and built by scripts/test.sh) makes both
 # installs take the module and the tool from that tree (seconds); without it, the first install
-# builds them in build-python/ (about 14 minutes on 2 cores) and the wheel reuses that build.
+# builds them in build-python/ (13 min on 2 cores shared with other builds) and the wheel
+# reuses that build.
 # Usage: scripts/python-install-test.sh [--no-suite]
 set -euo pipefail
 cd "$(dirname "$0")/.."
