@@ -21,7 +21,12 @@ std::string constraint_summary(const io::ModelFile& file) {
                      " independent";
   if (!p.redundant_rows.empty()) {
     text += "; redundant:";
-    for (const int r : p.redundant_rows) text += " " + equations.row_name(r);
+    // The first few: a mechanism with many copies of a hinge has thousands.
+    constexpr size_t kShown = 12;
+    for (size_t i = 0; i < p.redundant_rows.size() && i < kShown; ++i)
+      text += " " + equations.row_name(p.redundant_rows[i]);
+    if (p.redundant_rows.size() > kShown)
+      text += " ... (" + std::to_string(p.redundant_rows.size() - kShown) + " more)";
   }
   text += "); independent speeds (" +
           std::string(model.independent_speeds().empty() ? "by pivoting" : "as the file says") +

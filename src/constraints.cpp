@@ -332,6 +332,17 @@ namespace {
 // independent equation would need a conditioning of 1e9 to be taken for a redundant one.
 constexpr double kRankThreshold = 1e-9;
 
+// A complete orthogonal decomposition of `a` whose rank threshold is set before it is
+// computed: Eigen forms the Z factor for the rank found at compute() time, so a threshold set
+// afterwards can make solve() apply Z for a rank it never formed (reading coefficients never
+// set: NaN in some builds, wrong numbers in others).
+Eigen::CompleteOrthogonalDecomposition<MatrixX> rank_revealing(const MatrixX& a) {
+  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(a.rows(), a.cols());
+  cod.setThreshold(kRankThreshold);
+  cod.compute(a);
+  return cod;
+}
+
 [[noreturn]] void throw_independent_count(size_t given, int rank, int n) {
   std::ostringstream m;
   m << "independent_speeds: " << given << " speeds given, but the " << rank
@@ -519,9 +530,7 @@ Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX
   }
   // Speeds: the least change with [B] z = 0.
   const VectorX residual = eq.B() * z;
-  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(eq.B());
-  cod.setThreshold(kRankThreshold);
-  const VectorX dz = cod.solve(residual);
+  const VectorX dz = rank_revealing(eq.B()).solve(residual);
   z -= dz;
   out.speed_change = dz.size() ? dz.cwiseAbs().maxCoeff() : 0.0;
   return out;
@@ -685,9 +694,7 @@ void ConstrainedDynamics::Impl::redundant_multipliers(const MatrixX& Bt, Eigen::
   } else if (r > 0) {
     for (Eigen::Index i = 0; i < r; ++i)
       for (Eigen::Index j = i + 1; j < r; ++j) S(i, j) = S(j, i);
-    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(S);
-    cod.setThreshold(kRankThreshold);
-    lambda_r = cod.solve(rhs_r);
+    lambda_r = rank_revealing(S).solve(rhs_r);
   }
   correction.noalias() = Br_t * lambda_r;
   lambda = rows_cod.solve(correction.col(0));
@@ -718,8 +725,7 @@ void ConstrainedDynamics::Impl::projected(const VectorX& q, const VectorX& z, co
   const int r = partition.rank;
   // One complete orthogonal decomposition of [B]^T serves w (its transposed solve, the
   // minimum-norm solution of [B] w = -b) and the reactions below.
-  Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(B.transpose());
-  cod.setThreshold(kRankThreshold);
+  const Eigen::CompleteOrthogonalDecomposition<MatrixX> cod = rank_revealing(B.transpose());
   const VectorX w = cod.transpose().solve(-equations.b());
   terms.mass_matrix(q, M);
   terms.bias_forces(q, z, bias, u.size() ? &u : nullptr);

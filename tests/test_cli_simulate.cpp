@@ -259,6 +259,10 @@ TEST(SimulateCommand, ManyRedundantConstraintRowsStillStopAtOnce) {
   EXPECT_LT(waited, 5.0);
   ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
   EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << slurp(dir / "stderr.txt");
+  // The summary names the first redundant rows, not all 4998, in lines of a readable length.
+  const std::string out = slurp(dir / "stdout.txt");
+  EXPECT_NE(out.find("... (4986 more)"), std::string::npos) << out.substr(0, 2000);
+  for (const std::string& line : test::split(out, '\n')) EXPECT_LT(line.size(), 1000u);
 }
 
 TEST(SimulateCommand, SigtermKeepsThePartialFile) {
