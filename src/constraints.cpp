@@ -449,10 +449,6 @@ Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX
     if (eq.holonomic(i)) hol.push_back(i);
   for (const int i : hol) out.error_before = std::max(out.error_before, std::abs(eq.errors()[i]));
   const VectorX q0 = q;
-  // The count of the given independent speeds is checked before any step: with too many the
-  // dependent coordinates could not remove the errors (none at all when every speed is
-  // named), and the projection would fail for a reason that is not the state's.
-  if (!model.independent_speeds().empty()) check_independent_count(model, eq.B());
   if (!hol.empty()) {
     // The dependent coordinates: pivot columns of the holonomic rows (d phi/dx = those rows of
     // [B] at x = 0, as the tangent rates are the speeds).
@@ -505,6 +501,10 @@ Projection project_onto_constraints(ConstraintEquations& eq, VectorX& q, VectorX
       const auto [excess, e] = worst_excess(&worst);
       if (excess <= 1.0) break;
       if (rank == 0 || out.iterations >= 50 || !(e < 1e6 * std::max(1.0, previous))) {
+        // A wrong count of given independent speeds leaves too few dependent coordinates to
+        // remove the errors (none when every speed is named): that, not the state, is the
+        // reason then. Checked here, where a projection fails, and not at every step's.
+        if (!model.independent_speeds().empty()) check_independent_count(model, eq.B());
         std::ostringstream m;
         m << "constraint '" << model.constraints()[at(eq.constraint_of_row(worst))].name
           << "': the projection onto the constraints did not converge (error " << e << " after "

@@ -396,10 +396,11 @@ TEST(ConstrainedDynamics, ManyCopiesOfOneHingeMoveAsOne) {
   }
 }
 
-// The projection checks the count of the given independent speeds before its steps: naming
-// every speed of the four-bar once crashed it (a least-squares solve in no unknowns), and
-// naming two of three blamed the initial state.
-TEST(Projection, RefusesAWrongCountOfIndependentSpeedsFirst) {
+// A projection that cannot remove the errors with the dependent coordinates the given
+// independent speeds leave says that their count is wrong: naming every speed of the four-bar
+// once crashed it (a least-squares solve in no unknowns), and naming two of three blamed the
+// initial state. (The loader's partition refuses the count even where no step is needed.)
+TEST(Projection, AWrongCountOfIndependentSpeedsIsTheReasonGiven) {
   const io::ModelFile f = io::load_model_file(KANEDYN_SOURCE_DIR "/examples/four_bar.yaml");
   for (const std::vector<int>& given :
        {std::vector<int>{0, 1, 2}, std::vector<int>{0, 2}, std::vector<int>{1, 2}}) {
@@ -408,7 +409,7 @@ TEST(Projection, RefusesAWrongCountOfIndependentSpeedsFirst) {
     const Model m(f.model.bodies(), f.model.gravity(), f.model.forces(), f.model.name(), joints,
                   f.model.frames(), f.model.inputs(), f.model.constraints(), given);
     VectorX q = f.q, z = f.z;
-    q[1] += 0.01;  // off the assembly: a step would be needed
+    q[2] += 0.01;  // the rocker off the assembly: one dependent coordinate cannot mend it
     try {
       project_onto_constraints(m, q, z);
       ADD_FAILURE() << given.size() << " independent speeds accepted";

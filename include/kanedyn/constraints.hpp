@@ -130,9 +130,9 @@ struct Projection {
 /// the speeds by least squares (the smallest change with [B]{z} = 0). A row's tolerance is
 /// never below the round-off of its error at the size of q (16 eps (1 + max|q|) times the sum
 /// of the row's |B| entries), so long runs whose angles grow stay projectable. Throws
-/// ConstraintError when the given independent speeds' count does not fit [B]
-/// (check_independent_count), and naming the constraint with the largest error when 50 steps
-/// do not converge.
+/// ConstraintError naming the constraint with the largest error when 50 steps do not converge,
+/// or, when the given independent speeds' count does not fit [B] (check_independent_count),
+/// saying so instead.
 Projection project_onto_constraints(const Model& model, VectorX& q, VectorX& z,
                                     double tolerance = 1e-12);
 /// The same with the equations' workspace of the caller (their model's constraints), which a
