@@ -4,12 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <iterator>
 #include <numbers>
 #include <random>
 
 #include "constraint_models.hpp"
+#include "file_support.hpp"
 #include "kanedyn/analysis.hpp"
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/data.hpp"
@@ -22,11 +21,6 @@
 
 namespace kanedyn {
 namespace {
-
-std::string test_slurp(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
 
 // A slender rod of length `length` along its body z, its centre at z = -length / 2.
 BodySpec rod(const std::string& name, int lower, double mass, double length, Vector3 joint) {
@@ -356,7 +350,7 @@ TEST(Projection, ConvergesWhenTheAnglesAreLargeAfterALongRun) {
 // equally (the minimum-norm multipliers): the cost of the redundant rows follows the rank,
 // where a c x c system of the rows once took seconds per evaluation here.
 TEST(ConstrainedDynamics, ManyCopiesOfOneHingeMoveAsOne) {
-  const std::string text = test_slurp(KANEDYN_SOURCE_DIR "/examples/four_bar.yaml");
+  const std::string text = test::slurp(KANEDYN_SOURCE_DIR "/examples/four_bar.yaml");
   const size_t from = text.find("  - name: closure"), to = text.find("independent_speeds:");
   ASSERT_NE(from, std::string::npos);
   ASSERT_NE(to, std::string::npos);
