@@ -1,7 +1,7 @@
 // `kanedyn inverse MODEL TRAJ.csv -o Q.csv`: the generalized forces that, added to the model's
 // own loads, give a trajectory's motion (docs/model-format.md, "Generalized forces output"), by
 // the O(N) inverse dynamics (Terms) at every row, the accelerations from a cubic spline through
-// the rows (io::trajectory_motion).
+// the rows (io::read_trajectory_motion: simulate's CSV, or a plain table of joint coordinates).
 #include <charconv>
 #include <cstdio>
 #include <memory>
@@ -36,12 +36,17 @@ void add_inverse(CLI::App& app) {
   };
   auto o = std::make_shared<Options>();
   cmd->footer(
-      "The accelerations are the slopes of a cubic spline through each speed's column "
-      "(error O(h^3) in the row spacing h). The model's own loads are gravity, its force "
-      "elements and its inputs at the file's input columns. Columns: t, then NAME.Q1..Qk for "
-      "each body with speeds (a free body's w'_K, then s'_K dot).");
+      "TRAJECTORY is simulate's CSV, or a table of t and each jointed body's NAME.j1.. (its "
+      "joint coordinates), with NAME.jd1.. (their rates) and input.NAME if known. Rates not "
+      "given are the slopes of a cubic spline through each coordinate's column (error O(h^3) "
+      "in the row spacing h); the accelerations are the slopes of the spline through each "
+      "rate's column (O(h^3) from given rates, O(h^2) from differentiated ones). The model's "
+      "own loads are gravity, its force elements and its inputs at the file's input columns. "
+      "Output columns: t, then NAME.Q1..Qk for each body with speeds (a free body's w'_K, then "
+      "s'_K dot).");
   add_input_file(cmd, "MODEL", o->model, kModelHelp)->required();
-  add_input_file(cmd, "TRAJECTORY", o->trajectory, "trajectory CSV of this model (simulate's)")
+  add_input_file(cmd, "TRAJECTORY", o->trajectory,
+                 "trajectory CSV of this model (simulate's, or a table of t and joint coordinates)")
       ->required();
   cmd->add_option("--out,-o", o->out,
                   "generalized forces CSV (default: the trajectory's name with .Q.csv; - for "
@@ -64,8 +69,7 @@ void add_inverse(CLI::App& app) {
     // -o - writes the table to standard output, and the report goes to standard error.
     const bool to_stdout = out == "-";
     if (!to_stdout) io::check_output_path(out, input_files());
-    const io::Trajectory trajectory = io::read_trajectory(model, o->trajectory);
-    const io::TrajectoryMotion motion = io::trajectory_motion(model, trajectory, o->trajectory);
+    const io::TrajectoryMotion motion = io::read_trajectory_motion(model, o->trajectory);
     std::string text = "t";
     for (int k = 0; k < model.num_bodies(); ++k)
       for (int i = 1; i <= speed_count(model.joint(k).type); ++i)
@@ -81,7 +85,7 @@ void add_inverse(CLI::App& app) {
       u = motion.u.col(c);
       terms.inverse_dynamics(q, z, zdot, Q, &u);
       if (!Q.allFinite())
-        throw std::runtime_error(o->trajectory + ":" + std::to_string(r + 2) +
+        throw std::runtime_error(o->trajectory + ":" + std::to_string(motion.lines[r]) +
                                  ": the generalized forces at t = " +
                                  io::printable(std::to_string(motion.t[r])) + " are not finite");
       put(text, motion.t[r]);

@@ -1,16 +1,20 @@
 #include "kanedyn/io/trajectory.hpp"
 
+#include <Eigen/LU>
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "kanedyn/io/csv.hpp"
 #include "kanedyn/io/files.hpp"
 #include "kanedyn/io/text.hpp"
+#include "kanedyn/joints.hpp"
 
 namespace kanedyn::io {
 
@@ -339,10 +343,269 @@ TrajectoryMotion trajectory_motion(const Model& model, const Trajectory& traject
       b += 16;
     }
     for (int i = 0; i < nu; ++i) out.u(i, c) = trajectory.at(r, b + 1 + static_cast<size_t>(i));
+    out.lines.push_back(static_cast<int>(r) + 2);
   }
   for (int i = 0; i < nz; ++i)
     out.zdot.row(i) = spline_slopes(out.t, out.z.row(i).transpose()).transpose();
   return out;
+}
+
+namespace {
+
+/// Where a column of a plain table of joint coordinates goes.
+struct TableColumn {
+  enum Kind { time, coordinate, rate, input } kind = time;
+  int body = -1;  ///< coordinate, rate: the body's index
+  int index = 0;  ///< coordinate, rate: 0-based within the body's q or z; input: the input's
+};
+
+/// The columns a plain table of this model may have: t, every jointed body's j and jd columns,
+/// its inputs'.
+std::vector<std::pair<std::string, TableColumn>> joint_table_columns(const Model& model) {
+  std::vector<std::pair<std::string, TableColumn>> out{{"t", {}}};
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    if (type == JointType::free || type == JointType::weld) continue;
+    const std::string& name = model.body(k).name;
+    for (int i = 0; i < coordinate_count(type); ++i)
+      out.push_back({name + ".j" + std::to_string(i + 1), {TableColumn::coordinate, k, i}});
+    for (int i = 0; i < speed_count(type); ++i)
+      out.push_back({name + ".jd" + std::to_string(i + 1), {TableColumn::rate, k, i}});
+  }
+  for (int i = 0; i < model.num_inputs(); ++i)
+    out.push_back(
+        {"input." + model.inputs()[static_cast<size_t>(i)].name, {TableColumn::input, -1, i}});
+  return out;
+}
+
+/// The 4 x 3 map from a spherical joint's w_rel (body-K components) to the rates of its Euler
+/// parameters at q, read off the kinematic equation joint_coordinate_rates (the form of Eq. 39),
+/// one speed at a time: it is linear in z.
+Eigen::Matrix<double, 4, 3> spherical_rate_map(const Model& model, int k, const VectorX& q,
+                                               VectorX& z, VectorX& qdot) {
+  Eigen::Matrix<double, 4, 3> B;
+  z.setZero();
+  for (int i = 0; i < 3; ++i) {
+    z[model.speed_offset(k) + i] = 1.0;
+    joint_coordinate_rates(model, q, z, qdot);
+    B.col(i) = qdot.segment<4>(model.coordinate_offset(k));
+    z[model.speed_offset(k) + i] = 0.0;
+  }
+  return B;
+}
+
+}  // namespace
+
+TrajectoryMotion read_joint_table_motion(const Model& model, const std::string& path) {
+  const auto fail = [&](int line, const std::string& problem) -> std::runtime_error {
+    return std::runtime_error(path + (line > 0 ? ":" + std::to_string(line) : "") + ": " + problem);
+  };
+  for (int k = 0; k < model.num_bodies(); ++k)
+    if (model.joint(k).type == JointType::free)
+      throw fail(0, "body '" + model.body(k).name +
+                        "' has a free joint: a table of joint coordinates does not give its "
+                        "motion; give simulate's trajectory CSV (every column) instead");
+  const std::vector<std::pair<std::string, TableColumn>> known = joint_table_columns(model);
+  std::vector<std::string> names;
+  size_t longest = 0;
+  for (const auto& [name, where] : known) {
+    names.push_back(name);
+    longest += name.size() + 1;
+  }
+  std::optional<LineReader> in;
+  std::string line;
+  bool any = false;
+  try {
+    in.emplace(path);
+    any = in->next(line, longest + 1024);
+  } catch (const std::runtime_error& e) {
+    throw fail(0, std::string(e.what()) + " (the trajectory)");
+  }
+  if (!any) throw fail(0, "the trajectory is empty");
+  // The header: each column once, t and every jointed body's q required.
+  std::vector<std::string> header;
+  for (const std::string_view f : fields(line)) header.emplace_back(f);
+  std::vector<TableColumn> column;
+  std::vector<int> seen(known.size(), 0);  // 1-based column of each known name, 0: absent
+  for (size_t c = 0; c < header.size(); ++c) {
+    size_t at = 0;
+    while (at < known.size() && known[at].first != header[c]) ++at;
+    if (at == known.size()) {
+      const std::string near = closest_word(header[c], names);
+      throw fail(1,
+                 "column " + std::to_string(c + 1) + " '" + printable(header[c], 60) +
+                     "' is not a column of a table of " +
+                     (model.name().empty() ? std::string("this model") : "'" + model.name() + "'") +
+                     (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                     "; a table of joint coordinates has t, NAME.j1.. and optionally "
+                     "NAME.jd1.. of each jointed body, and input.NAME");
+    }
+    if (seen[at] != 0)
+      throw fail(1, "column " + std::to_string(c + 1) + " '" + printable(header[c], 60) +
+                        "' repeats column " + std::to_string(seen[at]));
+    seen[at] = static_cast<int>(c + 1);
+    column.push_back(known[at].second);
+  }
+  if (seen[0] == 0) throw fail(1, "the header has no 't' column (the time of each row)");
+  // Per body: its q is required; its rates are all there (given) or none (differentiated).
+  std::vector<char> rates_given(static_cast<size_t>(model.num_bodies()), 0);
+  bool differentiated = false;
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    if (type == JointType::weld) continue;
+    size_t first_rate = 0, rates = 0, missing_rate = 0;
+    for (size_t a = 0; a < known.size(); ++a) {
+      const TableColumn& w = known[a].second;
+      if (w.body != k) continue;
+      if (w.kind == TableColumn::coordinate && seen[a] == 0)
+        throw fail(1, "the header has no column '" + known[a].first + "' (body '" +
+                          model.body(k).name + "': a table needs all its joint coordinates " +
+                          "j1..j" + std::to_string(coordinate_count(type)) + ")");
+      if (w.kind != TableColumn::rate) continue;
+      if (seen[a] != 0) {
+        if (rates++ == 0) first_rate = a;
+      } else if (missing_rate == 0) {
+        missing_rate = a;
+      }
+    }
+    if (rates > 0 && missing_rate != 0)
+      throw fail(1, "the header has '" + known[first_rate].first + "' but no column '" +
+                        known[missing_rate].first + "': give all of body '" + model.body(k).name +
+                        "''s rates jd1..jd" + std::to_string(speed_count(type)) +
+                        " or none (then they are differentiated from its coordinates)");
+    rates_given[static_cast<size_t>(k)] = rates > 0;
+    differentiated = differentiated || rates == 0;
+  }
+  // The rows.
+  TrajectoryMotion out;
+  const int nq = model.num_coordinates(), nz = model.num_speeds(), nu = model.num_inputs();
+  std::vector<double> q_rows, z_rows, u_rows;  // row-major
+  std::vector<double> row(header.size());
+  int line_no = 1;
+  while (true) {
+    try {
+      if (!in->next(line, 32 * header.size() + 1024)) break;
+    } catch (const std::runtime_error& e) {
+      throw fail(line_no + 1, std::string(e.what()) + ", longer than any row of this table");
+    }
+    ++line_no;
+    if (line.empty()) continue;
+    parse_row(line, line_no, header, row, fail);
+    const size_t r = out.t.size();
+    q_rows.resize((r + 1) * static_cast<size_t>(nq), 0.0);
+    z_rows.resize((r + 1) * static_cast<size_t>(nz), 0.0);
+    u_rows.resize((r + 1) * static_cast<size_t>(nu), 0.0);
+    double t = 0.0;
+    for (size_t c = 0; c < column.size(); ++c) {
+      const TableColumn& w = column[c];
+      switch (w.kind) {
+        case TableColumn::time:
+          t = row[c];
+          break;
+        case TableColumn::coordinate:
+          q_rows[r * static_cast<size_t>(nq) +
+                 static_cast<size_t>(model.coordinate_offset(w.body) + w.index)] = row[c];
+          break;
+        case TableColumn::rate:
+          z_rows[r * static_cast<size_t>(nz) +
+                 static_cast<size_t>(model.speed_offset(w.body) + w.index)] = row[c];
+          break;
+        case TableColumn::input:
+          u_rows[r * static_cast<size_t>(nu) + static_cast<size_t>(w.index)] = row[c];
+          break;
+      }
+    }
+    if (!out.t.empty() && !(t > out.t.back()))
+      throw fail(line_no, "t = " + number(t) + " does not come after the previous row's t = " +
+                              number(out.t.back()) + " (line " + std::to_string(out.lines.back()) +
+                              "); the times must increase");
+    // A spherical joint's q are Euler parameters: unit, and continuous from row to row (e and
+    // -e are the same rotation, but differentiating across the jump is not).
+    for (int k = 0; k < model.num_bodies(); ++k) {
+      if (model.joint(k).type != JointType::spherical) continue;
+      const size_t o =
+          r * static_cast<size_t>(nq) + static_cast<size_t>(model.coordinate_offset(k));
+      const std::string cols =
+          "columns '" + model.body(k).name + ".j1' to '" + model.body(k).name + ".j4'";
+      double norm = 0.0, dot = 0.0;
+      for (size_t i = 0; i < 4; ++i) {
+        norm += q_rows[o + i] * q_rows[o + i];
+        if (r > 0) dot += q_rows[o + i] * q_rows[o + i - static_cast<size_t>(nq)];
+      }
+      norm = std::sqrt(norm);
+      if (!(std::abs(norm - 1.0) <= 1e-6))
+        throw fail(line_no, cols + " are not a spherical joint's Euler parameters: their norm is " +
+                                number(norm) + ", not 1 within 1e-6");
+      if (dot < 0.0)
+        throw fail(line_no, cols + " change sign from the previous row's (line " +
+                                std::to_string(out.lines.back()) +
+                                "): the Euler parameters must keep a continuous sign, as "
+                                "simulate writes them");
+    }
+    out.t.push_back(t);
+    out.lines.push_back(line_no);
+  }
+  const size_t rows = out.t.size();
+  if (rows == 0) throw fail(0, "the table has a header but no rows");
+  if (rows < (differentiated ? 3u : 2u))
+    throw fail(
+        0, std::string(differentiated ? "the accelerations of coordinates without rates need at "
+                                        "least 3 rows (the parabola through them)"
+                                      : "the accelerations need at least 2 rows") +
+               "; the table has " + std::to_string(rows));
+  const auto cols = static_cast<Eigen::Index>(rows);
+  out.q = Eigen::Map<const MatrixX>(q_rows.data(), nq, cols);
+  out.z = Eigen::Map<const MatrixX>(z_rows.data(), nz, cols);
+  out.u = Eigen::Map<const MatrixX>(u_rows.data(), nu, cols);
+  // The rates that are not given: the spline's slopes of q (z = dq/dt), or for a spherical
+  // joint w_rel from the slopes e dot of its Euler parameters, by least squares on
+  // e dot = [B(e)] w_rel (exact where e dot is tangent to the unit sphere).
+  VectorX q(nq), z(nz), qdot(nq);
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    const JointType type = model.joint(k).type;
+    if (type == JointType::weld || rates_given[static_cast<size_t>(k)]) continue;
+    const int o = model.coordinate_offset(k), p = model.speed_offset(k);
+    if (type != JointType::spherical) {
+      for (int i = 0; i < coordinate_count(type); ++i)
+        out.z.row(p + i) = spline_slopes(out.t, out.q.row(o + i).transpose()).transpose();
+      continue;
+    }
+    MatrixX edot(4, cols);
+    for (int i = 0; i < 4; ++i)
+      edot.row(i) = spline_slopes(out.t, out.q.row(o + i).transpose()).transpose();
+    for (Eigen::Index c = 0; c < cols; ++c) {
+      q = out.q.col(c);
+      const Eigen::Matrix<double, 4, 3> B = spherical_rate_map(model, k, q, z, qdot);
+      out.z.block<3, 1>(p, c) = (B.transpose() * B).inverse() * (B.transpose() * edot.col(c));
+    }
+  }
+  out.zdot = MatrixX::Zero(nz, cols);
+  for (int i = 0; i < nz; ++i)
+    out.zdot.row(i) = spline_slopes(out.t, out.z.row(i).transpose()).transpose();
+  return out;
+}
+
+TrajectoryMotion read_trajectory_motion(const Model& model, const std::string& path) {
+  // The header decides: simulate's body columns or its energy column mean simulate's CSV, whose
+  // reader names the first column that differs from this model's.
+  std::vector<std::string> header;
+  try {
+    LineReader in(path);
+    std::string line;
+    if (in.next(line, max_line_length(trajectory_columns(model))))
+      for (const std::string_view f : fields(line)) header.emplace_back(f);
+  } catch (const std::runtime_error&) {
+    // Read again below, by the reader that reports it.
+  }
+  // t, then 16 columns per body (then energy, the inputs' and the constraints' columns).
+  const std::vector<std::string> columns = trajectory_body_columns(model);
+  const auto bodies_begin = columns.begin() + 1,
+             bodies_end = bodies_begin + 16 * model.num_bodies();
+  bool full = header.empty();
+  for (const std::string& h : header)
+    full = full || h == "energy" || std::find(bodies_begin, bodies_end, h) != bodies_end;
+  if (!full) return read_joint_table_motion(model, path);
+  return trajectory_motion(model, read_trajectory(model, path), path);
 }
 
 InputTable read_input_table(const Model& model, const std::string& path, InputHold hold) {

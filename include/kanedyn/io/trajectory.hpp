@@ -57,10 +57,31 @@ Trajectory read_trajectory(const Model& model, const std::string& path);
 /// rows with equal times.
 struct TrajectoryMotion {
   std::vector<double> t;
-  MatrixX q, z, zdot, u;  ///< one column per row
+  MatrixX q, z, zdot, u;   ///< one column per row
+  std::vector<int> lines;  ///< each row's line in the file (1 is the header)
 };
 TrajectoryMotion trajectory_motion(const Model& model, const Trajectory& trajectory,
                                    const std::string& path);
+
+/// The motion of a plain table of joint coordinates (docs/cli.md, "inverse"): a header of `t`,
+/// every jointed body's NAME.j1..NAME.jn (its q, named as in the trajectory CSV), optionally all
+/// of a body's NAME.jd1..NAME.jdm (its speeds z) and input.NAME columns (none: 0), in any order;
+/// then rows of finite numbers with increasing t. A body without its jd columns gets z from its q
+/// by spline_slopes (a spherical joint: w_rel from the slopes of its Euler parameters through
+/// the kinematic equation), then z dot as in trajectory_motion; so z is O(h^3) in the row spacing
+/// and z dot O(h^2) for such a body, O(h^3) with its rates given. Needs 2 rows or more, 3 when
+/// some body's rates are differentiated. Throws std::runtime_error naming the file, the line
+/// or the column and the problem: a free body (its motion is not in joint coordinates), a
+/// column that is unknown (with the closest name), repeated or missing (a body's q, some but not
+/// all of its rates, t), a row of the wrong width or with a field that is not a finite number,
+/// times that do not increase, a spherical joint's q off unit norm by more than 1e-6 or changing
+/// sign from the previous row, too few rows.
+TrajectoryMotion read_joint_table_motion(const Model& model, const std::string& path);
+
+/// The motion of the trajectory at `path` for inverse dynamics: simulate's CSV (read_trajectory,
+/// then trajectory_motion) when its header has any of simulate's body columns (NAME.x ..
+/// NAME.sd3) or `energy`, else a plain table of joint coordinates (read_joint_table_motion).
+TrajectoryMotion read_trajectory_motion(const Model& model, const std::string& path);
 
 /// The derivative at every knot t_i of the cubic spline through (t_i, y_i) described at
 /// TrajectoryMotion (t strictly increasing, at least 2 knots).
