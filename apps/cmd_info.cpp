@@ -65,8 +65,9 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
     out << chain_text(model, k) << "\n";
   }
   if (file.jointed()) {
-    out << "\njoints: " << model.num_coordinates() << " joint coordinates q, " << model.num_speeds()
-        << " independent speeds z (y = [C] z)\n";
+    const int nq = model.num_coordinates(), nz = model.num_speeds();
+    out << "\njoints: " << nq << (nq == 1 ? " joint coordinate q, " : " joint coordinates q, ")
+        << nz << (nz == 1 ? " independent speed z" : " independent speeds z") << " (y = [C] z)\n";
     out << "  K  name               joint        q (initial)\n";
     for (int k = 0; k < n; ++k) {
       const Joint& jt = model.joint(k);

@@ -64,8 +64,9 @@ void print_summary(const io::ModelFile& file, const Linearization& lin, const Op
   const double tol = zero_tolerance(lin);
   std::printf("linearization of %s at %s\n", io::printable(file.path).c_str(), op.where.c_str());
   const int coordinates = static_cast<int>(lin.state.size()) - lin.n;
-  std::printf("  state: %d coordinates and %d speeds (tangent coordinates); %d inputs\n",
-              coordinates, lin.n, lin.m);
+  const auto s = [](int count) { return count == 1 ? "" : "s"; };  // "1 input", "2 inputs"
+  std::printf("  state: %d coordinate%s and %d speed%s (tangent coordinates); %d input%s\n",
+              coordinates, s(coordinates), lin.n, s(lin.n), lin.m, s(lin.m));
   if (file.model.num_constraints() > 0)
     std::printf(
         "  constraints: the independent coordinates (those not fixed by holonomic constraints) "

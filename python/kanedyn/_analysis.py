@@ -17,6 +17,11 @@ from ._kanedyn import Model, State
 __all__ = ["Equilibrium", "Linearization"]
 
 
+def _count(number: int, noun: str) -> str:
+    """'1 input', '3 inputs', '0 inputs'."""
+    return f"{number} {noun}" if number == 1 else f"{number} {noun}s"
+
+
 def _reading(value: complex, tolerance: float) -> str:
     """One eigenvalue as the tool's summary reads it: frequency, damping ratio, time constant."""
     re, im = value.real, value.imag
@@ -37,7 +42,8 @@ class Linearization:
     """The motion linearized about the nominal motion through (q, z, u)
     (docs/model-format.md, "Linearization output"): d(state)/dt = A state + B du, with the
     state the tangent deviation of q (a rotation vector for each set of Euler parameters),
-    then the deviation of z, named by `state` (2n names).
+    then the deviation of z, named by `state` (2n names; with constraints, the independent
+    coordinates, then the n independent speeds).
 
     n, m: the speeds and the inputs; state, inputs: their names; q, z, u: the operating point;
     zdot: z dot there (0 at an equilibrium); A (2n, 2n), B (2n, m); eigenvalues (2n,) complex,
@@ -113,7 +119,14 @@ class Linearization:
         if tolerance is None:
             largest = float(np.abs(self.eigenvalues).max()) if self.eigenvalues.size else 0.0
             tolerance = max(1e-9 * largest, 1e-12)
-        lines = [f"linearized: n = {self.n} speeds, m = {self.m} inputs, {2 * self.n} states"]
+        # The state is the tangent coordinates then the speeds: with holonomic constraints
+        # the independent coordinates are fewer or more than the n speeds (a rolling wheel's
+        # contact keeps coordinates its speeds do not span), so count the state's names.
+        states = len(self.state)
+        lines = [
+            f"linearized: n = {_count(self.n, 'speed')}, m = {_count(self.m, 'input')}, "
+            f"{_count(states, 'state')}"
+        ]
         if self.periodic:
             lines.append(
                 "a free body turns at the operating point: the linear system is periodic, and "

@@ -83,7 +83,8 @@ class Result:
 
     def __repr__(self) -> str:
         status = self.stats.get("status", "read from a file")
-        return f"<kanedyn.Result {len(self)} rows, N={self.model.N}, {status}>"
+        rows = f"{len(self)} row" if len(self) == 1 else f"{len(self)} rows"
+        return f"<kanedyn.Result {rows}, N={self.model.N}, {status}>"
 
     def _locate(self, name: str) -> Tuple[np.ndarray, Tuple[Any, ...]]:
         if name == "t":
@@ -138,7 +139,9 @@ class Result:
         return np.ascontiguousarray(array[index])
 
     def state(self, row: int) -> Any:
-        """The State of one row (a copy); row counts from 0 (from -T: from the end)."""
+        """The State of one row (a copy); row counts from 0 (from -T: from the end). For a
+        model with joints it is the row's joint coordinates q and speeds z, the state that
+        model's calls (energy, derivatives, eom, ...) take; else the notes' x and y."""
         from ._kanedyn import State
 
         if isinstance(row, (bool, np.bool_)):
@@ -150,6 +153,10 @@ class Result:
         if not -len(self) <= index < len(self):
             shown = str(index) if index.bit_length() < 128 else f"of {index.bit_length()} bits"
             raise IndexError(f"row {shown} is not in 0..{len(self) - 1} (or -{len(self)}..-1 from the end)")
+        if self.q is not None and self.z is not None:
+            # The notes' (x, y) of a jointed model do not give back its joint coordinates in
+            # general (a hinge's angle is not read from x): the row's stored q and z are its state.
+            return self.model.state(q=self.q[index], z=self.z[index])
         return State(self.x[index], self.y[index])
 
     def table(self) -> np.ndarray:

@@ -277,7 +277,8 @@ namespace {
 State checked_notes(const PyModel& m, const State& given) {
   if (given.num_bodies() != m.N() || given.x.size() != 7 * m.N())
     throw py::value_error("state is of " + std::to_string(given.num_bodies()) +
-                          " bodies; the model has N = " + std::to_string(m.N()));
+                          (given.num_bodies() == 1 ? " body" : " bodies") +
+                          "; the model has N = " + std::to_string(m.N()));
   State state(m.model());
   std::string problem = copy_coordinates(m.model(), given.x.data(), 1, state.x, "state.x");
   if (problem.empty()) problem = copy_speeds(m.model(), given.y.data(), 1, state.y, "state.y");

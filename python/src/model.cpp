@@ -332,7 +332,7 @@ void register_inspection(py::module_& m) {
       .def("__len__", [](const Inspection& q) { return q.bodies.size(); })
       .def("__repr__", [](const Inspection& q) {
         return "<kanedyn.Inspection N=" + std::to_string(q.N) + " t=" + std::to_string(q.t) + ", " +
-               std::to_string(q.bodies.size()) + " bodies>";
+               std::to_string(q.bodies.size()) + (q.bodies.size() == 1 ? " body>" : " bodies>");
       });
 }
 

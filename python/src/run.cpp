@@ -580,8 +580,8 @@ class PythonController {
 };
 
 std::string kept_note(const io::BackgroundTrajectoryWriter& writer) {
-  return "partial trajectory (" + std::to_string(writer.rows()) + " rows) kept in " +
-         writer.partial_path();
+  return "partial trajectory (" + std::to_string(writer.rows()) +
+         (writer.rows() == 1 ? " row) kept in " : " rows) kept in ") + writer.partial_path();
 }
 
 py::object simulate_model(const std::shared_ptr<PyModel>& self, const py::dict& given,

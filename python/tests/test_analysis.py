@@ -430,3 +430,16 @@ def test_derivatives_from_several_threads_equal_the_serial_ones() -> None:
     for t in threads:
         t.join()
     assert failures == []
+
+
+def test_summary_counts_the_state_and_writes_one_in_the_singular() -> None:
+    # The bicycle's state is its independent coordinates then its 3 independent speeds: A is
+    # (10, 10), counted from the matrix, not from 2n. The cart-pole has one input.
+    bicycle = kanedyn.load(EXAMPLES / "bicycle.yaml").linearize()
+    assert bicycle.A.shape == (10, 10) and bicycle.n == 3
+    assert bicycle.summary().splitlines()[0] == "linearized: n = 3 speeds, m = 0 inputs, 10 states"
+    cart = kanedyn.load(EXAMPLES / "cart_pole.yaml").linearize()
+    assert cart.A.shape == (4, 4) and cart.m == 1
+    assert cart.summary().splitlines()[0] == "linearized: n = 2 speeds, m = 1 input, 4 states"
+    pendulum = kanedyn.load(EXAMPLES / "pendulum.yaml").linearize()
+    assert pendulum.summary().splitlines()[0] == "linearized: n = 1 speed, m = 0 inputs, 2 states"

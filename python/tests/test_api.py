@@ -141,3 +141,29 @@ def test_energy_and_momentum_of_one_free_body_by_hand() -> None:
     again = (m.energy(), m.momentum())
     assert first[0] == again[0]
     assert all(np.array_equal(a, b) for a, b in zip(first[1], again[1]))
+
+
+def test_the_namespace_is_the_api() -> None:
+    # `import kanedyn` binds its API and nothing of its own imports (typing names, numpy, os,
+    # json, helpers); its modules (kanedyn.study) stay reachable as modules.
+    import types
+
+    assert sorted(set(kanedyn.__all__)) == sorted(kanedyn.__all__)
+    for name in kanedyn.__all__:
+        assert hasattr(kanedyn, name), name
+    leaked = [
+        name
+        for name in dir(kanedyn)
+        if not name.startswith("_") and name not in kanedyn.__all__ and not isinstance(getattr(kanedyn, name), types.ModuleType)
+    ]
+    assert leaked == []
+    for name in ("Any", "np", "os", "json", "Tuple", "Union", "Optional", "annotations"):
+        assert not hasattr(kanedyn, name), name
+    namespace: dict = {}
+    exec("from kanedyn import *", namespace)
+    assert sorted(k for k in namespace if k != "__builtins__") == sorted(kanedyn.__all__)
+    # The calls kept in a private module still read their annotations there.
+    import typing
+
+    assert typing.get_type_hints(kanedyn.load)["return"] is kanedyn.Model
+    assert "t_end" in typing.get_type_hints(kanedyn.Model.simulate)

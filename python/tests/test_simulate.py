@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import kanedyn
-from conftest import EXAMPLES
+from conftest import EXAMPLES, run_tool
 
 
 def whole_rows(path, columns: int) -> int:
@@ -162,3 +162,26 @@ def test_the_relative_energy_change_is_to_the_energy_that_moved() -> None:
     assert rest["energy_scale"] == 0.0
     assert np.isnan(rest["relative_energy_change"])
     assert abs(rest["energy_change"]) < 1e-12
+
+
+@pytest.mark.parametrize("name", ["cart_pendulum.yaml", "four_bar.yaml", "double_pendulum_jointed.yaml"])
+def test_a_jointed_rows_state_gives_the_energy_of_the_csv(tmp_path, name) -> None:
+    # Result.state(row) of a model with joints is the row's joint coordinates and speeds, which
+    # every call of that model takes: its energy is the energy column of the tool's CSV of the
+    # same run, computed there from the same (q, z) by the same function (so to round-off: 1e-12
+    # relative of the run's largest |energy|, far below any change of state between rows).
+    model = kanedyn.load(EXAMPLES / name)
+    csv = tmp_path / "run.csv"
+    done = run_tool(["simulate", EXAMPLES / name, "--t-end", "0.2", "--dt-out", "0.05", "--out", csv])
+    assert done.returncode == 0, done.stderr
+    column = kanedyn.read_csv(model, csv)["energy"]
+    r = model.simulate(t_end=0.2, dt_out=0.05)
+    scale = max(1.0, float(np.abs(column).max()))
+    for row in (0, 2, -1):
+        state = r.state(row)
+        kinetic, potential, total = model.energy(state)
+        assert abs(total - column[row]) <= 1e-12 * scale, (row, total, column[row])
+        assert abs(kinetic + potential - total) <= 1e-12 * scale
+    # A row of a run read back from the CSV gives the same state.
+    back = kanedyn.read_csv(model, csv).state(-1)
+    assert np.array_equal(back.q, r.state(-1).q) and np.array_equal(back.z, r.state(-1).z)
