@@ -7,17 +7,19 @@ upright straight running (Model.linearize, in the independent coordinates and sp
 contacts fix the rear frame's height and pitch, and leave three speeds), keeps the four
 eigenvalues of roll and steer (the other six are the zeros of the position, heading, wheel
 angles and forward speed), and plots their real parts (solid) and imaginary parts (dashed),
-with the paper's Table 2 values as circles (tests/data/meijaard2007.json). It prints the weave
-and capsize speeds found by bisection.
+with the paper's Table 2 values as circles. It prints the weave and capsize speeds found by
+bisection.
 
-    PYTHONPATH=build/python python3 examples/python/bicycle_eigenvalues.py [OUT.png]
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/bicycle_eigenvalues.py [OUT.png]
+
+It reads only ../bicycle.yaml beside its own folder, so it runs from any folder, and from a
+copy of examples/ outside the repository.
 
 Without OUT.png the figure is not drawn (no matplotlib needed).
 """
 
 from __future__ import annotations
 
-import json
 import pathlib
 import sys
 
@@ -25,8 +27,26 @@ import numpy as np
 
 import kanedyn
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+HERE = pathlib.Path(__file__).resolve().parent
 RR, RF = 0.3, 0.35  # the wheels' radii (Table 1)
+# Meijaard et al. (2007): the weave and capsize speeds, as published.
+PUBLISHED_V_W, PUBLISHED_V_C = "4.29238253634111", "6.02426201538837"
+# Table 2, to the 6 digits a plot shows: at each speed v [m/s], the roll and steer eigenvalues
+# as (real part, |imaginary part|), one entry per complex pair (tests/data/meijaard2007.json
+# holds them to 1e-12, for tests/test_bicycle.cpp).
+TABLE_2 = [
+    (0, [(5.53094, 0), (3.13164, 0), (-3.13164, 0), (-5.53094, 0)]),
+    (1, [(3.52696, 0.80774), (-3.13423, 0), (-7.11008, 0)]),
+    (2, [(2.68235, 1.68066), (-3.07159, 0), (-8.67388, 0)]),
+    (3, [(1.70676, 2.31582), (-2.63366, 0), (-10.351, 0)]),
+    (4, [(0.413253, 3.07911), (-1.42944, 0), (-12.1586, 0)]),
+    (5, [(-0.775342, 4.46487), (-0.322866, 0), (-14.0784, 0)]),
+    (6, [(-1.52644, 5.87673), (-0.0040669, 0), (-16.0854, 0)]),
+    (7, [(-2.13876, 7.19526), (0.102682, 0), (-18.1579, 0)]),
+    (8, [(-2.69349, 8.46038), (0.143279, 0), (-20.2794, 0)]),
+    (9, [(-3.21675, 9.69377), (0.157902, 0), (-22.4379, 0)]),
+    (10, [(-3.72017, 10.9068), (0.161053, 0), (-24.6246, 0)]),
+]
 
 
 def roll_and_steer(model: kanedyn.Model, v: float) -> np.ndarray:
@@ -67,13 +87,11 @@ def crossing(model: kanedyn.Model, lo: float, hi: float, weave: bool) -> float:
 
 
 def main() -> None:
-    model = kanedyn.load(str(ROOT / "examples" / "bicycle.yaml"))
-    paper = json.loads((ROOT / "tests" / "data" / "meijaard2007.json").read_text())
+    model = kanedyn.load(HERE.parent / "bicycle.yaml")
     v_w = crossing(model, 4.0, 5.0, True)
     v_c = crossing(model, 6.0, 6.5, False)
-    published = paper["characteristic_speeds_published"]
-    print(f"weave speed   {v_w:.12f} m/s (paper {published['v_w']})")
-    print(f"capsize speed {v_c:.12f} m/s (paper {published['v_c']})")
+    print(f"weave speed   {v_w:.12f} m/s (paper {PUBLISHED_V_W})")
+    print(f"capsize speed {v_c:.12f} m/s (paper {PUBLISHED_V_C})")
     if len(sys.argv) < 2:
         return
     import matplotlib
@@ -89,11 +107,11 @@ def main() -> None:
     oscillating = np.abs(values.imag) > 0
     ax.plot(np.repeat(speeds, 4)[oscillating.ravel()], np.abs(values.imag).ravel()[oscillating.ravel()],
             ".", color="C1", ms=2, label="|imaginary part|")
-    for entry in paper["eigenvalues_published"]:
-        for re, im in entry["eigenvalues"]:
-            ax.plot(entry["v"], re, "o", color="C0", ms=4, mfc="none")
+    for v, pairs in TABLE_2:
+        for re, im in pairs:
+            ax.plot(v, re, "o", color="C0", ms=4, mfc="none")
             if im != 0:
-                ax.plot(entry["v"], abs(im), "s", color="C1", ms=4, mfc="none")
+                ax.plot(v, im, "s", color="C1", ms=4, mfc="none")
     ax.axvspan(v_w, v_c, color="C2", alpha=0.12, label=f"self-stable ({v_w:.3f} to {v_c:.3f} m/s)")
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_ylim(-10, 10)

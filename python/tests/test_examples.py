@@ -108,3 +108,26 @@ def test_tennis_racket_intermediate_axis_is_unstable(tmp_path) -> None:
     # The nonlinear simulation's wobble grows at nearly that rate (cosh, not exp: 1% less).
     simulated = float(out.split("simulated wobble grows at ")[1].split()[0])
     assert 0.98 * rate < simulated < rate
+
+
+def test_bicycle_eigenvalues_runs_from_a_copy_of_the_examples_elsewhere(tmp_path) -> None:
+    # The examples folder copied out of the repository (the script and the one model it names),
+    # run from a third folder: it must need nothing else of the repository. The speeds are the
+    # paper's (Meijaard et al. 2007: 4.29238253634111 and 6.02426201538837 m/s), at the 1e-9 m/s
+    # that tests/test_bicycle.cpp's 1e-12 eigenvalues leave to a bisection printed to 1e-12.
+    import shutil
+
+    copy = tmp_path / "copy" / "examples"
+    (copy / "python").mkdir(parents=True)
+    shutil.copy(SCRIPTS / "bicycle_eigenvalues.py", copy / "python")
+    shutil.copy(EXAMPLES / "bicycle.yaml", copy)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=str(pathlib.Path(kanedyn.__file__).resolve().parents[1]))
+    done = subprocess.run(
+        [sys.executable, str(copy / "python" / "bicycle_eigenvalues.py")], capture_output=True, text=True, cwd=elsewhere, env=env, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    weave = float(done.stdout.split("weave speed")[1].split()[0])
+    capsize = float(done.stdout.split("capsize speed")[1].split()[0])
+    assert abs(weave - 4.29238253634111) < 1e-9 and abs(capsize - 6.02426201538837) < 1e-9, done.stdout
