@@ -368,6 +368,11 @@ TEST(InverseTable, RefusalsNameTheFileThePlaceAndTheProblem) {
       EXPECT_EQ(name.find("Q.csv"), std::string::npos) << name << " left behind";
     }
   }
+  // An output already there stays as it was.
+  write(dir / "table.csv", cases[0].text);
+  write(dir / "old.Q.csv", "t,link.Q1\n0,1\n");
+  EXPECT_EQ(run_in(dir, "inverse pendulum.yaml table.csv -o old.Q.csv").exit_code, 1);
+  EXPECT_EQ(slurp(dir / "old.Q.csv"), "t,link.Q1\n0,1\n");
   // A table of the coordinates cannot give a free body's motion.
   write(dir / "table.csv", "t\n0\n0.1\n0.2\n");
   const auto free = run_in(dir, "inverse '" + kExamples + "/eight_body.yaml' table.csv -o Q.csv");
