@@ -32,13 +32,18 @@ struct Options {
   double amplitude = 0.2;
   std::string state_file;
   StateChoice state;
+  std::string follow;
+  std::vector<std::string> trace;
 };
 
 // Mode K about the operating point as a trajectory: x(t) = a Re(v e^(i w t)) over two periods
 // (w the eigenvalue's imaginary part; a real eigenvalue's shape swings as a sin(pi t) over 2 s),
 // the coordinates by retract() and the speeds z0 + x's speed part. The decay or growth is left
 // out, so that the shape stays in view; the label says so.
-io::Trajectory mode_trajectory(const io::ModelFile& file, const Options& o, std::string& label) {
+// The page plots the mode's coordinates (x's first n entries, named as the linearization names
+// them), into `page`'s mode columns, one row per row of the trajectory.
+io::Trajectory mode_trajectory(const io::ModelFile& file, const Options& o, std::string& label,
+                               view::PageOptions& page) {
   const Model& model = file.model;
   const OperatingPoint op = operating_point(file, o.state, o.state_file);
   const Linearization lin = linearize(model, op.q, op.z, op.u, true);
@@ -65,12 +70,16 @@ io::Trajectory mode_trajectory(const io::ModelFile& file, const Options& o, std:
   const double duration = oscillates ? 2.0 * (2.0 * std::numbers::pi / w) : 2.0;
   const int rows = 241;
   io::Trajectory out;
+  const std::vector<std::string> names = tangent_state_names(model);
+  page.mode_columns.assign(names.begin(), names.begin() + n);
+  page.mode_values.clear();
   for (int r = 0; r < rows; ++r) {
     const double t = duration * r / (rows - 1);
     const std::complex<double> phase =
         oscillates ? std::exp(std::complex<double>(0.0, w * t))
                    : std::complex<double>(std::sin(std::numbers::pi * t), 0.0);
     const VectorX x = a * (v * phase).real();
+    page.mode_values.insert(page.mode_values.end(), x.data(), x.data() + n);
     const VectorX q = retract(model, op.q, x.head(n));
     const VectorX z = op.z + x.tail(n);
     io::Trajectory row = view::initial_trajectory(model, q, z);
@@ -103,14 +112,19 @@ void run(const Options& o) {
   if (!to_stdout) io::check_output_path(out, input_files());
   if (have_traj && o.mode > 0)
     throw std::runtime_error("--mode animates a mode, not a trajectory: give one of the two");
+  view::PageOptions options;
+  options.follow = o.follow;
+  options.trace = o.trace;
+  if (const std::string bad = view::check_names(file.model, options); !bad.empty())
+    throw std::runtime_error(io::printable(o.model) + ": " + bad);
   std::string source =
       have_traj ? std::filesystem::path(o.trajectory).filename().string() : "initial state";
   const io::Trajectory traj = have_traj    ? io::read_trajectory(file.model, o.trajectory)
-                              : o.mode > 0 ? mode_trajectory(file, o, source)
+                              : o.mode > 0 ? mode_trajectory(file, o, source, options)
                                            : view::initial_trajectory(file.model, file.q, file.z);
   std::string text;
   try {
-    text = view::page(file.model, file.path, traj, source);
+    text = view::page(file.model, file.path, traj, source, options);
   } catch (const std::invalid_argument& e) {
     if (o.mode == 0) throw;
     std::ostringstream m;
@@ -160,6 +174,14 @@ void add_view(CLI::App& app) {
                   "with --mode: the largest coordinate's swing (radians or model units; "
                   "default 0.2)")
       ->check(positive_number());
+  cmd->add_option("--follow", o->follow,
+                  "the camera follows this body's mass centre from the start, closer in (the "
+                  "page's \"follow\" control)");
+  cmd->add_option("--trace", o->trace,
+                  "trace the path of this body's mass centre or this frame of the model "
+                  "(repeatable, or names separated by commas; the page's \"trace\" controls)")
+      ->delimiter(',')
+      ->allow_extra_args(false);
   add_input_file(cmd, "--state", o->state_file,
                  "with --mode: the operating point is this model file's initial state");
   add_state_options(cmd, o->state);

@@ -191,7 +191,61 @@ Json constraint_json(const Constraint& c) {
   return o;
 }
 
+/// Whether body k's links O_J -> Q_K -> O_K stand for something that joins K to J: a joint
+/// other than free (drawn at Q_K), a bushing on K, or a joint input on one of a free body's
+/// translation speeds (a force between K and J, as a bushing's). A free body with none of
+/// these moves on its own: a line from O_J (the origin, for a root) would read as a tether.
+bool linked(const Model& model, int k) {
+  if (!model.all_free() && model.joint(k).type != JointType::free) return true;
+  for (const auto& f : model.forces())
+    if (f->type() == "bushing" && f->body() == k) return true;
+  for (const Input& u : model.inputs())
+    if (u.type == InputType::joint && u.body == k && u.speed >= 3 &&
+        (model.all_free() || model.joint(k).type == JointType::free))
+      return true;
+  return false;
+}
+
+/// A model frame as the page draws it: its body (0-based, -1 for the ground), origin from O_K
+/// (body-K components; the ground's: inertial) and its axes as a quaternion x, y, z, w from
+/// frame to body-K axes: [R(rotation)] maps body-K to frame components, so its transpose, the
+/// quaternion (e1, e2, e3; e4), maps frame to body-K components, as a body's Euler parameters
+/// map body to inertial components on the page.
+Json frame_json(const Frame& f) {
+  Json o;
+  o["name"] = f.name;
+  o["body"] = f.body == kGround ? -1 : f.body;
+  o["at"] = vec(f.at);
+  o["rotation"] = Json::array({f.rotation[0], f.rotation[1], f.rotation[2], f.rotation[3]});
+  return o;
+}
+
+std::string list_names(const std::vector<std::string>& names) {
+  std::string out;
+  const std::size_t shown = std::min<std::size_t>(names.size(), 12);
+  for (std::size_t i = 0; i < shown; ++i) out += (i ? ", " : "") + io::printable(names[i], 60);
+  if (names.size() > shown) out += ", ... " + std::to_string(names.size() - shown) + " more";
+  return out;
+}
+
 }  // namespace
+
+std::string check_names(const Model& model, const PageOptions& options) {
+  std::vector<std::string> bodies, frames;
+  for (const BodySpec& b : model.bodies()) bodies.push_back(b.name);
+  for (const Frame& f : model.frames()) frames.push_back(f.name);
+  if (!options.follow.empty() && model.body_index(options.follow) < 0)
+    return "--follow '" + io::printable(options.follow, 60) + "': the model has no body '" +
+           io::printable(options.follow, 60) + "' (its bodies: " + list_names(bodies) + ")";
+  for (const std::string& t : options.trace) {
+    if (model.body_index(t) >= 0 || model.frame_index(t) >= 0) continue;
+    std::string m = "--trace '" + io::printable(t, 60) + "': the model has no body or frame '" +
+                    io::printable(t, 60) + "' (its bodies: " + list_names(bodies);
+    m += frames.empty() ? "; no frames)" : "; its frames: " + list_names(frames) + ")";
+    return m;
+  }
+  return "";
+}
 
 std::size_t required_columns(const Model& model) {
   return 2 + 16 * static_cast<std::size_t>(model.num_bodies());
@@ -259,7 +313,8 @@ io::Trajectory body_columns(const Model& model, const io::Trajectory& traj) {
 }
 
 std::string page_data(const Model& model, const std::string& model_file,
-                      const io::Trajectory& given, const std::string& source) {
+                      const io::Trajectory& given, const std::string& source,
+                      const PageOptions& options) {
   const bool plain = given.columns == io::trajectory_body_columns(model);
   const io::Trajectory filtered = plain ? io::Trajectory{} : body_columns(model, given);
   const io::Trajectory& traj = plain ? given : filtered;
@@ -300,6 +355,23 @@ std::string page_data(const Model& model, const std::string& model_file,
         f32.push_back(static_cast<float>(traj.at(r, c)));
     }
   }
+  // A mode's coordinates follow the trajectory's columns, as float32 (plotted only).
+  const std::size_t extra = options.mode_columns.size();
+  if (options.mode_values.size() != rows * extra)
+    throw std::invalid_argument("view::page: " + std::to_string(options.mode_values.size()) +
+                                " mode values for " + std::to_string(rows) + " rows of " +
+                                std::to_string(extra) + " columns");
+  for (std::size_t c = 0; c < extra; ++c) {
+    f32_columns.push_back(width + c);
+    for (const std::size_t r : kept) {
+      const double v = options.mode_values[r * extra + c];
+      if (!std::isfinite(v) || std::abs(v) > std::numeric_limits<float>::max())
+        throw std::invalid_argument("view::page: mode column '" +
+                                    io::printable(options.mode_columns[c], 60) +
+                                    "' is not finite or beyond a float's range");
+      f32.push_back(static_cast<float>(v));
+    }
+  }
   Json d;
   d["format"] = "kanedyn-view/1";
   Json m;
@@ -310,7 +382,12 @@ std::string page_data(const Model& model, const std::string& model_file,
   for (int k = 0; k < model.num_bodies(); ++k) {
     Json b = body_json(model, k);
     if (!model.all_free()) add_joint_json(model, k, b);
+    b["linked"] = linked(model, k);
     m["bodies"].push_back(std::move(b));
+  }
+  if (!model.frames().empty()) {
+    m["frames"] = Json::array();
+    for (const Frame& f : model.frames()) m["frames"].push_back(frame_json(f));
   }
   if (model.num_constraints() > 0) {
     m["constraints"] = Json::array();
@@ -321,7 +398,16 @@ std::string page_data(const Model& model, const std::string& model_file,
   d["rows_in_file"] = rows;
   d["stride"] = stride;
   d["rows"] = kept.size();
-  d["columns"] = traj.columns;
+  Json columns = traj.columns;
+  Json mode = Json::array();
+  for (const std::string& c : options.mode_columns) {
+    columns.push_back("mode." + c);
+    mode.push_back("mode." + c);
+  }
+  d["columns"] = std::move(columns);
+  if (!options.mode_columns.empty()) d["mode_columns"] = std::move(mode);
+  if (!options.follow.empty()) d["follow"] = options.follow;
+  if (!options.trace.empty()) d["trace"] = options.trace;
   d["f64_columns"] = std::move(f64_columns);
   d["f32_columns"] = std::move(f32_columns);
   d["f64"] = base64_of(f64);
@@ -351,12 +437,19 @@ std::string page_data(const Model& model, const std::string& model_file,
 
 std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
                  const std::string& source) {
+  return page(model, model_file, traj, source, PageOptions{});
+}
+
+std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
+                 const std::string& source, const PageOptions& options) {
   require_available();
+  if (const std::string bad = check_names(model, options); !bad.empty())
+    throw std::invalid_argument("view::page: " + bad);
   const std::string page = viewer_template();
   const std::size_t at = page.find(kDataMarker);
   if (at == std::string::npos)
     throw std::logic_error("the viewer bundle has no data marker: the build is broken");
-  const std::string data = page_data(model, model_file, traj, source);
+  const std::string data = page_data(model, model_file, traj, source, options);
   std::string text;
   text.reserve(page.size() + data.size());
   text.append(page, 0, at);

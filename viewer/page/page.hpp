@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "kanedyn/io/trajectory.hpp"
 #include "kanedyn/joints.hpp"
@@ -35,6 +36,19 @@ std::size_t required_columns(const Model& model);
 /// io::trajectory_body_columns(model).
 io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const VectorX& z);
 
+/// What a page shows on load beyond the model and its run (docs/viewer.md).
+struct PageOptions {
+  /// A body the camera follows from the start (its name; "" none).
+  std::string follow;
+  /// Bodies (their mass centres) and frames whose paths are traced from the start (names).
+  std::vector<std::string> trace;
+  /// A mode page's coordinates (the linearization's tangent coordinates, named as
+  /// tangent_state_names spells them), one row per row of the trajectory: plotted in place of
+  /// the energy, which means nothing for a mode's shape. No columns: not a mode page.
+  std::vector<std::string> mode_columns;
+  std::vector<double> mode_values;  ///< row by row, mode_columns.size() a row
+};
+
 /// The page's text. `traj` must have io::trajectory_columns(model) or
 /// io::trajectory_body_columns(model), or their first required_columns(model) (without the
 /// inputs and reactions), and at least one row (std::invalid_argument otherwise);
@@ -43,5 +57,14 @@ io::Trajectory initial_trajectory(const Model& model, const VectorX& q, const Ve
 /// to draw. Throws std::runtime_error when !available().
 std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
                  const std::string& source);
+/// The same with options: `follow` must name a body and each of `trace` a body or a frame of
+/// the model (std::invalid_argument naming it otherwise), `mode_values` hold
+/// mode_columns.size() values for every row of `traj`.
+std::string page(const Model& model, const std::string& model_file, const io::Trajectory& traj,
+                 const std::string& source, const PageOptions& options);
+
+/// Checks the names of `options` against the model: "" or a message naming the first unknown
+/// one (e.g. "--follow 'x': the model has no body 'x' (its bodies: a, b)").
+std::string check_names(const Model& model, const PageOptions& options);
 
 }  // namespace kanedyn::view
