@@ -18,6 +18,24 @@ function normalTo(u) {
   return w.map((c) => c / n);
 }
 
+/**
+ * Where the grid lies along up (the plane up . p = level): the plane the wheels roll on when
+ * they share one normal to up; else, under gravity, the ground plane through the inertial
+ * origin normal to gravity (a model's floor: a pendulum's pivot above it, a chain hanging
+ * below it); without gravity there is no floor, and the grid lies below the box lo..hi of
+ * the whole motion, so that it never cuts a body.
+ */
+export function groundLevel(model, up, lo, hi) {
+  const wheels = discGround(model, up);
+  if (wheels !== null) return wheels;
+  if (Math.hypot(...model.gravity) > 0) return 0;
+  let lowest = Infinity;
+  for (const x of [lo[0], hi[0]]) for (const y of [lo[1], hi[1]]) for (const z of [lo[2], hi[2]]) {
+    lowest = Math.min(lowest, x * up[0] + y * up[1] + z * up[2]);
+  }
+  return lowest;
+}
+
 export function fitView(model, motion, samples = 200) {
   const lo = [Infinity, Infinity, Infinity];
   const hi = [-Infinity, -Infinity, -Infinity];
@@ -51,16 +69,9 @@ export function fitView(model, motion, samples = 200) {
   const centre = lo.map((l, a) => 0.5 * (l + hi[a]));
   const radius = Math.max(0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]), 1e-3);
   const up = upDirection(model.gravity);
-  // The ground: below everything along up, so the grid never cuts a body.
-  let lowest = Infinity;
-  for (const x of [lo[0], hi[0]]) for (const y of [lo[1], hi[1]]) for (const z of [lo[2], hi[2]]) {
-    lowest = Math.min(lowest, x * up[0] + y * up[1] + z * up[2]);
-  }
-  // Unless the wheels roll on a ground plane normal to up: the grid is that plane.
-  const wheels = discGround(model, up);
-  if (wheels !== null) lowest = wheels;
+  const level = groundLevel(model, up, lo, hi);
   const c = centre[0] * up[0] + centre[1] * up[1] + centre[2] * up[2];
-  const ground = centre.map((x, a) => x + (lowest - c) * up[a]);
+  const ground = centre.map((x, a) => x + (level - c) * up[a]);
   // Cells a power of ten (about a fifth of the radius or less), as many as span the motion.
   const gridCell = 10 ** Math.floor(Math.log10(radius / 5));
   const gridDivisions = Math.max(2, Math.ceil((2.4 * radius) / gridCell));
@@ -85,4 +96,28 @@ export function fitDistance(radius, fov, aspect) {
   const half = (fov * Math.PI) / 360;
   const horizontal = Math.atan(Math.tan(half) * aspect);
   return (1.1 * radius) / Math.sin(Math.min(half, horizontal));
+}
+
+/**
+ * The radius of the model at one configuration about body k's mass centre: the largest
+ * distance from G_k to any body's ellipsoid (its G plus its largest semi-axis), O, and joint
+ * point Q if the body is on another (a root's Q is fixed in the inertial frame, perhaps far
+ * behind a vehicle), and to a wheel's rim and contact point: what a camera following body k
+ * must show.
+ */
+export function followRadius(model, frame, k) {
+  const g = frame[k].g;
+  let far = 0;
+  const grow = (p, r = 0) => { far = Math.max(far, Math.hypot(p[0] - g[0], p[1] - g[1], p[2] - g[2]) + r); };
+  frame.forEach((f, j) => {
+    grow(f.g, Math.max(...model.bodies[j].semi_axes));
+    grow(f.o);
+    if (model.bodies[j].L >= 0) grow(f.q);
+  });
+  for (const c of rollingDiscs(model)) {
+    const { centre, contact } = discContact(c, frame);
+    grow(centre, c.radius);
+    if (contact) grow(contact);
+  }
+  return Math.max(far, 1e-3);
 }

@@ -3,7 +3,8 @@
 import { readPageData, decodeTrajectory } from './data.js';
 import { createMotion } from './motion.js';
 import { createScene, bodyColour } from './scene.js';
-import { fitDistance } from './fit.js';
+import { fitDistance, followRadius } from './fit.js';
+import { modePlotColumns } from './modeplot.js';
 import { createPlot } from './plots.js';
 import { createPlayback } from './playback.js';
 import { h, layout } from './ui.js';
@@ -57,7 +58,7 @@ function start() {
   function seek(time) {
     t = Math.min(Math.max(time, motion.start), motion.end);
     frame = motion.at(t);
-    view.place(frame);
+    view.place(frame, t);
     if (follow >= 0) {
       const g = frame[follow].g;
       const delta = new Vector3(g[0], g[1], g[2]).sub(followed);
@@ -67,16 +68,20 @@ function start() {
       controls.update();
     }
     playback.show(t);
+    plots.forEach((p) => p && p.showTime());
     redrawPlots();
     dirty = true;
   }
 
   const playback = createPlayback(ui, motion, { seek, getTime: () => t });
 
-  // Plots: energy, and the picked columns in a second plot.
+  // Plots: energy (a mode page: the mode's coordinates that move), and the picked columns in
+  // a second plot.
   const plotWidth = () => Math.max(ui.plots.clientWidth - 8, 200);
   const plotOpts = (title) => ({ width: plotWidth(), height: 180, getTime: () => t, seek, title });
-  plots[0] = createPlot(ui.energyPlot, traj, ['energy'], plotOpts('energy (J)'));
+  plots[0] = d.mode_columns
+    ? createPlot(ui.energyPlot, traj, modePlotColumns(traj, d.mode_columns), plotOpts('mode coordinates (rad, m)'))
+    : createPlot(ui.energyPlot, traj, ['energy'], plotOpts('energy (J)'));
   const picked = [];
   function redoPicked() {
     if (plots[1]) plots[1].destroy();
@@ -100,19 +105,34 @@ function start() {
     if (e.key === 'Enter' && pick(ui.picker.value.trim())) ui.picker.value = '';
   });
 
-  // Follow a body: the camera moves with its mass centre.
-  ui.follow.addEventListener('change', () => {
-    follow = Number(ui.follow.value);
+  // Follow a body: the camera looks at its mass centre from the direction it looked from,
+  // close enough to show the model as it is now (not the whole run), and then moves with it,
+  // keeping its offset (a translation: the view does not turn with the body).
+  function setFollow(k) {
+    follow = k;
+    ui.follow.value = String(k);
     if (follow >= 0) {
       const g = frame[follow].g;
-      const delta = new Vector3(g[0], g[1], g[2]).sub(controls.target);
-      camera.position.add(delta);
-      controls.target.add(delta);
+      const dir = camera.position.clone().sub(controls.target).normalize();
+      const dist = fitDistance(followRadius(model, frame, follow), camera.fov, camera.aspect);
+      controls.target.set(g[0], g[1], g[2]);
+      camera.position.copy(controls.target).addScaledVector(dir, dist);
+      camera.near = dist / 1000;
+      camera.updateProjectionMatrix();
       followed.set(g[0], g[1], g[2]);
       controls.update();
     }
     dirty = true;
-  });
+  }
+  ui.follow.addEventListener('change', () => setFollow(Number(ui.follow.value)));
+  function setTrace(name, on) {
+    if (!view.setTrace(name, on)) return false;
+    ui.traceBoxes.get(name).checked = on;
+    dirty = true;
+    return true;
+  }
+  ui.traceBoxes.forEach((box, name) => box.addEventListener('change', () => setTrace(name, box.checked)));
+  ui.frames.addEventListener('change', () => { view.setFramesVisible(ui.frames.checked); dirty = true; });
   ui.axes.addEventListener('change', () => { view.setAxesVisible(ui.axes.checked); dirty = true; });
   ui.joints.addEventListener('change', () => { view.setJointsVisible(ui.joints.checked); dirty = true; });
   ui.constraints.addEventListener('change', () => { view.setConstraintsVisible(ui.constraints.checked); dirty = true; });
@@ -164,8 +184,14 @@ function start() {
     plots.forEach((p) => p && p.setSize({ width: plotWidth(), height: 180 }));
   });
 
-  view.place(frame);
+  view.place(frame, t);
   fitCamera();
+  // What the page was written to show (kanedyn view --follow, --trace).
+  if (d.trace) {
+    for (const name of d.trace) setTrace(name, true);
+    ui.traceList.open = true;
+  }
+  if (d.follow) setFollow(model.bodies.findIndex((b) => b.name === d.follow));
   seek(t);
   renderer.render(scene, camera);
   requestAnimationFrame(tick);
@@ -209,6 +235,32 @@ function start() {
       if (c.type === 'rolling_disc') return { ...c, pageCentre: page(c.centre), pageContact: page(c.contact) };
       return { ...c, pageFrom: page(c.from), pageTo: page(c.to) };
     }),
+    /** The model's frames as drawn: per frame its origin and its axes' tips (inertial). */
+    frames: () => view.drawnFrames().map((f) => ({
+      ...f,
+      pageOrigin: project({ x: f.origin[0], y: f.origin[1], z: f.origin[2] }),
+      pageTips: f.tips.map((p) => project({ x: p[0], y: p[1], z: p[2] })),
+    })),
+    /** Turns the trace of a body's mass centre or a frame on or off (false: no such name). */
+    trace: (name, on = true) => setTrace(name, on),
+    /** A trace as drawn now: its points (inertial), the last where the point is; null when off. */
+    drawnTrace: (name) => view.drawnTrace(name),
+    /** The names of the traces shown. */
+    traces: () => view.tracesShown(),
+    /** The body followed (its index; -1 none), and follow(k) to follow another. */
+    followed: () => follow,
+    follow: (k) => { setFollow(k); seek(t); renderer.render(scene, camera); dirty = false; },
+    /** The bodies whose links O_J -> Q_K -> O_K are drawn (their number). */
+    linkCount: view.linkedCount,
+    /** Where an inertial point [x, y, z] is on the page (CSS pixels). */
+    project: (p) => project({ x: p[0], y: p[1], z: p[2] }),
+    /** The camera: its position and target (inertial, m). */
+    camera: () => ({ position: camera.position.toArray(), target: controls.target.toArray() }),
+    /** The page's values of a column (a copy). */
+    column: (name) => Array.from(traj.column(name) || []),
+    /** The columns plot i shows, and the text of its legend (the readout). */
+    plotColumns: (i) => plots[i].series.slice(1).map((s) => s.label),
+    legend: (i) => [...plots[i].root.querySelectorAll('.u-legend tr')].map((tr) => tr.textContent.trim()),
     /** A point of the ground grid's plane (inertial, m). */
     ground: () => [...fit.ground],
     /** Page x (CSS pixels) of time `time` on plot i, and the vertical middle of its plot area. */

@@ -5,6 +5,7 @@
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
 import { tickLabels } from './ticks.js';
+import { locate } from './interp.js';
 
 const SYNC = 'kanedyn';
 
@@ -69,12 +70,33 @@ function axisText(state) {
   };
 }
 
+/**
+ * The legend (the readout under the plot) shows the values at the animation's time whenever
+ * the cursor is not on a plot: at load, after the cursor leaves, and while playing. uPlot
+ * shows "--" for a cursor off the plot; its setLegend hook puts the current row back.
+ */
+function legendAtTime(times, getTime) {
+  const row = () => {
+    const { i, u } = locate(times, getTime());
+    return u > 0.5 ? Math.min(i + 1, times.length - 1) : i;
+  };
+  return {
+    hooks: {
+      setLegend: (u) => {
+        if (u.legend.idx == null) u.setLegend({ idx: row() }, false);
+      },
+    },
+    row,
+  };
+}
+
 const PALETTE = ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e', '#17becf', '#8c564b', '#e377c2'];
 
 export function createPlot(container, traj, names, { width, height, getTime, seek, title }) {
   const axis = { text: '', labels: [] };
   const series = [{ label: 't' }];
   const data = [traj.columns[0]];
+  const legend = legendAtTime(traj.columns[0], getTime);
   names.forEach((name, i) => {
     // Points only for a lone row (the initial state), where a line has no length.
     series.push({ label: name, stroke: PALETTE[i % PALETTE.length], width: 1.5, points: { show: traj.rows < 2 } });
@@ -89,10 +111,16 @@ export function createPlot(container, traj, names, { width, height, getTime, see
     axes: [{ label: 't (s)' }, valueAxis(axis)],
     cursor: { sync: { key: SYNC }, drag: { x: false, y: false } },
     legend: { live: true },
-    plugins: [timeMarker(getTime), axisText(axis)],
+    plugins: [timeMarker(getTime), axisText(axis), legend],
   };
   const plot = new uPlot(opts, data, container);
   plot.kanedynAxis = axis;
+  // The readout at the animation's time unless the cursor is on the plot (or on the other
+  // plot, whose cursor this one's follows).
+  plot.showTime = () => {
+    if (!(plot.cursor.left >= 0)) plot.setLegend({ idx: legend.row() }, false);
+  };
+  plot.showTime();
   plot.over.addEventListener('click', (e) => {
     seek(plot.posToVal(e.offsetX, 'x'));
   });

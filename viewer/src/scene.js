@@ -16,6 +16,7 @@ import {
 import {
   CONSTRAINT_HEX, closurePoints, closures, discContact, hasConstraints, rollingDiscs,
 } from './constraints.js';
+import { modelFrames, pointAt, tracePath, tracePoints, tracedSegments } from './traces.js';
 
 export const BACKGROUND = 0xf4f5f7;
 /** Body axes x, y, z: red, green, blue (darker than pure, to read on the light background). */
@@ -30,6 +31,22 @@ export function bodyColour(k) {
 /** Widths in CSS pixels: WebGL draws its own lines 1 device pixel wide whatever is asked. */
 export const LINK_WIDTH = 2;
 export const JOINT_WIDTH = 3;
+export const FRAME_WIDTH = 3;
+export const TRACE_WIDTH = 2;
+/** A trace's colour: its body's for a mass centre; for a frame, dark teal. */
+export const FRAME_TRACE_HEX = 0x007a7a;
+export function traceColour(model, p) {
+  return p.kind === 'body' ? bodyColour(p.index) : new Color(FRAME_TRACE_HEX);
+}
+
+/**
+ * The bodies whose links O_J -> Q_K -> O_K are drawn: those the page's data marks `linked`
+ * (a joint other than free, a bushing, or a force on s'_K between K and J). A free body
+ * with nothing between it and J moves on its own, and a line from O_J would read as a tether.
+ */
+export function linkedBodies(model) {
+  return model.bodies.map((b, k) => (b.linked === false ? -1 : k)).filter((k) => k >= 0);
+}
 
 /**
  * True when WebGL draws on the CPU (SwiftShader, llvmpipe: a browser without a GPU, as in
@@ -80,19 +97,52 @@ export function createScene(canvas, model, motion) {
     return { frame, mesh, axes };
   });
 
-  // Two segments per body: O_J -> Q_K (fixed in J) and Q_K -> O_K (the translation s'_K).
+  // Two segments per linked body: O_J -> Q_K (fixed in J) and Q_K -> O_K (the translation s'_K).
   const n = model.bodies.length;
+  const linked = linkedBodies(model);
   // Drawn as screen-space quads (three.js's LineSegments2), so that the lines have a width;
   // each frame rewrites the position array in place (setPositions keeps the array).
-  const linkPositions = new Float32Array(n * 4 * 3);
+  const linkPositions = new Float32Array(Math.max(linked.length, 1) * 4 * 3);
   const linkGeometry = new LineSegmentsGeometry();
   linkGeometry.setPositions(linkPositions);
   const lineMaterials = [new LineMaterial({ color: 0x222222, linewidth: LINK_WIDTH })];
   const links = new LineSegments2(linkGeometry, lineMaterials[0]);
   links.frustumCulled = false;
+  links.visible = linked.length > 0;
   scene.add(links);
 
-  // The ground: a plane normal to gravity through the lowest point of the motion.
+  // The model's frames: small axes (x red, y green, z blue) at each frame's origin, fixed in
+  // its body (or the ground), drawn over the ellipsoids (a tool point usually lies in one).
+  const frameAxes = new Group();
+  frameAxes.visible = modelFrames(model).length > 0;
+  scene.add(frameAxes);
+  const frameLength = 0.08 * fit.radius;
+  lineMaterials.push(new LineMaterial({
+    vertexColors: true, linewidth: FRAME_WIDTH, depthTest: false, depthWrite: false,
+  }));
+  const frameMarks = modelFrames(model).map((f) => {
+    const holder = new Group(); // the frame: origin at `at`, axes turned by `rotation`
+    holder.position.set(...f.at);
+    holder.quaternion.set(...f.rotation);
+    const geometry = new LineSegmentsGeometry();
+    geometry.setPositions([0, 0, 0, frameLength, 0, 0, 0, 0, 0, 0, frameLength, 0, 0, 0, 0, 0, 0, frameLength]);
+    geometry.setColors(AXIS_COLOURS.flatMap((c) => [...c.toArray(), ...c.toArray()]));
+    const axes = new LineSegments2(geometry, lineMaterials[lineMaterials.length - 1]);
+    axes.frustumCulled = false;
+    axes.renderOrder = 3;
+    holder.add(axes);
+    // In the body's frame group, which place() puts at O_K turned by eps_K; the ground's
+    // frames are inertial.
+    const parent = f.body < 0 ? frameAxes : new Group();
+    if (f.body >= 0) {
+      frameAxes.add(parent);
+      parent.userData.body = f.body;
+    }
+    parent.add(holder);
+    return { f, holder, parent };
+  });
+
+  // The ground: a plane normal to gravity (fit.js, groundLevel).
   const grid = new GridHelper(fit.gridSize, fit.gridDivisions, 0x9aa0a8, 0xc8ccd2);
   grid.quaternion.setFromUnitVectors(new Vector3(0, 1, 0), up);
   grid.position.set(...fit.ground);
@@ -294,8 +344,88 @@ export function createScene(canvas, model, motion) {
 
   const q = new Quaternion();
   const v = new Vector3();
-  /** Places every body at the configuration `frame` (motion.at(t)). */
-  function place(frame) {
+  // Path traces: per traced point its path over the run (traces.js), drawn up to the current
+  // time; built when first turned on.
+  const points = tracePoints(model);
+  const traces = new Map(); // name -> { p, path, positions, geometry, line }
+  const traced = new Group();
+  scene.add(traced);
+  let lastFrame = null;
+  let lastTime = motion.start;
+  function makeTrace(p) {
+    const path = tracePath(model, motion, p);
+    const count = path.times.length;
+    const segments = Math.max(count - 1, 1);
+    const positions = new Float32Array(segments * 6);
+    for (let i = 0; i + 1 < count; ++i) {
+      positions.set(path.points.subarray(i * 3, i * 3 + 6), i * 6);
+    }
+    const geometry = new LineSegmentsGeometry();
+    geometry.setPositions(positions);
+    // Vertex colours, as the joints': LineMaterial's `color` is drawn lighter than the colour
+    // (encoded to sRGB twice), the vertex colours as given.
+    const colours = new Float32Array(segments * 6);
+    const colour = traceColour(model, p);
+    for (let i = 0; i < segments * 2; ++i) colour.toArray(colours, i * 3);
+    geometry.setColors(colours);
+    const material = new LineMaterial({ vertexColors: true, linewidth: TRACE_WIDTH });
+    lineMaterials.push(material);
+    if (resolution) material.resolution.copy(resolution);
+    const line = new LineSegments2(geometry, material);
+    line.frustumCulled = false;
+    traced.add(line);
+    const t = { p, path, positions, geometry, line };
+    traces.set(p.name, t);
+    return t;
+  }
+  const at3 = [0, 0, 0];
+  /** Shows trace t's path up to `time`, ending at its point in `frame` (the drawn one). */
+  function placeTrace(t, time, frame) {
+    const { whole, partial } = tracedSegments(t.path.times, time);
+    const { positions, path, geometry } = t;
+    // Restore the segment a previous time cut short, then cut the one at `time`.
+    if (t.cut !== undefined && t.cut * 3 + 6 <= path.points.length) {
+      positions.set(path.points.subarray(t.cut * 3 + 3, t.cut * 3 + 6), t.cut * 6 + 3);
+    }
+    t.cut = undefined;
+    if (partial) {
+      positions.set(pointAt(model, t.p, frame, at3), whole * 6 + 3);
+      t.cut = whole;
+    }
+    geometry.instanceCount = whole + (partial ? 1 : 0);
+    geometry.attributes.instanceStart.data.needsUpdate = true;
+  }
+  /** Turns the trace of the body or frame called `name` on or off; false for no such point. */
+  function setTrace(name, on) {
+    const p = points.find((x) => x.name === name);
+    if (!p) return false;
+    let t = traces.get(name);
+    if (!t && !on) return true;
+    if (!t) t = makeTrace(p);
+    t.line.visible = on;
+    if (on && lastFrame) placeTrace(t, lastTime, lastFrame);
+    return true;
+  }
+  /** The names of the traces shown. */
+  function tracesShown() {
+    return [...traces.values()].filter((t) => t.line.visible).map((t) => t.p.name);
+  }
+  /** Trace `name` as drawn now: its points (inertial), the last one where the point is. */
+  function drawnTrace(name) {
+    const t = traces.get(name);
+    if (!t || !t.line.visible) return null;
+    const count = t.geometry.instanceCount;
+    const out = [];
+    for (let i = 0; i < count; ++i) {
+      if (i === 0) out.push([...t.positions.subarray(0, 3)]);
+      out.push([...t.positions.subarray(i * 6 + 3, i * 6 + 6)]);
+    }
+    return out;
+  }
+
+  /** Places every body at the configuration `frame` (motion.at(t)) at time `time`. */
+  function place(frame, time = motion.start) {
+    let link = 0;
     for (let k = 0; k < n; ++k) {
       const f = frame[k];
       // [R]^T maps body to inertial components; as a unit quaternion it is (e1, e2, e3; e4).
@@ -303,8 +433,10 @@ export function createScene(canvas, model, motion) {
       bodies[k].frame.quaternion.copy(q);
       bodies[k].frame.position.set(f.o[0], f.o[1], f.o[2]);
       const b = model.bodies[k];
+      if (linked[link] !== k) continue;
+      ++link;
       const j = b.L < 0 ? null : frame[b.L].o;
-      const base = k * 12;
+      const base = (link - 1) * 12;
       for (let a = 0; a < 3; ++a) {
         linkPositions[base + a] = j ? j[a] : 0;
         linkPositions[base + 3 + a] = f.q[a];
@@ -315,7 +447,34 @@ export function createScene(canvas, model, motion) {
     linkGeometry.attributes.instanceStart.data.needsUpdate = true;
     if (lines.length || marks.length) placeJoints(frame);
     if (hasConstraints(model)) placeConstraints(frame);
+    for (const m of frameMarks) {
+      if (m.f.body < 0) continue;
+      m.parent.position.copy(bodies[m.f.body].frame.position);
+      m.parent.quaternion.copy(bodies[m.f.body].frame.quaternion);
+    }
+    lastFrame = frame;
+    lastTime = time;
+    for (const t of traces.values()) if (t.line.visible) placeTrace(t, time, frame);
     scene.updateMatrixWorld();
+  }
+
+  /** The model's frames as drawn: per frame its origin and its three axes' tips (inertial). */
+  function drawnFrames() {
+    return frameMarks.map((m) => {
+      const origin = m.holder.getWorldPosition(new Vector3());
+      const tip = (e) => m.holder.localToWorld(new Vector3(...e.map((x) => x * frameLength)));
+      return {
+        name: m.f.name,
+        body: m.f.body,
+        origin: origin.toArray(),
+        tips: [[1, 0, 0], [0, 1, 0], [0, 0, 1]].map((e) => tip(e).toArray()),
+        length: frameLength,
+      };
+    });
+  }
+
+  function setFramesVisible(on) {
+    frameAxes.visible = on;
   }
 
   /** The mass centres as drawn: each ellipsoid's centre in inertial coordinates. */
@@ -327,8 +486,10 @@ export function createScene(canvas, model, motion) {
   }
 
   /** The canvas's size in CSS pixels, which the line widths are measured in. */
+  let resolution = null;
   function setResolution(width, height) {
     for (const m of lineMaterials) m.resolution.set(width, height);
+    resolution = lineMaterials[0].resolution.clone();
   }
 
   function setAxesVisible(on) {
@@ -396,6 +557,7 @@ export function createScene(canvas, model, motion) {
 
   return {
     software, renderer, scene, camera, bodies, fit, place, drawnCentres, setAxesVisible, setJointsVisible, drawnJoints, sun,
-    setResolution, setConstraintsVisible, drawnConstraints,
+    setResolution, setConstraintsVisible, drawnConstraints, drawnFrames, setFramesVisible,
+    setTrace, tracesShown, drawnTrace, tracePoints: points, linkedCount: linked.length,
   };
 }

@@ -1,6 +1,7 @@
 // The page's elements: the 3D stage, the playback bar and the side panel with the plots.
 import { hasJoints } from './joints.js';
 import { hasConstraints, rollingDiscs } from './constraints.js';
+import { modelFrames, tracePoints } from './traces.js';
 
 /** document.createElement with attributes (on* as listeners) and children. */
 export function h(tag, attrs = {}, ...children) {
@@ -42,13 +43,25 @@ export function layout(body, d) {
   const constrained = hasConstraints(m);
   const constraints = h('input', { type: 'checkbox', id: 'constraints', checked: constrained });
   const wheels = rollingDiscs(m).length > 0;
+  // Likewise for a model with frames.
+  const hasFrames = modelFrames(m).length > 0;
+  const frames = h('input', { type: 'checkbox', id: 'frames', checked: hasFrames });
+  // Traces: a checkbox per body (its mass centre) and per frame (its origin).
+  const traceBoxes = new Map();
+  const traceItems = tracePoints(m).map((p) => {
+    const box = h('input', { type: 'checkbox', id: `trace-${p.name}`, value: p.name });
+    traceBoxes.set(p.name, box);
+    return h('label', { class: 'trace-item', title: p.kind === 'body' ? `the path of ${p.name}'s mass centre` : `the path of frame ${p.name}'s origin` },
+      box, p.kind === 'body' ? ` G ${p.name}` : ` frame ${p.name}`);
+  });
+  const traceList = h('details', { id: 'traces' }, h('summary', {}, 'trace paths'), h('div', { class: 'trace-list' }, ...traceItems));
   const loops = constrained && m.constraints.length > rollingDiscs(m).length;
   const fit = h('button', { id: 'fit' }, 'Fit view');
   const listId = 'kanedyn-columns';
   const picker = h('input', { type: 'text', id: 'picker', list: listId, placeholder: 'add a column, e.g. ' + (d.columns[1] || 't'), autocomplete: 'off' });
   const list = h('datalist', { id: listId }, ...d.columns.slice(1).map((c) => h('option', { value: c })));
   const chips = h('div', { class: 'chips' });
-  const energyPlot = h('div', { id: 'energy-plot' });
+  const energyPlot = h('div', { id: d.mode_columns ? 'mode-plot' : 'energy-plot' });
   const pickedPlot = h('div', { id: 'picked-plot' });
   const plots = h('div', { class: 'plots' }, energyPlot, picker, list, chips, pickedPlot);
   const n = m.bodies.length;
@@ -62,13 +75,16 @@ export function layout(body, d) {
     h('p', { class: 'controls' }, h('label', {}, 'follow ', follow), ' ',
       h('label', {}, axes, ' body axes'), ' ',
       jointed ? h('label', {}, joints, ' joints') : '', jointed ? ' ' : '',
-      constrained ? h('label', {}, constraints, ' constraints') : '', constrained ? ' ' : '', fit),
-    h('p', { class: 'hint' }, 'Drag: orbit; wheel: zoom; right-drag: pan. Space: play/pause; arrows: step a row. Click a plot to seek. Blue arrow: gravity; lines: O_J \u2192 Q_K \u2192 O_K.',
+      constrained ? h('label', {}, constraints, ' constraints') : '', constrained ? ' ' : '',
+      hasFrames ? h('label', {}, frames, ' frames') : '', hasFrames ? ' ' : '', fit),
+    traceList,
+    h('p', { class: 'hint' }, 'Drag: orbit; wheel: zoom; right-drag: pan. Space: play/pause; arrows: step a row. Click a plot to seek. Blue arrow: gravity; lines: O_J \u2192 Q_K \u2192 O_K where a joint or bushing joins K to J.',
       jointed ? ' Violet: joint axes and balls at Q_K; orange arrowheads: sliding.' : '',
       wheels ? ' Wheels: rolling discs; green: their contact points with the ground.' : '',
-      loops ? ' Magenta: loop closures, the point of the body (solid) and of the other (wire ball); lines: a distance, or a hinge\u2019s two axes.' : ''));
+      loops ? ' Magenta: loop closures, the point of the body (solid) and of the other (wire ball); lines: a distance, or a hinge\u2019s two axes.' : '',
+      hasFrames ? ' Small RGB axes: the model\u2019s frames.' : ''));
   const side = h('div', { class: 'side' }, about, plots);
   const main = h('div', { class: 'main' }, h('div', { class: 'left' }, stage, bar), side);
   body.append(main);
-  return { canvas, tip, stage, play, speed, loop, slider, time, follow, axes, joints, constraints, fit, picker, chips, energyPlot, pickedPlot, plots };
+  return { canvas, tip, stage, play, speed, loop, slider, time, follow, axes, joints, constraints, frames, traceBoxes, traceList, fit, picker, chips, energyPlot, pickedPlot, plots };
 }

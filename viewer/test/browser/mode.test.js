@@ -29,6 +29,12 @@ after(() => ctx.close());
 
 const at = (t) => ctx.page.evaluate((time) => { window.kanedynViewer.seek(time); return window.kanedynViewer.bodyPositions(); }, t);
 
+test('the readout under the plot has values at load, before the mouse moves', async () => {
+  const legend = await ctx.page.evaluate(() => window.kanedynViewer.legend(0));
+  assert.equal(legend[0], 't0');
+  assert.ok(legend.length >= 2 && !legend.some((l) => l.includes('--')), legend.join(' | '));
+});
+
 test('the page names the mode and its frequency', async () => {
   const text = await ctx.page.evaluate(() => document.body.textContent);
   assert.match(text, /mode 1 of 96 about its initial state: eigenvalue/);
@@ -61,6 +67,20 @@ test('a period on, the pose repeats', async () => {
   for (let k = 0; k < start.length; ++k) {
     for (const a of ['x', 'y', 'z']) assert.ok(Math.abs(again[k][a] - start[k][a]) <= 1e-9);
   }
+});
+
+test('the plot shows the mode\'s coordinates, not the energy', async () => {
+  const columns = await ctx.page.evaluate(() => window.kanedynViewer.plotColumns(0));
+  assert.ok(columns.length >= 1 && columns.length <= 8, columns.join(', '));
+  assert.ok(!columns.includes('energy'), columns.join(', '));
+  // Named as kanedyn linearize names its state (NAME.r1, NAME.s2, NAME.j1), after "mode.".
+  const names = new Set(lin.state);
+  for (const c of columns) assert.ok(c.startsWith('mode.') && names.has(c.slice(5)), c);
+  assert.equal(await ctx.page.$('#energy-plot'), null);
+  // The largest coordinate swings by the amplitude: sampled at 120 rows a period, its peak
+  // is within cos(pi / 120) (0.03%) of it; float32 storage adds 6e-8 relative.
+  const peak = await ctx.page.evaluate((c) => Math.max(...window.kanedynViewer.column(c).map(Math.abs)), columns[0]);
+  assert.ok(peak <= amplitude * (1 + 1e-6) && peak >= amplitude * 0.999, `largest swing ${peak} of ${amplitude}`);
 });
 
 test('no console error and no network request', () => {
