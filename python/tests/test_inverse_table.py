@@ -1,6 +1,6 @@
-"""Inverse dynamics from arrays (docs/python.md, "Inputs, forward and inverse dynamics"): row by
-row through Model.state(q=, z=) and Model.inverse_dynamics, without a Result; and the table of
-`kanedyn inverse` (docs/cli.md, "inverse") written from the same arrays."""
+"""Inverse dynamics from arrays (docs/python.md, "Inputs, forward and inverse dynamics,
+stepping"): row by row through Model.state(q=, z=) and Model.inverse_dynamics, without a Result;
+and the table of `kanedyn inverse` (docs/cli.md, "inverse") written from the same arrays."""
 
 from __future__ import annotations
 
