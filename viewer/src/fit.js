@@ -83,8 +83,12 @@ export function fitView(model, motion, samples = 200) {
   ];
   const view = side.map((s, a) => -0.6 * s - 0.8 * other[a] + 0.45 * up[a]);
   const vn = Math.hypot(...view);
+  // The markers' scale: the model's own size (its radius at the start about the first body's
+  // mass centre), at most the view's radius, so that a vehicle's markers stay its size
+  // however far it travels (and the follow camera comes close).
+  const size0 = Math.min(radius, followRadius(model, motion.at(motion.start), 0));
   return {
-    centre, radius, up, ground, gridSize, gridDivisions, gridCell, side,
+    centre, radius, up, ground, gridSize, gridDivisions, gridCell, side, markerScale: size0,
     view: view.map((x) => x / vn),
     hasGravity: Math.hypot(...model.gravity) > 0,
   };

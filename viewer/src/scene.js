@@ -116,7 +116,7 @@ export function createScene(canvas, model, motion) {
   const frameAxes = new Group();
   frameAxes.visible = modelFrames(model).length > 0;
   scene.add(frameAxes);
-  const frameLength = 0.08 * fit.radius;
+  const frameLength = 0.08 * fit.markerScale;
   lineMaterials.push(new LineMaterial({
     vertexColors: true, linewidth: FRAME_WIDTH, depthTest: false, depthWrite: false,
   }));
@@ -191,8 +191,8 @@ export function createScene(canvas, model, motion) {
   jointLinesObject.renderOrder = 2;
   joints.add(jointLinesObject);
   const marks = jointMarkers(model).map((m) => {
-    // The same size for every marker: 1.5% of the view's radius (a cube's half edge).
-    const r = 0.015 * fit.radius;
+    // The same size for every marker: 1.5% of the model's size (fit.js, markerScale; a cube's half edge).
+    const r = 0.015 * fit.markerScale;
     const geometry = m.type === 'weld' ? new BoxGeometry(2 * r, 2 * r, 2 * r) : new SphereGeometry(r, 16, 8);
     const mesh = new Mesh(geometry, new MeshBasicMaterial({ color: MARKER_HEX[m.type], depthTest: false, depthWrite: false }));
     mesh.renderOrder = 2;
@@ -232,8 +232,8 @@ export function createScene(canvas, model, motion) {
   scene.add(constrained);
   const discs = rollingDiscs(model);
   const loops = closures(model);
-  const markRadius = 0.015 * fit.radius; // the joints' markers' size
-  const axisHalf = 0.06 * fit.radius;
+  const markRadius = 0.015 * fit.markerScale; // the joints' markers' size
+  const axisHalf = 0.06 * fit.markerScale;
   const wheels = discs.map((c) => {
     const wheel = new Group();
     wheel.position.set(...c.at);
