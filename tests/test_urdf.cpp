@@ -1196,3 +1196,52 @@ TEST(UrdfCli, ExampleArmImports) {
 }
 
 }  // namespace kanedyn::io
+
+namespace kanedyn::io {
+namespace {
+
+// A turn by the rpy a URDF writes for 90 degrees (1.5707963267948966, the double nearest pi/2)
+// has cos = 6.1e-17, not 0: a product of inertia that is zero in the file, or a position
+// component the turn carries onto 0, came out as 1e-17 round-off. It is written as an exact 0
+// (docs/urdf.md, "Zeros stay zeros"): the turns are rotation matrices without their
+// round-off, so a quarter turn permutes the axes exactly. A small number the file gives alone
+// is not round-off of anything, and stays.
+TEST(Urdf, RoundOffOfATurnIsWrittenAsZero) {
+  REQUIRE_URDF();
+  const std::string quarter = "1.5707963267948966";
+  const std::string urdf = robot(
+      massive("base") + "<link name=\"arm\"><inertial><origin xyz=\"0 0 0.5\" rpy=\"" + quarter +
+      " 0 0\"/><mass value=\"1\"/><inertia ixx=\"0.1\" iyy=\"0.2\" izz=\"0.3\" ixy=\"0\" "
+      "ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+      "<link name=\"flange\"/>\n" +
+      "<link name=\"tool\"><inertial><origin xyz=\"0 0 1e-17\"/><mass value=\"1\"/><inertia "
+      "ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n" +
+      joint("shoulder", "revolute", "base", "arm",
+            "<origin xyz=\"0 0 1\" rpy=\"0 " + quarter + " 0\"/><axis xyz=\"0 0 1\"/>") +
+      joint("mount", "fixed", "arm", "flange",
+            "<origin xyz=\"0 0 0.1\" rpy=\"" + quarter + " 0 0\"/>") +
+      joint("tip", "fixed", "flange", "tool", "<origin xyz=\"0 0.04 0\"/>"));
+  const std::string text = urdf_to_model_yaml(urdf, "turns.urdf", {}, nullptr);
+  const Json m = yaml_json(text);
+  // R_x(90 deg) diag(0.1, 0.2, 0.3) R_x^T = diag(0.1, 0.3, 0.2): the off-diagonal entries are
+  // written as 0, the diagonal is the turned one to round-off.
+  const Json& arm = body(m, "arm");
+  const Json& i = arm.at("inertia");
+  for (int k = 3; k < 6; ++k) EXPECT_EQ(i[k].get<double>(), 0.0) << text;
+  EXPECT_NEAR(i[0].get<double>(), 0.1, 1e-16);
+  EXPECT_NEAR(i[1].get<double>(), 0.3, 1e-16);
+  EXPECT_NEAR(i[2].get<double>(), 0.2, 1e-16);
+  // The tool is welded through the massless flange: Q = (0, 0, 0.1) + R_x(90 deg) (0, 0.04, 0)
+  // = (0, 0.04 cos, 0.1 + 0.04 sin): the y component is written as 0, not 2.4e-18.
+  const Json& tool = body(m, "tool");
+  const Vec at = vec(tool.at("joint").at("at"));
+  EXPECT_EQ(at.x(), 0.0);
+  EXPECT_EQ(at.y(), 0.0) << text;
+  EXPECT_NEAR(at.z(), 0.14, 1e-16);
+  // A small number the file gives alone is kept: the tool's com of 1e-17 has no larger
+  // neighbour whose round-off it could be.
+  EXPECT_EQ(vec(tool.at("com")), Vec(0, 0, 1e-17));
+}
+
+}  // namespace
+}  // namespace kanedyn::io

@@ -14,6 +14,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <set>
@@ -90,6 +91,39 @@ std::string vec(const Vec& v) {
   return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]";
 }
 
+/// Entries of a rotation within this many units in the last place of 0 are taken as 0. The
+/// rpy a URDF writes for a quarter turn (1.5707963267948966, the double nearest pi/2) has a
+/// cosine of 6.1e-17, and a quaternion's matrix adds a few ulps more: a turned 0 (a product of
+/// inertia, a position's component) would come out as 1e-17 round-off. An angle this close to
+/// a multiple of a quarter turn is that multiple as a file writes it; a real angle's sine
+/// is never that small (1.4e-14 rad is 3e-9 arc seconds).
+constexpr double kRoundOffUlps = 64.0;
+
+/// The rotation matrix of q with that round-off removed: each entry below kRoundOffUlps ulps
+/// of 1 becomes 0, and a row left with one nonzero entry becomes the unit vector it is, so a
+/// quarter turn is an exact permutation of the axes and a 0 it turns stays 0.
+Eigen::Matrix3d rotation(const Quat& q) {
+  Eigen::Matrix3d r = q.normalized().toRotationMatrix();
+  const double floor = kRoundOffUlps * std::numeric_limits<double>::epsilon();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (std::abs(r(i, j)) < floor) r(i, j) = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    int nonzero = 0, at = 0;
+    for (int j = 0; j < 3; ++j)
+      if (r(i, j) != 0.0) ++nonzero, at = j;
+    if (nonzero == 1) r(i, at) = r(i, at) > 0.0 ? 1.0 : -1.0;
+  }
+  return r;
+}
+
+/// A unit vector (an axis of a turn) as written: entries below kRoundOffUlps ulps as 0.
+std::string written(Vec v) {
+  for (double& x : v)
+    if (std::abs(x) < kRoundOffUlps * std::numeric_limits<double>::epsilon()) x = 0.0;
+  return vec(v);
+}
+
 std::string quoted_name(const std::string& kind, const std::string& name) {
   return kind + " '" + printable(name, 60) + "'";
 }
@@ -118,7 +152,7 @@ std::string axis_angle(Quat q) {
   const Vec v = q.vec();
   const double s = v.norm();
   const double angle = 2.0 * std::atan2(s, q.w());
-  return "{axis: " + vec(v / s) + ", angle: " + num(angle) + "}";
+  return "{axis: " + written(v / s) + ", angle: " + num(angle) + "}";
 }
 
 bool is_identity(const Quat& q) { return q.vec().squaredNorm() == 0.0; }
@@ -220,13 +254,13 @@ void free_below_massless_root(const std::string& root, std::vector<Body>& bodies
     Body& b = bodies[k];
     if (b.parent >= 0 || b.joint_type == "free") continue;
     b.parent = 0;
-    b.at = turn * (b.at - first.at);
+    b.at = rotation(turn) * (b.at - first.at);
     b.frame = (turn * b.frame).normalized();
   }
   for (FrameOut& f : frames) {
     if (f.at.body >= 0) continue;
     f.at.body = 0;
-    f.at.p = turn * (f.at.p - first.at);
+    f.at.p = rotation(turn) * (f.at.p - first.at);
     f.at.q = (turn * f.at.q).normalized();
   }
   std::string how = "its fixed joint '" + printable(first.joint, 60) + "' replaced by a free joint";
@@ -355,7 +389,8 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
       fail(quoted_name("link", joint->child_link_name),
            "is the child of two joints, '" + printable(it->second->name, 60) + "' and '" +
                printable(name, 60) +
-               "': the joints form a closed loop, and a kanedyn model is a tree");
+               "': the joints form a closed loop, and the import builds a tree (import the tree, "
+               "then close the loop with a constraint of the model file: docs/urdf.md)");
     below[joint->parent_link_name].push_back(joint.get());
   }
 
@@ -387,7 +422,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
     b.mass = in.mass;
     Eigen::Matrix3d i;
     i << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-    const Eigen::Matrix3d r = quat(in.origin.rotation).toRotationMatrix();
+    const Eigen::Matrix3d r = rotation(quat(in.origin.rotation));
     b.inertia = r * i * r.transpose();
     b.inertia = (0.5 * (b.inertia + b.inertia.transpose())).eval();
     if (!b.inertia.allFinite())
@@ -469,7 +504,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
           !Eigen::Vector4d(o.rotation.x, o.rotation.y, o.rotation.z, o.rotation.w).allFinite())
         fail(jname, "origin is not finite");
       // The child's frame at zero joint position, in the frame `from` is fixed in.
-      Place to{from.body, from.p + from.q * xyz, (from.q * quat(o.rotation)).normalized(),
+      Place to{from.body, from.p + rotation(from.q) * xyz, (from.q * quat(o.rotation)).normalized(),
                (from.absolute * quat(o.rotation)).normalized()};
       // Each origin is finite, but their sum through folded links need not be (1.5e308 twice).
       if (!to.p.allFinite())
@@ -501,7 +536,7 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
           const Quat a = Quat::FromTwoVectors(Vec::UnitZ(), n->normalized());
           if (!is_identity(a)) {
             Body& b = bodies[static_cast<std::size_t>(k)];
-            const Eigen::Matrix3d r = a.toRotationMatrix();  // F components to link components
+            const Eigen::Matrix3d r = rotation(a);  // F components to link components
             b.frame = (b.frame * a).normalized();
             b.com = r.transpose() * b.com;
             b.inertia = r.transpose() * b.inertia * r;
@@ -557,7 +592,8 @@ std::string detail::convert_urdf(const std::string& urdf_text, const std::string
       if (!place.count(name))
         fail(quoted_name("link", name),
              "cannot be reached from the root link '" + printable(root->name, 60) +
-                 "': its joints form a closed loop, and a kanedyn model is a tree");
+                 "': its joints form a closed loop, and the import builds a tree (import the "
+                 "tree, then close the loop with a constraint of the model file: docs/urdf.md)");
   }
   if (bodies.empty())
     fail(quoted_name("robot", model->getName()),
