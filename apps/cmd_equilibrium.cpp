@@ -109,14 +109,16 @@ void run(const Options& o) {
                  io::printable(file.path).c_str());
   else
     std::fprintf(
-        report, "static equilibrium of %s from its initial state: Newton on %d of %d coordinates\n",
-        io::printable(file.path).c_str(), f, n);
+        report,
+        "static equilibrium of %s from its initial state: Newton on %d of %d coordinate%s\n",
+        io::printable(file.path).c_str(), f, n, n == 1 ? "" : "s");
   const EquilibriumResult rest = equilibrium(model, op.q, op.u, options);
   std::fprintf(report, "  %s\n", rest.message.c_str());
   if (!rest.converged) {
     std::ostringstream why;
     why << "no rest pose found from the initial state: after " << rest.iterations
-        << " iterations the largest generalized force is " << rest.residual_norm << ".";
+        << (rest.iterations == 1 ? " iteration" : " iterations")
+        << " the largest generalized force is " << rest.residual_norm << ".";
     if (!rest.unrestrained.empty())
       why << " Nothing restrains " << names_of(state, rest.unrestrained)
           << ": hold them (leave them out of --free) or add a bushing or joint_spring there.";
@@ -159,7 +161,7 @@ void run(const Options& o) {
   std::ostringstream comment;
   comment << "The rest pose of " << file.path << ", found by kanedyn equilibrium: largest\n"
           << "generalized force " << rest.residual_norm << " after " << rest.iterations
-          << " Newton iterations.";
+          << (rest.iterations == 1 ? " Newton iteration." : " Newton iterations.");
   const std::string text =
       io::model_file_text(model, rest.q, VectorX::Zero(n), file.simulation, comment.str());
   if (to_stdout) {

@@ -23,9 +23,20 @@
 // from the source root, and whatever a command writes (a trajectory CSV) stays in that folder.
 // The commands of a page run in order in that one folder, so a later command can read what an
 // earlier one wrote.
+//
+// The README and the tutorials also show command lines without their output, in `sh` blocks:
+// every line of a code block (other than a `console` block, whose commands are checked with
+// their output above) that starts with `build/kanedyn ` or `kanedyn ` is run the same way, in
+// the page's order and folder, its trailing `# comment` dropped, and must exit 0. What counts:
+// only the kanedyn tool's lines. The lines that install (`bash scripts/...`, `pip`, `venv`),
+// run the Python examples (`PYTHONPATH=... python3 examples/python/...`: python/tests/
+// test_examples.py runs each) or the C++ example program (`build/examples/simulate_example`)
+// are not the tool's, and are left to those tests.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -197,6 +208,97 @@ int check_page(const std::string& name) {
   return commands;
 }
 
+struct CommandLine {
+  int line = 0;
+  std::string args;  // after `kanedyn `, without the trailing comment
+};
+
+/// Every kanedyn command line in a code block of `page` outside `console` blocks.
+std::vector<CommandLine> command_lines(const std::string& page) {
+  const std::vector<std::string> lines = lines_of(page);
+  std::vector<CommandLine> found;
+  bool in_block = false, console = false;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const std::string& line = lines[i];
+    if (starts_with(line, "```")) {
+      console = !in_block && line == "```console";
+      in_block = !in_block;
+      continue;
+    }
+    if (!in_block || console) continue;
+    std::string text = line;
+    if (starts_with(text, "$ ")) text = text.substr(2);
+    std::string args;
+    for (const std::string prefix : {"build/kanedyn ", "kanedyn "})
+      if (starts_with(text, prefix)) args = text.substr(prefix.size());
+    if (args.empty()) continue;
+    // The comment: the first " #" (no argument of these lines holds a '#').
+    if (const size_t hash = args.find(" #"); hash != std::string::npos) args.resize(hash);
+    while (!args.empty() && args.back() == ' ') args.pop_back();
+    found.push_back({static_cast<int>(i) + 1, args});
+  }
+  return found;
+}
+
+/// Runs every command line of `relative` (from the source root) in a fresh folder with a copy
+/// of examples/; each must exit 0. Returns how many ran.
+int run_command_lines(const std::string& relative) {
+  const std::string page = slurp(fs::path(KANEDYN_SOURCE_DIR) / relative);
+  EXPECT_FALSE(page.empty()) << relative;
+  const fs::path dir = page_dir("lines_" + fs::path(relative).stem().string());
+  int ran = 0;
+  for (const CommandLine& c : command_lines(page)) {
+    const auto start = std::chrono::steady_clock::now();
+    const ToolRun run = run_command(dir, c.args);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ++ran;
+    EXPECT_EQ(run.exit_code, 0) << relative << ":" << c.line << ": kanedyn " << c.args << "\n"
+                                << run.err;
+    // Shown so that a slow line is seen, not hidden: the test runs every line as written.
+    if (seconds > 2.0)
+      std::printf("%s:%d: kanedyn %s took %.1f s\n", relative.c_str(), c.line, c.args.c_str(),
+                  seconds);
+  }
+  return ran;
+}
+
+TEST(Tutorials, CommandLinesAreFoundOutsideConsoleBlocks) {
+  const std::string page =
+      "text build/kanedyn info x.yaml\n"
+      "```sh\n"
+      "build/kanedyn info a.yaml   # a comment\n"
+      "$ kanedyn eom b.yaml --json\n"
+      "PYTHONPATH=build/python /usr/bin/python3 examples/python/x.py\n"
+      "bash scripts/test.sh\n"
+      "```\n"
+      "```console\n"
+      "$ kanedyn info c.yaml\n"
+      "```\n";
+  const std::vector<CommandLine> found = command_lines(page);
+  ASSERT_EQ(found.size(), 2u);
+  EXPECT_EQ(found[0].line, 3);
+  EXPECT_EQ(found[0].args, "info a.yaml");
+  EXPECT_EQ(found[1].line, 4);
+  EXPECT_EQ(found[1].args, "eom b.yaml --json");
+}
+
+TEST(Tutorials, ReadmeCommandLinesRun) { EXPECT_GE(run_command_lines("README.md"), 25); }
+
+TEST(Tutorials, TutorialCommandLinesRun) {
+  // Every docs/tutorial-*.md: its console blocks are checked by the tests below (each page is
+  // named there, and this test fails for a page that is not), its other lines here.
+  std::vector<std::string> pages;
+  for (const auto& entry : fs::directory_iterator(fs::path(KANEDYN_SOURCE_DIR) / "docs")) {
+    const std::string name = entry.path().filename().string();
+    if (starts_with(name, "tutorial-") && entry.path().extension() == ".md") pages.push_back(name);
+  }
+  std::sort(pages.begin(), pages.end());
+  EXPECT_EQ(pages, (std::vector<std::string>{"tutorial-first-model.md", "tutorial-notes.md"}))
+      << "a new tutorial: add a test that runs its console blocks (check_page) below";
+  for (const std::string& name : pages) run_command_lines("docs/" + name);
+}
+
 TEST(Tutorials, ElisionMatchesAnyNumberOfLines) {
   const std::vector<std::string> out{"a", "b", "c", "d"};
   EXPECT_TRUE(matches({"a", "b", "c", "d"}, out));
@@ -215,7 +317,7 @@ TEST(Tutorials, ElisionMatchesAnyNumberOfLines) {
 TEST(Tutorials, NotesTutorialOutputsAreCurrent) { EXPECT_GE(check_page("tutorial-notes"), 8); }
 
 TEST(Tutorials, FirstModelTutorialOutputsAreCurrent) {
-  EXPECT_GE(check_page("tutorial-first-model"), 4);
+  EXPECT_GE(check_page("tutorial-first-model"), 14);
 }
 
 TEST(Tutorials, SatelliteLoadsAndSimulates) {
