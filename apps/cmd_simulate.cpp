@@ -131,17 +131,10 @@ std::string format(const char* fmt, double value) {
 std::vector<std::string> energy_not_conserved_by(const Model& model, const SimulationSettings& s) {
   bool damping = false, loads = false;
   for (const auto& e : model.forces()) {
-    if (const auto* b = dynamic_cast<const Bushing*>(e.get()))
-      damping = damping || !b->damping.isZero(0.0) || b->rotational_damping != 0.0;
-    else if (const auto* j = dynamic_cast<const JointLoad*>(e.get())) {
-      damping = damping || !j->damping.isZero(0.0);
-      loads = loads || !j->value.isZero(0.0);
-    } else if (const auto* f = dynamic_cast<const ConstantForce*>(e.get()))
-      loads = loads || !f->value.isZero(0.0);
-    else if (const auto* t = dynamic_cast<const ConstantTorque*>(e.get()))
-      loads = loads || !t->value.isZero(0.0);
-    else
-      loads = true;  // an element of another kind: its work is not known to be in the energy
+    damping = damping || e->dissipative();
+    // An element whose work is not all in the energy: constant loads, joint forces, and any
+    // element that does not say it is conservative.
+    loads = loads || !e->conservative();
   }
   std::vector<std::string> why;
   if (damping) why.emplace_back("damping");
@@ -225,7 +218,7 @@ void warn(const std::string& text) {
   std::fflush(stderr);
 }
 
-/// rk4 steps above the stability limit of the stiffest bushing make the run diverge.
+/// rk4 steps above the stability limit of the stiffest element make the run diverge.
 void warn_rk4_stability(const Model& model, const SimulationSettings& s) {
   if (s.integrator != Integrator::rk4) return;
   int index = -1;
@@ -235,7 +228,8 @@ void warn_rk4_stability(const Model& model, const SimulationSettings& s) {
   if (!(h > limit) || index < 0) return;
   const int body = model.forces()[static_cast<size_t>(index)]->body();
   warn("the rk4 step " + format("%.3g", h) + " exceeds the stability limit of about " +
-       format("%.3g", limit) + " set by the stiffest bushing (forces[" + std::to_string(index) +
+       format("%.3g", limit) + " set by the stiffest " +
+       model.forces()[static_cast<size_t>(index)]->type() + " (forces[" + std::to_string(index) +
        "], on body '" + model.body(body).name + "'); the run will likely diverge: use --step " +
        format("%.2g", 0.5 * limit) + " or smaller, or --integrator dopri5");
 }

@@ -26,68 +26,13 @@
 #include "dual.hpp"
 #include "equations.hpp"
 #include "generic_dynamics.hpp"
+#include "tree_loads.hpp"
 
 namespace kanedyn {
 
-namespace eq {
-template <int N>
-struct Lanes<Dual<N>> {
-  static Dual<N> sqrt(const Dual<N>& v) { return kanedyn::sqrt(v); }
-  static bool all(bool b) { return b; }
-};
-}  // namespace eq
-
 namespace {
 
-size_t at(int i) { return static_cast<size_t>(i); }
-
-template <typename S>
-using V3 = eq::Vec3<S>;
-template <typename S>
-using M3 = eq::Mat3<S>;
-template <typename S>
-using Eu = eq::Euler<S>;
-
-template <typename S>
-V3<S> constant(const Vector3& v) {
-  return {S(v.x()), S(v.y()), S(v.z())};
-}
-template <typename S>
-V3<S> times(const Matrix3& m, const V3<S>& v) {
-  return {m(0, 0) * v.x + m(0, 1) * v.y + m(0, 2) * v.z,
-          m(1, 0) * v.x + m(1, 1) * v.y + m(1, 2) * v.z,
-          m(2, 0) * v.x + m(2, 1) * v.y + m(2, 2) * v.z};
-}
-template <typename S>
-S dot_constant(const Vector3& a, const V3<S>& b) {
-  return a.x() * b.x + a.y() * b.y + a.z() * b.z;
-}
-// Products with a constant vector: a dual number times a double is one multiply per pack, where
-// a constant made a dual number would take two and an add.
-template <typename S>
-V3<S> scale(const S& s, const Vector3& v) {
-  return {s * v.x(), s * v.y(), s * v.z()};
-}
-template <typename S>
-void add_constant(V3<S>& a, const Vector3& v) {
-  a.x += v.x();
-  a.y += v.y();
-  a.z += v.z();
-}
-template <typename S>
-V3<S> cross(const V3<S>& a, const Vector3& b) {
-  return {a.y * b.z() - a.z * b.y(), a.z * b.x() - a.x * b.z(), a.x * b.y() - a.y * b.x()};
-}
-template <typename S>
-V3<S> cross(const Vector3& a, const V3<S>& b) {
-  return {b.z * a.y() - b.y * a.z(), b.x * a.z() - b.z * a.x(), b.y * a.x() - b.x * a.y()};
-}
-template <typename S>
-V3<S> times_constant(const M3<S>& m, const Vector3& v) {
-  return {m.a[0] * v.x() + m.a[1] * v.y() + m.a[2] * v.z(),
-          m.a[3] * v.x() + m.a[4] * v.y() + m.a[5] * v.z(),
-          m.a[6] * v.x() + m.a[7] * v.y() + m.a[8] * v.z()};
-}
+using namespace tree;  // NOLINT: the generic passes' terms (src/tree_loads.hpp)
 
 // a b and a b^T.
 template <typename S>
@@ -133,40 +78,25 @@ bool is_identity(const Vector4& e) {
   return e[0] == 0.0 && e[1] == 0.0 && e[2] == 0.0 && e[3] == 1.0;
 }
 
-// Body K's terms in one evaluation, body-K components unless said.
-template <typename S>
-struct Body {
-  Eu<S> eps;                      // eps_K, absolute
-  M3<S> R;                        // [R_K]
-  M3<S> E;                        // [R_K][R_J]^T
-  V3<S> r;                        // q'_K + s'_K, body-J components
-  V3<S> sd;                       // s'_K dot, body-J components
-  V3<S> slide;                    // s'_K, body-J components
-  V3<S> w, w_rel;                 // w'_K; [G_K] z_K
-  V3<S> g0;                       // a universal joint's first column of [G_K], which turns with q2
-  V3<S> alpha, a;                 // alpha'_K; the acceleration of O_K
-  V3<S> moment, force;            // what K (then its subtree) needs, about O_K
-  V3<S> load_force, load_moment;  // the resultants on K: a force at G_K, a moment
-};
-
 // The constant per-body tables of a model.
 struct Tables {
   std::vector<Matrix36> translation;  // [T_K], body-J components
   std::vector<unsigned> slides;       // its nonzero columns
-  std::vector<const Bushing*> bushings;
-  std::vector<const ConstantForce*> forces;
-  std::vector<const ConstantTorque*> torques;
-  std::vector<const JointLoad*> joint_loads;
+  // The force elements that load bodies, and those on joint coordinates (ForceElement).
+  std::vector<const ForceElement*> body_elements, joint_elements;
   std::vector<int> speed_body;  // the body of each speed
   // [G_K]'s columns (body K), constant but for a universal joint's first, and the mask of the
   // nonzero ones.
   std::vector<std::array<Vector3, 3>> turn_axes;
   std::vector<unsigned> turns;
+  // Whether every force element gives its law for every scalar (ForceElement::any_scalar).
   bool supported = true;
   // Whether the evaluation needs every body's absolute Euler parameters (a bushing measures K
   // relative to J through them) and rotation (a constant force is inertial; a free body below
-  // another body turns relative to it through [R_K][R_J]^T); else only E is formed.
-  bool absolute_euler = false, absolute_rotation = false;
+  // another body turns relative to it through [R_K][R_J]^T); else only E is formed. And
+  // whether the loads need the bodies' motion in inertial components (a spring joins points of
+  // two bodies): the constraints' Motion, then formed before the loads.
+  bool absolute_euler = false, absolute_rotation = false, positions = false;
   // Constraints: each one's two fixed directions (constraints.hpp), and the multipliers whose
   // reactions count among the loads when `reactions` (the linearization about a constrained
   // motion: Q - [B]^T lambda, lambda held).
@@ -215,19 +145,13 @@ struct Tables {
       slides.push_back(mask);
     }
     for (const auto& element : model.forces()) {
-      if (const auto* b = dynamic_cast<const Bushing*>(element.get()))
-        bushings.push_back(b);
-      else if (const auto* f = dynamic_cast<const ConstantForce*>(element.get()))
-        forces.push_back(f);
-      else if (const auto* t = dynamic_cast<const ConstantTorque*>(element.get()))
-        torques.push_back(t);
-      else if (const auto* l = dynamic_cast<const JointLoad*>(element.get()))
-        joint_loads.push_back(l);
-      else
-        supported = false;
+      supported = supported && element->any_scalar();
+      (element->acts_on_joints() ? joint_elements : body_elements).push_back(element.get());
+      const ForceElement::Needs needs = element->needs();
+      absolute_euler = absolute_euler || needs.euler;
+      absolute_rotation = absolute_rotation || needs.rotation;
+      positions = positions || needs.positions;
     }
-    absolute_euler = !bushings.empty();
-    absolute_rotation = !forces.empty();
     for (int k = 0; k < model.num_bodies(); ++k)
       if (model.joint(k).type == JointType::free && model.lower_body(k) != kGround)
         absolute_rotation = true;
@@ -308,104 +232,22 @@ void joint_terms(const Model& model, const Tables& tables, int k, const S* q, co
   if (tables.absolute_rotation) b.R = lower ? product(b.E, lower->R) : b.E;
 }
 
-// The loads on the bodies of the built-in force elements and of the inputs at u, into
-// load_force (at G_K) and load_moment, body-K components; gravity is not among them (the
-// ground's acceleration -g carries it). The laws of forces.cpp (docs/model-format.md, "Force
-// laws, exactly"), each from src/equations.inc.
+// The loads on the bodies of the force elements (each its own law, ForceElement::apply_generic)
+// and of the inputs at u, into load_force (at G_K) and load_moment, body-K components; gravity
+// is not among them (the ground's acceleration -g carries it). motion: every body's, when some
+// law asks for it (Tables::positions).
 template <typename S>
-void body_loads(const Model& model, const Tables& tables, const S* u,
-                std::vector<Body<S>>& bodies) {
+void body_loads(const Model& model, const Tables& tables, const S* q, const S* z, const S* u,
+                std::vector<Body<S>>& bodies, const std::vector<Motion<S>>* motion) {
   const S zero{};
   for (auto& b : bodies) {
     b.load_force = {zero, zero, zero};
     b.load_moment = {zero, zero, zero};
   }
-  for (const Bushing* bushing : tables.bushings) {
-    const int k = bushing->body();
-    const int j = model.lower_body(k);
-    Body<S>& bk = bodies[at(k)];
-    // K relative to J from the absolute parameters, as the notes' state gives them.
-    const Eu<S> rel =
-        j == kGround ? bk.eps : eq::relative_euler_parameters(bodies[at(j)].eps, bk.eps);
-    const M3<S> R = eq::rotation_matrix(rel);
-    const V3<S> f = eq::bushing_force(constant<S>(bushing->stiffness),
-                                      constant<S>(bushing->damping), bk.slide, bk.sd);  // body J
-    V3<S> w_rel = bk.w;
-    if (j != kGround) w_rel = w_rel - R * bodies[at(j)].w;
-    const V3<S> m =
-        eq::bushing_moment(S(bushing->rotational_stiffness), S(bushing->rotational_damping),
-                           eq::rotation_vector(rel), w_rel);
-    const eq::ForceAndMoment<S> on_k = eq::bushing_load_on_k(R, f, constant<S>(model.body(k).com));
-    bk.load_force = bk.load_force + on_k.force;
-    bk.load_moment = bk.load_moment + on_k.moment + m;
-    if (j == kGround) continue;
-    Body<S>& bj = bodies[at(j)];
-    bj.load_force = bj.load_force - f;
-    const V3<S> arm = constant<S>(model.body(k).joint) + bk.slide - constant<S>(model.body(j).com);
-    bj.load_moment = bj.load_moment + eq::bushing_moment_on_j(R, f, m, arm);
-  }
-  for (const ConstantForce* force : tables.forces) {  // inertial components
-    Body<S>& b = bodies[at(force->body())];
-    b.load_force = b.load_force + b.R * constant<S>(force->value);
-  }
-  for (const ConstantTorque* torque : tables.torques) {
-    Body<S>& b = bodies[at(torque->body())];
-    b.load_moment = b.load_moment + constant<S>(torque->value);
-  }
-  // The inputs (add_input_loads): force and torque inputs, and joint inputs on free bodies.
-  const auto& inputs = model.inputs();
-  for (size_t i = 0; i < inputs.size(); ++i) {
-    const Input& in = inputs[i];
-    const S& value = u[i];
-    const int k = in.body;
-    const int j = model.lower_body(k);
-    Body<S>& bk = bodies[at(k)];
-    switch (in.type) {
-      case InputType::force: {
-        const V3<S> f = value * constant<S>(in.direction);
-        bk.load_force = bk.load_force + f;
-        bk.load_moment = bk.load_moment + eq::cross(constant<S>(in.point - model.body(k).com), f);
-        break;
-      }
-      case InputType::torque: {
-        const V3<S> m = value * constant<S>(in.axis);
-        bk.load_moment = bk.load_moment + m;
-        if (in.reaction && j != kGround)
-          bodies[at(j)].load_moment = bodies[at(j)].load_moment - eq::transpose_times(bk.E, m);
-        break;
-      }
-      case InputType::joint: {
-        if (model.joint(k).type != JointType::free) break;  // a generalized force, below
-        if (in.speed < 3) {
-          V3<S> m{zero, zero, zero};
-          (in.speed == 0 ? m.x : in.speed == 1 ? m.y : m.z) = value;
-          bk.load_moment = bk.load_moment + m;
-          break;
-        }
-        V3<S> f_j{zero, zero, zero};  // body J
-        (in.speed == 3 ? f_j.x : in.speed == 4 ? f_j.y : f_j.z) = value;
-        const V3<S> f_k = bk.E * f_j;
-        bk.load_force = bk.load_force + f_k;
-        bk.load_moment = bk.load_moment - eq::cross(constant<S>(model.body(k).com), f_k);
-        if (j == kGround) break;
-        Body<S>& bj = bodies[at(j)];
-        bj.load_force = bj.load_force - f_j;
-        const V3<S> arm =
-            constant<S>(model.body(k).joint) + bk.slide - constant<S>(model.body(j).com);
-        bj.load_moment = bj.load_moment - eq::cross(arm, f_j);
-        break;
-      }
-    }
-  }
+  detail::TreeLoads<S> loads(model, bodies, motion, q, z, nullptr);
+  for (const ForceElement* element : tables.body_elements) element->apply_generic(loads);
+  detail::input_body_loads(model, u, loads);
 }
-
-// A body's motion in inertial components, over S: what the constraints need of it
-// (inverse_dynamics works in body axes).
-template <typename S>
-struct Motion {
-  M3<S> R;                  // [R_K]: inertial -> body K
-  V3<S> p, v, a, w, alpha;  // O_K's position, velocity, acceleration; w_K and alpha_K
-};
 
 // The constraints' part of an evaluation over S: every body's Motion, and the rows' velocity
 // residuals [B] z, acceleration residuals [B] z dot + {b} and position errors (c each, in this
@@ -448,32 +290,6 @@ __attribute__((noinline)) void absolute_motion(const Model& model,
       m.v = l.v + eq::cross(l.w, r) + eq::transpose_times(l.R, b.sd);
     }
   }
-}
-
-// A point fixed in body k (offset in body-K components) or in the ground (inertial).
-template <typename S>
-struct PointMotion {
-  V3<S> r, p, v, a;  // from O_K, position, velocity, acceleration (inertial)
-};
-
-template <typename S>
-PointMotion<S> point_motion(const std::vector<Motion<S>>& motion, int k, const Vector3& offset) {
-  const S zero{};
-  const V3<S> none{zero, zero, zero};
-  if (k == kGround) return {constant<S>(offset), constant<S>(offset), none, none};
-  const Motion<S>& b = motion[at(k)];
-  PointMotion<S> pm;
-  pm.r = eq::transpose_times(b.R, constant<S>(offset));
-  pm.p = b.p + pm.r;
-  pm.v = b.v + eq::cross(b.w, pm.r);
-  pm.a = b.a + eq::cross(b.alpha, pm.r) + eq::cross(b.w, eq::cross(b.w, pm.r));
-  return pm;
-}
-
-template <typename S>
-S norm_of(const V3<S>& v) {
-  using std::sqrt;
-  return sqrt(eq::dot(v, v));
 }
 
 // A load on body k: a force f at the point r from O_K and a moment m (inertial), added to its
@@ -604,7 +420,7 @@ __attribute__((noinline)) void constraint_terms(const Model& model, const Tables
 template <typename S>
 void inverse_dynamics(const Model& model, const Tables& tables, const S* q, const S* z,
                       const double* zdot, const S* u, S* Q, std::vector<Body<S>>& bodies,
-                      ConstraintWork<S>* constraints = nullptr) {
+                      ConstraintWork<S>& work, bool constraint_rows) {
   const int n = model.num_bodies();
   const S zero{};
   const V3<S> none{zero, zero, zero};
@@ -651,11 +467,10 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     b.force = body.mass * a_g;
     b.moment = times(body.inertia, alpha) + eq::cross(b.w, times(body.inertia, b.w));
   }
-  body_loads(model, tables, u, bodies);
-  if (constraints) {
-    absolute_motion(model, bodies, constraints->motion);
-    constraint_terms(model, tables, bodies, *constraints);
-  }
+  const bool motion = constraint_rows || tables.positions;
+  if (motion) absolute_motion(model, bodies, work.motion);
+  body_loads(model, tables, q, z, u, bodies, motion ? &work.motion : nullptr);
+  if (constraint_rows) constraint_terms(model, tables, bodies, work);
   for (auto& b : bodies) {
     b.force = b.force - b.load_force;
     b.moment = b.moment - b.load_moment;
@@ -687,68 +502,44 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     if (model.joint(k).type != JointType::free) bj.moment = bj.moment + moment_j;
     bj.force = bj.force + force_j;
   }
-  // The loads on joint coordinates: joint_spring and joint_force (z = dq/dt there), and the
-  // joint inputs on joints other than free.
-  for (const JointLoad* l : tables.joint_loads) {
-    const int o = model.coordinate_offset(l->body());
-    const int p = model.speed_offset(l->body());
-    for (Eigen::Index c = 0; c < l->value.size(); ++c)
-      Q[p + c] = Q[p + c] - (l->value[c] - l->stiffness[c] * (q[o + c] - l->rest[c]) -
-                             l->damping[c] * z[p + c]);
-  }
-  const auto& inputs = model.inputs();
-  for (size_t i = 0; i < inputs.size(); ++i) {
-    const Input& in = inputs[i];
-    if (in.type != InputType::joint || model.joint(in.body).type == JointType::free) continue;
-    const int idx = model.speed_offset(in.body) + in.speed;
-    Q[idx] = Q[idx] - u[i];
-  }
+  // The loads on joint coordinates (the joint springs' and forces'), and the joint inputs on
+  // joints other than free.
+  detail::TreeLoads<S> joint_loads(model, bodies, nullptr, q, z, Q);
+  for (const ForceElement* element : tables.joint_elements) element->apply_generic(joint_loads);
+  detail::input_joint_forces(model, u, joint_loads);
 }
 
 // The dual passes, one per width, each compiled for AVX2 and for the baseline and chosen when
-// the program is loaded (a pack of four directions is one AVX register). Flattened: every small
-// vector operation inlined, which the compiler would leave as calls for the wide numbers and
-// which then dominate.
-// clang refuses flatten beside target_clones: it gets the clones alone. ThreadSanitizer cannot
-// run the resolver that picks a clone (it runs before the sanitizer's own start-up), so a TSan
-// build, like any other target, has the baseline function only (src/integrate.cpp likewise).
-#if !defined(__x86_64__) || defined(__SANITIZE_THREAD__)
-#define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((flatten))
-#elif defined(__clang__)
-#define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((target_clones("avx2", "default")))
-#else
-#define KANEDYN_DUAL_PASS_ATTRIBUTES __attribute__((flatten, target_clones("avx2", "default")))
-#endif
+// the program is loaded (KANEDYN_DUAL_ATTRIBUTES, src/dual.hpp).
 #define KANEDYN_DUAL_PASS(N)                                                                \
-  KANEDYN_DUAL_PASS_ATTRIBUTES void dual_inverse_dynamics_##N(                              \
+  KANEDYN_DUAL_ATTRIBUTES void dual_inverse_dynamics_##N(                                   \
       const Model& model, const Tables& tables, const Dual<N>* q, const Dual<N>* z,         \
       const double* zdot, const Dual<N>* u, Dual<N>* Q, std::vector<Body<Dual<N>>>& bodies, \
-      ConstraintWork<Dual<N>>* constraints) {                                               \
-    inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies, constraints);                 \
+      ConstraintWork<Dual<N>>& work, bool rows) {                                           \
+    inverse_dynamics(model, tables, q, z, zdot, u, Q, bodies, work, rows);                  \
   }
 KANEDYN_DUAL_PASS(8)
 KANEDYN_DUAL_PASS(12)
 KANEDYN_DUAL_PASS(16)
 #undef KANEDYN_DUAL_PASS
-#undef KANEDYN_DUAL_PASS_ATTRIBUTES
 
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<8>* q,
                            const Dual<8>* z, const double* zdot, const Dual<8>* u, Dual<8>* Q,
-                           std::vector<Body<Dual<8>>>& bodies,
-                           ConstraintWork<Dual<8>>* constraints) {
-  dual_inverse_dynamics_8(model, tables, q, z, zdot, u, Q, bodies, constraints);
+                           std::vector<Body<Dual<8>>>& bodies, ConstraintWork<Dual<8>>& work,
+                           bool rows) {
+  dual_inverse_dynamics_8(model, tables, q, z, zdot, u, Q, bodies, work, rows);
 }
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<12>* q,
                            const Dual<12>* z, const double* zdot, const Dual<12>* u, Dual<12>* Q,
-                           std::vector<Body<Dual<12>>>& bodies,
-                           ConstraintWork<Dual<12>>* constraints) {
-  dual_inverse_dynamics_12(model, tables, q, z, zdot, u, Q, bodies, constraints);
+                           std::vector<Body<Dual<12>>>& bodies, ConstraintWork<Dual<12>>& work,
+                           bool rows) {
+  dual_inverse_dynamics_12(model, tables, q, z, zdot, u, Q, bodies, work, rows);
 }
 void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<16>* q,
                            const Dual<16>* z, const double* zdot, const Dual<16>* u, Dual<16>* Q,
-                           std::vector<Body<Dual<16>>>& bodies,
-                           ConstraintWork<Dual<16>>* constraints) {
-  dual_inverse_dynamics_16(model, tables, q, z, zdot, u, Q, bodies, constraints);
+                           std::vector<Body<Dual<16>>>& bodies, ConstraintWork<Dual<16>>& work,
+                           bool rows) {
+  dual_inverse_dynamics_16(model, tables, q, z, zdot, u, Q, bodies, work, rows);
 }
 
 // Whether tangent entry c of body k is a rotation-vector entry (a free body's first three, a
@@ -776,9 +567,12 @@ VectorX generic_inverse_dynamics(const Model& model, const VectorX& q, const Vec
   if (!tables.supported)
     throw std::invalid_argument("generic_inverse_dynamics: a force element of an unknown type");
   std::vector<Body<double>> bodies(at(model.num_bodies()));
+  ConstraintWork<double> work;
+  work.motion.resize(at(model.num_bodies()));
   VectorX Q(model.num_speeds());
   const VectorX u0 = u.size() == model.num_inputs() ? u : VectorX::Zero(model.num_inputs());
-  inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u0.data(), Q.data(), bodies);
+  inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u0.data(), Q.data(), bodies,
+                   work, false);
   return Q;
 }
 
@@ -937,7 +731,9 @@ struct Pass {
   // A body's seeded half rotation, and whether it has one (kept between passes: no allocation).
   std::vector<Eu<Dual<N>>> half;
   std::vector<char> turned;
-  ConstraintWork<Dual<N>> constraints;  // sized for a model with constraints
+  // Every body's Motion for the constraints' rows and the laws that join points
+  // (Tables::positions), and the rows, sized for a model with constraints.
+  ConstraintWork<Dual<N>> constraints;
 
   explicit Pass(const Model& m)
       : bodies(at(m.num_bodies())),
@@ -947,8 +743,8 @@ struct Pass {
         Q(at(m.num_speeds())),
         half(at(m.num_bodies())),
         turned(at(m.num_bodies()), 0) {
-    if (m.num_constraints() == 0) return;
     constraints.motion.resize(at(m.num_bodies()));
+    if (m.num_constraints() == 0) return;
     int rows = 0;
     for (const Constraint& c : m.constraints()) rows += equation_count(c.type);
     constraints.rows.resize(at(3 * rows));
@@ -999,7 +795,7 @@ void Pass<N>::run(const Model& model, const Tables& tables, const VectorX& q0, c
     for (int i = 0; i < 4; ++i) q[at(o + i)] = e.e[i];
   }
   dual_inverse_dynamics(model, tables, q.data(), z.data(), zdot.data(), u.data(), Q.data(), bodies,
-                        rows_out ? &constraints : nullptr);
+                        constraints, rows_out != nullptr);
   for (size_t s = 0; s < count; ++s)
     for (int row = 0; row < n; ++row)
       out(row, dirs[first + s]) = Q[at(row)].derivative(static_cast<int>(s));
@@ -1138,8 +934,8 @@ bool Derivatives::analytic() const { return impl_->tables.supported; }
 std::string Derivatives::method() const {
   return analytic() ? "forward-mode dual numbers through the inverse dynamics, 8, 12 or 16 "
                       "directions a pass"
-                    : "central differences in tangent coordinates (a force element of a type "
-                      "the library does not define)";
+                    : "central differences in tangent coordinates (a force element gives its "
+                      "law for double alone: ForceElement::any_scalar)";
 }
 
 void Derivatives::forward(const VectorX& q, const VectorX& z, const VectorX& u,

@@ -9,6 +9,22 @@
 
 #include "kanedyn/types.hpp"
 
+// The attributes of code over the dual numbers (the derivatives' passes, src/analysis.cpp, and
+// the force elements' laws for them, src/forces.cpp): compiled for AVX2 and for the baseline
+// and chosen when the program is loaded (a pack of four directions is one AVX register), and
+// flattened: every small vector operation inlined, which the compiler would leave as calls for
+// the wide numbers and which then dominate.
+// clang refuses flatten beside target_clones: it gets the clones alone. ThreadSanitizer cannot
+// run the resolver that picks a clone (it runs before the sanitizer's own start-up), so a TSan
+// build, like any other target, has the baseline function only (src/integrate.cpp likewise).
+#if !defined(__x86_64__) || defined(__SANITIZE_THREAD__)
+#define KANEDYN_DUAL_ATTRIBUTES __attribute__((flatten))
+#elif defined(__clang__)
+#define KANEDYN_DUAL_ATTRIBUTES __attribute__((target_clones("avx2", "default")))
+#else
+#define KANEDYN_DUAL_ATTRIBUTES __attribute__((flatten, target_clones("avx2", "default")))
+#endif
+
 namespace kanedyn {
 
 // Aligned explicitly: without AVX the compiler aligns a 32-byte vector to 16 bytes only, and the

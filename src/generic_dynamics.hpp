@@ -2,8 +2,8 @@
 // src/dual.hpp): Q = the generalized inertia forces minus the active forces of z, at (q, z,
 // z dot, u). The same equations as Terms::inverse_dynamics (src/terms.cpp: Newton-Euler over the
 // joints in body axes, Eqs. 28 and 30 outward, the generalized forces of Eqs. 31-35 inward), with
-// each law from src/equations.inc; gravity, the built-in force elements (bushing, force, torque,
-// joint_spring, joint_force) and the inputs. Private to the library (src/analysis.cpp, and the
+// each equation from src/equations.inc; gravity, the force elements' own laws for every scalar
+// (ForceElement::apply_generic) and the inputs. Private to the library (src/analysis.cpp, and the
 // tests that compare it with Terms).
 #pragma once
 
@@ -13,8 +13,8 @@
 
 namespace kanedyn::detail {
 
-/// Whether every force element of the model is a built-in one, which generic_inverse_dynamics
-/// knows.
+/// Whether every force element of the model gives its law for every scalar
+/// (ForceElement::any_scalar), as the built-in ones do: generic_inverse_dynamics needs it.
 bool generic_dynamics_supported(const Model& model);
 
 /// Q at (q, z, zdot, u) in double, for the tests: the generic equations at S = double.

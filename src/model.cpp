@@ -135,9 +135,6 @@ Model::Model(std::vector<BodySpec> bodies, Vector3 gravity,
     else
       body_forces_ = true;
   }
-  for (const ForceElement* f : joint_elements_)
-    if (const auto* load = dynamic_cast<const JointLoad*>(f)) joint_loads_.push_back(load);
-  if (joint_loads_.size() != joint_elements_.size()) joint_loads_.clear();
   std::unordered_set<std::string> frame_names;
   for (size_t i = 0; i < frames_.size(); ++i) {
     Frame& f = frames_[i];

@@ -192,32 +192,15 @@ void validate_settings(const Model& model, const SimulationSettings& s) {
 }
 
 double rk4_step_limit(const Model& model, int* force_index) {
-  // Along the imaginary axis RK4 is stable for h omega <= 2 sqrt(2) ~ 2.83. Each bushing is
-  // taken as a lone oscillator: its body against its lower body (reduced mass, ground counts
-  // as infinitely heavy), translational and rotational (the smallest principal moment about
-  // G_K); a tree's highest mode can be somewhat faster, so this is an estimate.
+  // Along the imaginary axis RK4 is stable for h omega <= 2 sqrt(2) ~ 2.83. Each element gives
+  // its own estimate of omega (ForceElement::frequency_squared_estimate: a bushing or spring
+  // taken as a lone oscillator of its bodies); a tree's highest mode can be somewhat faster,
+  // so this is an estimate.
   double limit = std::numeric_limits<double>::infinity();
   if (force_index) *force_index = -1;
   const auto& forces = model.forces();
   for (size_t i = 0; i < forces.size(); ++i) {
-    const auto* bushing = dynamic_cast<const Bushing*>(forces[i].get());
-    if (!bushing) continue;
-    const int k = bushing->body();
-    const int j = model.lower_body(k);
-    const auto reduced = [&](double of_k, double of_j) {
-      return j == kGround ? of_k : of_k * of_j / (of_k + of_j);
-    };
-    const auto smallest_moment = [&](int b) {
-      return Eigen::SelfAdjointEigenSolver<Matrix3>(model.body(b).inertia, Eigen::EigenvaluesOnly)
-          .eigenvalues()
-          .minCoeff();
-    };
-    const double mass = reduced(model.body(k).mass, j == kGround ? 0.0 : model.body(j).mass);
-    double omega2 = bushing->stiffness.maxCoeff() / mass;
-    if (bushing->rotational_stiffness > 0.0)
-      omega2 = std::max(omega2,
-                        bushing->rotational_stiffness /
-                            reduced(smallest_moment(k), j == kGround ? 0.0 : smallest_moment(j)));
+    const double omega2 = forces[i]->frequency_squared_estimate(model);
     if (!(omega2 > 0.0)) continue;
     const double h = kRk4StabilityBound / std::sqrt(omega2);
     if (h < limit) {
@@ -306,13 +289,16 @@ class Run {
 
  private:
   /// integrate(), a constraint's failure in an evaluation (its rows undefined at a state the
-  /// run reached) naming the time after which it happened; a projection's names its own.
+  /// run reached) or a spring's (its direction undefined) naming the time after which it
+  /// happened; a projection's names its own.
   void integrate_naming_the_time() {
     try {
       integrate();
     } catch (const ConstraintError& e) {
       if (std::string_view(e.what()).starts_with("at t = ")) throw;
       throw ConstraintError("after t = " + format_time(stats_.t_reached) + ": " + e.what());
+    } catch (const SpringLengthError& e) {
+      throw SpringLengthError("after t = " + format_time(stats_.t_reached) + ": " + e.what());
     }
   }
 

@@ -45,7 +45,9 @@ class Derivatives {
   ~Derivatives();
 
   const Model& model() const;
-  /// True when the derivatives are those of dual numbers (every force element built in).
+  /// True when the derivatives are those of dual numbers (every force element gives its law
+  /// for every scalar: ForceElement::any_scalar, as the built-in ones do); else they are
+  /// central differences.
   bool analytic() const;
   /// What computes them, for output.
   std::string method() const;

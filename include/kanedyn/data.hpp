@@ -97,8 +97,9 @@ class Data {
   const DataOptions& options() const { return options_; }
   /// Bodies per SIMD pass of the recursive route's kernel: 2, 4 or 8.
   int simd_lanes() const;
-  /// Whether the recursive route runs as one fused pass (every force element a Bushing,
-  /// ConstantForce or ConstantTorque) rather than stage by stage. Both give ydot, xdot.
+  /// Whether the recursive route runs as one fused pass (every force element on bodies a
+  /// linear body load: ForceElement::linear_body_load) rather than stage by stage. Both give
+  /// ydot, xdot.
   bool single_pass() const;
   /// Heap bytes held (for memory tables).
   std::size_t memory_bytes() const;

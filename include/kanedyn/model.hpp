@@ -15,7 +15,6 @@
 namespace kanedyn {
 
 class ForceElement;
-class JointLoad;
 
 /// Thrown when a model is invalid; the message says which body or element and why.
 class ModelError : public std::runtime_error {
@@ -212,9 +211,6 @@ class Model {
   bool has_joint_force_elements() const { return !joint_elements_.empty(); }
   /// The force elements that act on joint coordinates, in the order of forces().
   const std::vector<const ForceElement*>& joint_force_elements() const { return joint_elements_; }
-  /// The same when every one of them is a JointLoad (the built-in joint springs and forces),
-  /// else empty: their generalized forces are then added without a virtual call per element.
-  const std::vector<const JointLoad*>& joint_loads() const { return joint_loads_; }
   double total_mass() const { return total_mass_; }
   /// Inverse of [I'_GK], precomputed.
   const Matrix3& inverse_inertia(int k) const { return inverse_inertia_[static_cast<size_t>(k)]; }
@@ -235,7 +231,6 @@ class Model {
   std::vector<int> independent_speeds_;
   bool all_free_ = true, body_forces_ = false, body_inputs_ = false;
   std::vector<const ForceElement*> joint_elements_;
-  std::vector<const JointLoad*> joint_loads_;
   std::vector<int> q_offset_, z_offset_;
   std::vector<Vector3> axis_j_;
   std::vector<std::vector<int>> w_chain_;

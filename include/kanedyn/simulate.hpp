@@ -144,9 +144,10 @@ void validate_settings(const SimulationSettings& settings);
 void validate_settings(const Model& model, const SimulationSettings& settings);
 
 /// An estimate of the largest step rk4 takes stably: 2 sqrt(2) / omega for the stiffest
-/// bushing, each taken as a lone oscillator of its body against its lower body (reduced
-/// mass; the smallest principal moments for the rotational stiffness). Infinity without
-/// bushings. Sets force_index to that bushing's index in model.forces() (-1 if none).
+/// force element, omega^2 its ForceElement::frequency_squared_estimate (a bushing or a spring
+/// taken as a lone oscillator of its bodies: reduced mass; the smallest principal moments for a
+/// bushing's rotational stiffness). Infinity without such elements. Sets force_index to that
+/// element's index in model.forces() (-1 if none).
 double rk4_step_limit(const Model& model, int* force_index = nullptr);
 
 /// The number of equal rk4 steps simulate() takes over an interval of length span with the

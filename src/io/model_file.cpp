@@ -1241,11 +1241,13 @@ void read_force(const Reader& r, const Field& f, const BodyNames& names,
   const Mapping m = r.mapping(f);
   // Keys no type knows first, so that a misspelt `type` is named as such.
   m.allow({"type", "body", "stiffness", "damping", "rotational_stiffness", "rotational_damping",
-           "value", "rest"});
-  const std::string type =
-      r.choice(m.require("type"), {"bushing", "force", "torque", "joint_spring", "joint_force"},
-               "force type");
-  if (type == "bushing") {
+           "value", "rest", "at", "other", "other_at", "rest_length"});
+  const std::string type = r.choice(
+      m.require("type"), {"bushing", "force", "torque", "spring", "joint_spring", "joint_force"},
+      "force type");
+  if (type == "spring") {
+    m.allow({"type", "body", "at", "other", "other_at", "stiffness", "damping", "rest_length"});
+  } else if (type == "bushing") {
     m.allow({"type", "body", "stiffness", "damping", "rotational_stiffness", "rotational_damping"});
   } else if (type == "joint_spring") {
     m.allow({"type", "body", "stiffness", "damping", "rest"});
@@ -1258,6 +1260,26 @@ void read_force(const Reader& r, const Field& f, const BodyNames& names,
     // A joint_force is its value: one left out is a mistake, not a zero (docs/model-format.md).
     if (type == "joint_force") (void)m.require("value");
     forces.push_back(read_joint_load(r, m, type, body_field, body, joints));
+    return;
+  }
+  if (type == "spring") {
+    Vector3 at = Vector3::Zero(), other_at = Vector3::Zero();
+    int other = kGround;
+    if (const auto v = m.get("at")) at = r.vector3(*v);
+    if (const auto v = m.get("other")) {
+      other = r.text_view(*v) == "ground" ? kGround : body_reference(r, *v, names);
+      if (other == body)
+        r.fail(*v, "other is the spring's own body " + quote(r.text_view(*v)) +
+                       "; a spring joins two bodies, or a body and ground");
+    }
+    if (const auto v = m.get("other_at")) other_at = r.vector3(*v);
+    const double stiffness = r.non_negative(m.require("stiffness"));
+    const auto optional = [&](const char* key) {
+      const auto v = m.get(key);
+      return v ? r.non_negative(*v) : 0.0;
+    };
+    forces.push_back(std::make_shared<Spring>(body, at, other, other_at, stiffness,
+                                              optional("damping"), optional("rest_length")));
     return;
   }
   if (type == "bushing") {

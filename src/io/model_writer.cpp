@@ -128,32 +128,23 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
     out << "forces:\n";
     for (const auto& element : model.forces()) {
       const std::string body = name(model.body(element->body()).name);
-      if (const auto* b = dynamic_cast<const Bushing*>(element.get())) {
-        out << "  - type: bushing\n    body: " << body << "\n";
-        out << "    stiffness: " << list(b->stiffness) << "\n";
-        out << "    damping: " << list(b->damping) << "\n";
-        out << "    rotational_stiffness: " << yaml_float(b->rotational_stiffness) << "\n";
-        out << "    rotational_damping: " << yaml_float(b->rotational_damping) << "\n";
-      } else if (const auto* f = dynamic_cast<const ConstantForce*>(element.get())) {
-        out << "  - type: force\n    body: " << body << "\n    value: " << list(f->value) << "\n";
-      } else if (const auto* t = dynamic_cast<const ConstantTorque*>(element.get())) {
-        out << "  - type: torque\n    body: " << body << "\n    value: " << list(t->value) << "\n";
-      } else if (const auto* l = dynamic_cast<const JointLoad*>(element.get())) {
-        const bool spring = !l->stiffness.isZero(0.0) || !l->damping.isZero(0.0) ||
-                            !l->rest.isZero(0.0) || l->type() == "joint_spring";
-        if (spring) {
-          out << "  - type: joint_spring\n    body: " << body << "\n";
-          out << "    stiffness: " << list(l->stiffness) << "\n";
-          out << "    damping: " << list(l->damping) << "\n";
-          out << "    rest: " << list(l->rest) << "\n";
-        }
-        if (!spring || !l->value.isZero(0.0))
-          out << "  - type: joint_force\n    body: " << body << "\n    value: " << list(l->value)
-              << "\n";
-      } else {
+      const std::vector<ForceElement::FileEntry> entries = element->file_entries();
+      if (entries.empty())
         throw std::invalid_argument("a force element of type '" + element->type() + "' on body " +
                                     model.body(element->body()).name +
                                     " cannot be written to a model file");
+      for (const ForceElement::FileEntry& entry : entries) {
+        out << "  - type: " << entry.type << "\n    body: " << body << "\n";
+        for (const ForceElement::FileKey& key : entry.keys) {
+          out << "    " << key.key << ": ";
+          if (key.body != -2)
+            out << (key.body == kGround ? std::string("ground") : name(model.body(key.body).name));
+          else if (key.scalar)
+            out << yaml_float(key.value[0]);
+          else
+            out << list(key.value);
+          out << "\n";
+        }
       }
     }
   }

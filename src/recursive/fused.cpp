@@ -171,21 +171,17 @@ std::shared_ptr<const Plan> compile(const Model& model, int kLanes, int renumber
   // Loads grouped per body: the laws are linear in k, c, kr, cr and in the constant loads.
   for (const auto& element : model.forces()) {
     if (element->acts_on_joints()) continue;  // no body loads: nothing for the pass
+    const std::optional<LinearBodyLoad> load = element->linear_body_load();
+    if (!load) return nullptr;
     const int k = plan_body(element->body());
-    if (const auto* bushing = dynamic_cast<const Bushing*>(element.get())) {
-      for (int i = 0; i < 3; ++i) {
-        param(k, kStiffness + i) += bushing->stiffness[i];
-        param(k, kDamping + i) += bushing->damping[i];
-      }
-      param(k, kRotStiffness) += bushing->rotational_stiffness;
-      param(k, kRotDamping) += bushing->rotational_damping;
-    } else if (const auto* force = dynamic_cast<const ConstantForce*>(element.get())) {
-      for (int i = 0; i < 3; ++i) param(k, kForce + i) += force->value[i];
-    } else if (const auto* torque = dynamic_cast<const ConstantTorque*>(element.get())) {
-      for (int i = 0; i < 3; ++i) param(k, kMoment + i) += torque->value[i];
-    } else {
-      return nullptr;
+    for (int i = 0; i < 3; ++i) {
+      param(k, kStiffness + i) += load->stiffness[i];
+      param(k, kDamping + i) += load->damping[i];
+      param(k, kForce + i) += load->force[i];
+      param(k, kMoment + i) += load->moment[i];
     }
+    param(k, kRotStiffness) += load->rotational_stiffness;
+    param(k, kRotDamping) += load->rotational_damping;
   }
   share_equal_params(groups, kLanes, *plan);
   // Pass 1 keeps its intermediate results for pass 2 (~9% fewer instructions) when they are
