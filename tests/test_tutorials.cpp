@@ -229,7 +229,7 @@ std::vector<CommandLine> command_lines(const std::string& page) {
     std::string text = line;
     if (starts_with(text, "$ ")) text = text.substr(2);
     std::string args;
-    for (const std::string prefix : {"build/kanedyn ", "kanedyn "})
+    for (const std::string& prefix : {std::string("build/kanedyn "), std::string("kanedyn ")})
       if (starts_with(text, prefix)) args = text.substr(prefix.size());
     if (args.empty()) continue;
     // The comment: the first " #" (no argument of these lines holds a '#').
