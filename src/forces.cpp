@@ -118,19 +118,27 @@ KANEDYN_FOR_EACH_TREE_SCALAR(KANEDYN_DEFINE_NO_GENERIC_LAW)
 // The built-in elements' laws for every scalar of KANEDYN_FOR_EACH_TREE_SCALAR: each hook runs
 // the one template law; over double flattened, over the dual numbers compiled as the passes that
 // call them are (KANEDYN_DUAL_ATTRIBUTES: AVX2 and baseline clones, flattened).
-#define KANEDYN_DEFINE_GENERIC_LAWS(Class)                                                  \
-  __attribute__((flatten)) void Class::apply_generic(detail::TreeLoads<double>& l) const {  \
-    law(l);                                                                                 \
-  }                                                                                         \
-  KANEDYN_DUAL_ATTRIBUTES void Class::apply_generic(detail::TreeLoads<Dual<8>>& l) const {  \
-    law(l);                                                                                 \
-  }                                                                                         \
-  KANEDYN_DUAL_ATTRIBUTES void Class::apply_generic(detail::TreeLoads<Dual<12>>& l) const { \
-    law(l);                                                                                 \
-  }                                                                                         \
-  KANEDYN_DUAL_ATTRIBUTES void Class::apply_generic(detail::TreeLoads<Dual<16>>& l) const { \
-    law(l);                                                                                 \
-  }
+// A virtual function cannot be multiversioned (target_clones): each dual hook calls a free
+// function that is.
+#define KANEDYN_DEFINE_GENERIC_LAWS(Class)                                                   \
+  namespace {                                                                                \
+  KANEDYN_DUAL_ATTRIBUTES void Class##_law(const Class& e, detail::TreeLoads<Dual<8>>& l) {  \
+    e.law(l);                                                                                \
+  }                                                                                          \
+  KANEDYN_DUAL_ATTRIBUTES void Class##_law(const Class& e, detail::TreeLoads<Dual<12>>& l) { \
+    e.law(l);                                                                                \
+  }                                                                                          \
+  KANEDYN_DUAL_ATTRIBUTES void Class##_law(const Class& e, detail::TreeLoads<Dual<16>>& l) { \
+    e.law(l);                                                                                \
+  }                                                                                          \
+  }                                                                                          \
+  __attribute__((flatten)) void Class::apply_generic(detail::TreeLoads<double>& l) const {   \
+    law(l);                                                                                  \
+  }                                                                                          \
+  void Class::apply_generic(detail::TreeLoads<Dual<8>>& l) const { Class##_law(*this, l); }  \
+  void Class::apply_generic(detail::TreeLoads<Dual<12>>& l) const { Class##_law(*this, l); } \
+  void Class::apply_generic(detail::TreeLoads<Dual<16>>& l) const { Class##_law(*this, l); }
+
 double ForceElement::potential_energy(const Model&, const State&, const Kinematics&) const {
   return 0.0;
 }
