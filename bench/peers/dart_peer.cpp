@@ -770,6 +770,7 @@ class DartJointedEngine final : public JointedEngine {
 JointedEngineInfo dart_jointed_engine() {
   return {"DART", DART_VERSION,
           [](const JointedSystem& s) {
+            if (!s.springs.empty()) return std::string("point-to-point springs not translated");
             return s.constraints.empty() ? std::string()
                                          : std::string("constraints not translated");
           },

@@ -265,6 +265,14 @@ JointedSystem describe_jointed(const JointedCase& c) {
   }
   for (const auto& f : m.forces()) {
     if (f->acts_on_joints()) continue;  // the joint loads above
+    if (const auto* spring = dynamic_cast<const kanedyn::Spring*>(f.get())) {
+      // A point force: the same on any joint type.
+      sys.springs.push_back({spring->body(),
+                             spring->other() == kanedyn::kGround ? -1 : spring->other(),
+                             arr(spring->at), arr(spring->other_at), spring->stiffness,
+                             spring->damping, spring->rest_length});
+      continue;
+    }
     const int k = f->body();
     const auto* bushing = dynamic_cast<const kanedyn::Bushing*>(f.get());
     if (!bushing || tree.joint(k).type != JointType::free)

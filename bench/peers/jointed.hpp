@@ -60,8 +60,9 @@ std::unique_ptr<JointedCase> planar_joints(unsigned seed);
 void random_joint_state(JointedCase& c, std::mt19937& rng);
 
 /// The case in the engines' terms, at the case's (q, z), its ball, hinge and distance
-/// constraints too. Throws std::runtime_error for what the peers do not express (a bushing on a
-/// jointed body, a free joint off the root, constant body loads, a rolling disc).
+/// constraints and point-to-point springs too. Throws std::runtime_error for what the peers do
+/// not express (a bushing on a jointed body, a free joint off the root, constant body loads, a
+/// rolling disc).
 JointedSystem describe_jointed(const JointedCase& c);
 
 }  // namespace peers

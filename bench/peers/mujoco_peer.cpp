@@ -594,6 +594,7 @@ JointedEngineInfo mujoco_jointed_engine() {
   const EngineInfo free = mujoco_engine();
   return {free.name, free.version,
           [](const JointedSystem& s) {
+            if (!s.springs.empty()) return std::string("point-to-point springs not translated");
             return s.constraints.empty() ? std::string()
                                          : std::string("constraints not translated");
           },

@@ -181,6 +181,16 @@ struct ConstraintSpec {
   double length = 0;        ///< distance
 };
 
+/// A point-to-point spring-damper (kanedyn::Spring; docs/model-format.md, "type: spring"): with
+/// d = P' - P, L = |d|, u = d / L, the force (stiffness (L - rest_length) + damping dL/dt) u on
+/// `body` at P and its opposite on `other` at P'.
+struct SpringSpec {
+  int body = 0;           ///< the body of P
+  int other = -1;         ///< the body of P', -1 for the ground
+  Vec3 at{}, other_at{};  ///< from O_K (K axes), from other's O (its axes; ground: inertial)
+  double stiffness = 0, damping = 0, rest_length = 0;
+};
+
 /// A jointed tree at a state. Free joints are roots only (a free joint is then the notes' own
 /// free body: z = (w'_K body-K components, s'_K dot inertial)), and only they carry the
 /// bushing fields of Body.
@@ -193,6 +203,8 @@ struct JointedSystem {
   std::vector<int> q_offset, z_offset;  ///< per body, N + 1 entries
   /// Constraints closing loops (empty for a tree). The state satisfies them.
   std::vector<ConstraintSpec> constraints;
+  /// Point-to-point springs (their potential energy counts in JointedEngine::energy()).
+  std::vector<SpringSpec> springs;
 };
 
 /// One engine holding one JointedSystem at its state.
@@ -236,6 +248,9 @@ class JointedEngine {
                                 std::vector<double>& reactions) {
     (void)q, (void)z, (void)reactions;
   }
+  /// The engine's own total energy (kinetic, gravity's and the springs' potential) at the
+  /// current integrated state, with gravity's zero at the origin; NaN if not implemented.
+  virtual double energy() { return std::nan(""); }
 };
 
 struct JointedEngineInfo {

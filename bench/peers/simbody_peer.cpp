@@ -365,6 +365,7 @@ class SimbodyJointedEngine final : public JointedEngine {
       }
     }
     SimTK::Force::Custom(forces_, new JointLoads(system_, bodies_));
+    add_springs();
     add_constraints();
     mb_system_.realizeTopology();
     state_ = mb_system_.getDefaultState();
@@ -469,6 +470,15 @@ class SimbodyJointedEngine final : public JointedEngine {
   }
   long steps() const override { return integrator_ ? integrator_->getNumStepsTaken() : 0; }
 
+  // MultibodySystem::calcEnergy: kinetic plus every force element's potential (Force::Gravity's
+  // -m g . p_G with its zero height at the origin, the springs' 1/2 k (L - L0)^2); JointLoads
+  // reports none, so this is the whole energy only for systems without joint springs.
+  double energy() override {
+    SimTK::State state = integrator_->getState();
+    mb_system_.realize(state, SimTK::Stage::Velocity);
+    return mb_system_.calcEnergy(state);
+  }
+
   bool has_terms() const override { return true; }
 
   // Simbody's u dot from kanedyn's z dot: u = T z (speed_map), with T constant along the
@@ -571,6 +581,22 @@ class SimbodyJointedEngine final : public JointedEngine {
           out[r] += v * x[c];
       }
     return out;
+  }
+
+  // kanedyn's point-to-point springs as Simbody's Force::TwoPointLinearSpring (force
+  // k (L - L0) along the line, drawing the points together when stretched) and, with damping,
+  // Force::TwoPointLinearDamper (force c dL/dt along the line): the same law as kanedyn::Spring.
+  void add_springs() {
+    for (const SpringSpec& s : system_.springs) {
+      SimTK::MobilizedBody& body = bodies_[static_cast<size_t>(s.body)];
+      SimTK::MobilizedBody& other =
+          s.other < 0 ? matter_.updGround() : bodies_[static_cast<size_t>(s.other)];
+      SimTK::Force::TwoPointLinearSpring(forces_, body, v3(s.at), other, v3(s.other_at),
+                                         s.stiffness, s.rest_length);
+      if (s.damping != 0)
+        SimTK::Force::TwoPointLinearDamper(forces_, body, v3(s.at), other, v3(s.other_at),
+                                           s.damping);
+    }
   }
 
   // kanedyn's constraints as Simbody's: a ball as Constraint::Ball (body 1 kanedyn's `body`);
