@@ -268,8 +268,9 @@ bool compare_section(const JointedOptions& opt) {
     if (name != "eight-body-jointed" && name != chain) continue;
     for (const auto& [key, factor] :
          {std::pair<std::string, double>{"dart", 10.0}, {"simbody", 20.0}}) {
+      // An init-capture: clang 14 cannot capture a structured binding (a C++20 addition).
       const auto it = std::find_if(columns.begin(), columns.end(),
-                                   [&](const Column& col) { return col.key == key; });
+                                   [&k = key](const Column& col) { return col.key == k; });
       if (it == columns.end()) continue;
       const auto ei = static_cast<size_t>(it - columns.begin());
       const Cell& cell = table[ci][ei];
