@@ -31,6 +31,7 @@
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/testing/generate.hpp"
 #include "peer.hpp"
+#include "springs_section.hpp"
 #include "timing.hpp"
 #ifdef KANEDYN_PEERS_HAVE_DART_URDF
 #include "urdf_section.hpp"
@@ -63,9 +64,11 @@ struct Options {
   double tolerance = 1e-8;
   double backward_tolerance = 1e-10;
 #ifdef KANEDYN_PEERS_HAVE_DART_URDF
-  std::vector<std::string> sections{"free", "jointed", "terms", "scaling", "constraints", "urdf"};
+  std::vector<std::string> sections{"free",        "jointed", "terms", "scaling",
+                                    "constraints", "springs", "urdf"};
 #else
-  std::vector<std::string> sections{"free", "jointed", "terms", "scaling", "constraints"};
+  std::vector<std::string> sections{"free",    "jointed",     "terms",
+                                    "scaling", "constraints", "springs"};
 #endif
   int jointed_chain = 512;
   int jointed_states = 4;
@@ -81,6 +84,7 @@ struct Options {
   double urdf_tolerance = 1e-12;
   peers::ConstraintOptions constraints{.files = {KANEDYN_SOURCE_DIR "/examples/four_bar.yaml",
                                                  KANEDYN_SOURCE_DIR "/examples/rssr.yaml"}};
+  peers::SpringOptions springs;
 };
 
 struct Case {
@@ -477,7 +481,8 @@ int main(int argc, char** argv) {
                  "free (the free-body tables), jointed (jointed models: accelerations and "
                  "timing), terms (the jointed models' inverse dynamics and mass matrix against "
                  "Simbody's and DART's), scaling (kanedyn's time per body on revolute chains), "
-                 "constraints (closed loops: motions and reactions against Simbody's), urdf "
+                 "constraints (closed loops: motions and reactions against Simbody's), springs "
+                 "(point-to-point springs against Simbody's TwoPointLinearSpring), urdf "
                  "(kanedyn's URDF import against DART's URDF loader; needs "
                  "libdart-utils-urdf-dev)")
       ->delimiter(',')
@@ -528,12 +533,30 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--constraint-floor", c.floor, "... plus this (rad, rad/s, relative reaction)")
       ->capture_default_str();
+  peers::SpringOptions& sp = opt.springs;
+  app.add_option("--spring-states", sp.states,
+                 "Random states per model of the springs section at which accelerations are "
+                 "compared")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--spring-tolerance", sp.tolerance,
+                 "Largest accepted relative difference of z dot there (and of the two engines' "
+                 "energies of the same state)")
+      ->capture_default_str();
+  app.add_option("--spring-t-end", sp.t_end, "Span of the springs section's undamped runs, s")
+      ->capture_default_str();
+  app.add_option("--spring-accuracy", sp.accuracy, "Simbody's integrator accuracy there")
+      ->capture_default_str();
+  app.add_option("--spring-safety", sp.safety,
+                 "Over the run, accept differences and energy drifts up to this many times the "
+                 "integrators' own errors (estimated from runs at 10x their tolerances)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   for (const std::string& section : opt.sections)
     if (section != "free" && section != "jointed" && section != "scaling" && section != "urdf" &&
-        section != "terms" && section != "constraints") {
+        section != "terms" && section != "constraints" && section != "springs") {
       std::cerr << "kanedyn_peers: unknown section '" << section
-                << "' (free, jointed, scaling, urdf, terms, constraints)\n";
+                << "' (free, jointed, scaling, urdf, terms, constraints, springs)\n";
       return 1;
     }
   if (opt.max_memory_gb <= 0) opt.max_memory_gb = 0.5 * mem_available_bytes() / 1e9;
@@ -598,6 +621,11 @@ int main(int argc, char** argv) {
     if (!peers::run_jointed_sections(j) && rc == 0) rc = 2;
   }
   if (selected("constraints") && !peers::run_constraint_section(opt.constraints) && rc == 0) rc = 2;
+  if (selected("springs")) {
+    opt.springs.seed = opt.seed;
+    opt.springs.budget = {opt.reps, opt.max_seconds, opt.batch_seconds};
+    if (!peers::run_spring_section(opt.springs) && rc == 0) rc = 2;
+  }
   if (selected("urdf")) {
 #ifdef KANEDYN_PEERS_HAVE_DART_URDF
     peers::UrdfOptions u;
