@@ -158,9 +158,10 @@ class TreeLoads {
   }
   /// [R_K]: inertial -> body K (needs().rotation).
   const tree::M3<S>& rotation(int k) const { return bodies_[tree::at(k)].R; }
-  tree::V3<S> translation(int k) const { return bodies_[tree::at(k)].slide; }    // body J
-  tree::V3<S> translation_rate(int k) const { return bodies_[tree::at(k)].sd; }  // body J
-  tree::V3<S> angular_velocity(int k) const { return bodies_[tree::at(k)].w; }   // body K
+  // References, not copies: a vector of dual numbers is hundreds of bytes.
+  const tree::V3<S>& translation(int k) const { return bodies_[tree::at(k)].slide; }    // body J
+  const tree::V3<S>& translation_rate(int k) const { return bodies_[tree::at(k)].sd; }  // body J
+  const tree::V3<S>& angular_velocity(int k) const { return bodies_[tree::at(k)].w; }   // body K
   /// A point fixed in body k, or in the ground (needs().positions).
   tree::PointMotion<S> point(int k, const Vector3& offset) const {
     return tree::point_motion(*motion_, k, offset);
