@@ -245,6 +245,21 @@ TEST(Spring, ZeroLengthWithARestLengthFailsTheRunNamingIt) {
   EXPECT_TRUE(simulate(linear, State(1), settings).ok());
 }
 
+// examples/springs.yaml: two blocks on three undamped springs, swinging, bouncing and turning;
+// its energy (with the springs' potentials) holds to 1e-8 of the energy that moves at rtol
+// 1e-10 (the integrator's error; round-off is 1e-15 of it).
+TEST(Spring, TheExampleConservesItsEnergy) {
+  const io::ModelFile file = io::load_model_file(KANEDYN_SOURCE_DIR "/examples/springs.yaml");
+  SimulationSettings settings = io::simulation_settings(file.simulation);
+  settings.t_end = 2.0;
+  settings.rtol = 1e-10;
+  settings.atol = 1e-12;
+  const SimulationStats stats = simulate(file.model, file.q, file.z, settings);
+  ASSERT_TRUE(stats.ok()) << stats.message;
+  EXPECT_GT(stats.energy_scale, 0.1);  // it moves
+  EXPECT_LE(std::abs(stats.relative_energy_change()), 1e-8);
+}
+
 const char* kSpringFile = R"(format: kanedyn-model/1
 bodies:
   - name: a
