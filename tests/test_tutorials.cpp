@@ -320,6 +320,10 @@ TEST(Tutorials, FirstModelTutorialOutputsAreCurrent) {
   EXPECT_GE(check_page("tutorial-first-model"), 14);
 }
 
+// docs/cli.md's samples of usage errors, checked as a tutorial's: the list of commands in the
+// unknown-command message is the tool's.
+TEST(Tutorials, CliPageSamplesAreCurrent) { EXPECT_EQ(check_page("cli"), 2); }
+
 TEST(Tutorials, SatelliteLoadsAndSimulates) {
   const fs::path dir = temp_dir("tutorial_satellite");
   const std::string model = "'" + kExamples + "/satellite.yaml'";
