@@ -1528,8 +1528,8 @@ EquilibriumResult constrained_equilibrium(const Model& model, const VectorX& q0,
   std::ostringstream msg;
   msg.precision(3);
   msg << (result.converged ? "converged in " : "Newton did not converge after ")
-      << result.iterations << " Newton iterations on the " << f
-      << " independent speeds' directions: largest generalized force along them "
+      << result.iterations << (result.iterations == 1 ? " Newton iteration" : " Newton iterations")
+      << " on the " << f << " independent speeds' directions: largest generalized force along them "
       << result.residual_norm << " (tolerance " << target << ")";
   result.message = msg.str();
   return result;
@@ -1622,12 +1622,14 @@ EquilibriumResult equilibrium(const Model& model, const VectorX& q0, const Vecto
   std::ostringstream msg;
   msg.precision(3);
   if (result.converged) {
-    msg << "converged in " << result.iterations << " Newton iterations: largest generalized force "
-        << result.residual_norm << " (tolerance " << target << ")";
+    msg << "converged in " << result.iterations
+        << (result.iterations == 1 ? " Newton iteration" : " Newton iterations")
+        << ": largest generalized force " << result.residual_norm << " (tolerance " << target
+        << ")";
   } else {
     msg << "Newton did not converge after " << result.iterations
-        << " iterations: largest generalized force " << result.residual_norm << " (tolerance "
-        << target << ")";
+        << (result.iterations == 1 ? " iteration" : " iterations") << ": largest generalized force "
+        << result.residual_norm << " (tolerance " << target << ")";
   }
   result.message = msg.str();
   return result;

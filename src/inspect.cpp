@@ -32,7 +32,8 @@ Inspection inspect(const Model& model, const State& state, double t, const std::
   // long chain (a 1000-body chain: seconds), and both solve Eq. (36) to round-off.
   if (inputs.size() != 0 && inputs.size() != model.num_inputs())
     throw std::invalid_argument("inspect: " + std::to_string(inputs.size()) + " input values for " +
-                                std::to_string(model.num_inputs()) + " inputs");
+                                std::to_string(model.num_inputs()) +
+                                (model.num_inputs() == 1 ? " input" : " inputs"));
   Data data(model, DataOptions{.kane_terms = false, .dense_mass_matrix = false});
   if (inputs.size() > 0) data.inputs = inputs;
   compute_kinematics(model, state, data);

@@ -148,7 +148,8 @@ void Dynamics::set_inputs(const VectorX& u) {
   Impl& s = *impl_;
   if (u.size() != s.model.num_inputs())
     throw std::invalid_argument("inputs: " + std::to_string(u.size()) + " values for " +
-                                std::to_string(s.model.num_inputs()) + " inputs");
+                                std::to_string(s.model.num_inputs()) +
+                                (s.model.num_inputs() == 1 ? " input" : " inputs"));
   if (!s.notes) {
     s.joint->set_inputs(u);
     return;

@@ -180,7 +180,8 @@ void validate_settings(const Model& model, const SimulationSettings& s) {
   if (s.inputs && s.inputs->num_inputs() != model.num_inputs())
     throw std::invalid_argument("simulate: the input table has " +
                                 std::to_string(s.inputs->num_inputs()) + " columns of values for " +
-                                std::to_string(model.num_inputs()) + " inputs");
+                                std::to_string(model.num_inputs()) +
+                                (model.num_inputs() == 1 ? " input" : " inputs"));
   if (s.route == Route::assembled && !model.has_flat_chains())
     throw std::invalid_argument(
         "simulate: the model's " + std::to_string(model.num_bodies()) + " bodies have " +

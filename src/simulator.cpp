@@ -114,7 +114,8 @@ void Simulator::step(Eigen::Ref<const VectorX> u, double dt) {
   Impl& s = *impl_;
   if (u.size() != u_.size())
     throw std::invalid_argument("Simulator::step: u has " + std::to_string(u.size()) +
-                                " values for the model's " + std::to_string(u_.size()) + " inputs");
+                                " values for the model's " + std::to_string(u_.size()) +
+                                (u_.size() == 1 ? " input" : " inputs"));
   if (!u.allFinite()) throw std::invalid_argument("Simulator::step: a value of u is not finite");
   const double t_end = t_ + dt;
   if (!(std::isfinite(dt) && dt > 0.0 && t_end > t_))

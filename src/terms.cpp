@@ -158,7 +158,8 @@ void Terms::Impl::own_loads(const VectorX& q, const VectorX& z, const VectorX* u
   // on joint coordinates into joint_force.
   if (u && u->size() != model.num_inputs())
     throw std::invalid_argument("inputs: " + std::to_string(u->size()) + " values for " +
-                                std::to_string(model.num_inputs()) + " inputs");
+                                std::to_string(model.num_inputs()) +
+                                (model.num_inputs() == 1 ? " input" : " inputs"));
   joint_force.setZero();
   if (model.has_joint_force_elements()) add_joint_forces(model, q, z, joint_force);
   if (u && model.num_inputs() > 0) add_input_joint_forces(model, *u, joint_force);
