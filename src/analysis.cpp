@@ -732,10 +732,11 @@ struct Pass {
   std::vector<Eu<Dual<N>>> half;
   std::vector<char> turned;
   // Every body's Motion for the constraints' rows and the laws that join points
-  // (Tables::positions), and the rows, sized for a model with constraints.
+  // (Tables::positions), and the rows: sized only for a model that has them (a Motion of
+  // 16 directions is some 4 kB a body).
   ConstraintWork<Dual<N>> constraints;
 
-  explicit Pass(const Model& m)
+  Pass(const Model& m, const Tables& tables)
       : bodies(at(m.num_bodies())),
         q(at(m.num_coordinates())),
         z(at(m.num_speeds())),
@@ -743,7 +744,7 @@ struct Pass {
         Q(at(m.num_speeds())),
         half(at(m.num_bodies())),
         turned(at(m.num_bodies()), 0) {
-    constraints.motion.resize(at(m.num_bodies()));
+    if (tables.positions || m.num_constraints() > 0) constraints.motion.resize(at(m.num_bodies()));
     if (m.num_constraints() == 0) return;
     int rows = 0;
     for (const Constraint& c : m.constraints()) rows += equation_count(c.type);
@@ -825,7 +826,7 @@ struct Derivatives::Impl {
 
   template <int N>
   Pass<N>& pass(std::unique_ptr<Pass<N>>& p) {
-    if (!p) p = std::make_unique<Pass<N>>(model);
+    if (!p) p = std::make_unique<Pass<N>>(model, tables);
     return *p;
   }
   Dynamics& dynamics() {
