@@ -14,7 +14,7 @@ import numpy as np
 
 from ._kanedyn import Model, State
 
-__all__ = ["Equilibrium", "Linearization"]
+__all__ = ["Equilibrium", "Linearization", "Reduced"]
 
 
 def _count(number: int, noun: str) -> str:
@@ -38,6 +38,46 @@ def _reading(value: complex, tolerance: float) -> str:
 
 
 @dataclass(eq=False)
+class Reduced:
+    """The linearization with its ignorable coordinates dropped (Model.linearize(reduce=True);
+    docs/analysis.md, "Steady motions: the reduced system").
+
+    dropped: one dict per dropped coordinate, {"index": its entry of Linearization.state,
+    "name": that entry's name, "kind": "coordinate", "heading" or "spin"}; kept: the entries
+    kept, state their names; A, B: the reduced system (in coordinates that move with the
+    steady motion: time-invariant there); eigenvalues (sorted as Linearization.eigenvalues) and
+    modes (with modes=True, else None); steady: the reduced state's rate is zero at the
+    operating point (reduced_rate, its largest entry), so the eigenvalues decide stability;
+    rates: the nominal speed along each dropped direction (rad/s for heading and spin); lift:
+    (len(state), len(kept)), the full state deviation of a reduced one."""
+
+    dropped: List[Dict[str, Any]]
+    kept: List[int]
+    state: List[str]
+    A: np.ndarray
+    B: np.ndarray
+    eigenvalues: np.ndarray
+    steady: bool
+    reduced_rate: float
+    rates: List[float]
+    lift: np.ndarray
+    modes: Optional[np.ndarray] = None
+
+    def as_dict(self, with_inputs: bool) -> Dict[str, Any]:
+        """The "reduced" object of `kanedyn linearize --json --reduce`."""
+        out: Dict[str, Any] = {
+            "dropped": [dict(d) for d in self.dropped],
+            "state": list(self.state),
+            "steady": bool(self.steady),
+            "A": self.A.tolist(),
+        }
+        if with_inputs:
+            out["B"] = self.B.tolist()
+        out["eigenvalues"] = [[float(v.real), float(v.imag)] for v in self.eigenvalues]
+        return out
+
+
+@dataclass(eq=False)
 class Linearization:
     """The motion linearized about the nominal motion through (q, z, u)
     (docs/model-format.md, "Linearization output"): d(state)/dt = A state + B du, with the
@@ -50,7 +90,9 @@ class Linearization:
     sorted by decreasing real part, then decreasing imaginary part; modes (2n, 2n) complex,
     column i the eigenvector of eigenvalues[i] scaled so that its largest entry is 1 (only with
     linearize(modes=True), else None); periodic: a free body turns at the operating point, so
-    the linear system is periodic and its eigenvalues at this instant do not decide stability.
+    the linear system is periodic and its eigenvalues at this instant do not decide stability;
+    reduced: with linearize(reduce=True), the Reduced system (the ignorable coordinates
+    dropped), else None.
     """
 
     n: int
@@ -66,6 +108,11 @@ class Linearization:
     eigenvalues: np.ndarray
     modes: Optional[np.ndarray] = None
     periodic: bool = False
+    reduced: Optional[Reduced] = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.reduced, dict):
+            self.reduced = Reduced(**self.reduced)
 
     def as_dict(self) -> Dict[str, Any]:
         """The spec's JSON object (`kanedyn linearize --json`) as plain Python: n, m, state,
@@ -89,6 +136,8 @@ class Linearization:
             # Not in the spec's object unless asked, as `--json --modes` adds it: column i, the
             # vector of eigenvalue i, as [real, imaginary] pairs.
             out["modes"] = [[[float(v.real), float(v.imag)] for v in column] for column in self.modes.T]
+        if self.reduced is not None:
+            out["reduced"] = self.reduced.as_dict(self.m > 0)
         return out
 
     def to_json(self, indent: Optional[int] = None) -> str:
@@ -133,6 +182,16 @@ class Linearization:
                 "these eigenvalues of one instant do not decide stability"
             )
         lines += [f"  {i:3d}  {_reading(complex(v), tolerance)}" for i, v in enumerate(self.eigenvalues)]
+        red = self.reduced
+        if red is not None:
+            names = ", ".join(f"{d['name']} ({d['kind']})" for d in red.dropped) or "none"
+            lines.append(f"reduced: dropped {names}; kept {', '.join(red.state)}")
+            lines.append(
+                "the reduced system is time-invariant at this steady motion: its eigenvalues decide stability"
+                if red.steady
+                else f"not a steady motion (largest reduced rate {red.reduced_rate:.3g}): the verdicts hold for this instant only"
+            )
+            lines += [f"  {i:3d}  {_reading(complex(v), tolerance)}" for i, v in enumerate(red.eigenvalues)]
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -197,15 +256,20 @@ def _linearize(
     *,
     q: Optional[Sequence[float]] = None,
     z: Optional[Sequence[float]] = None,
+    reduce: bool = False,
 ) -> Linearization:
     """The model linearized about the nominal motion through a state (default: the initial
     state; or q= and z=) with the inputs at u (None: all 0): a Linearization with A, B, the
     eigenvalues, and with modes=True the eigenvectors. The operating point need not be an
-    equilibrium (steady rotation, rolling). lin.as_dict() is `kanedyn linearize --json`'s
-    object; print(lin) reads each eigenvalue."""
+    equilibrium (steady rotation, rolling). reduce=True adds lin.reduced: the system with the
+    ignorable coordinates dropped (a free root's position and heading, a wheel's spin), whose
+    eigenvalues decide stability at a steady motion (`kanedyn linearize --reduce`).
+    lin.as_dict() is `kanedyn linearize --json`'s object; print(lin) reads each eigenvalue."""
     if not isinstance(modes, (bool, np.bool_)):
         raise TypeError(f"modes must be True or False, not {type(modes).__name__}")
-    return Linearization(**self._linearize(state, u, bool(modes), q, z))
+    if not isinstance(reduce, (bool, np.bool_)):
+        raise TypeError(f"reduce must be True or False, not {type(reduce).__name__}")
+    return Linearization(**self._linearize(state, u, bool(modes), q, z, bool(reduce)))
 
 
 def _equilibrium(

@@ -14,6 +14,7 @@
 #include "kanedyn/analysis.hpp"
 #include "kanedyn/io/text.hpp"
 #include "kanedyn/joints.hpp"
+#include "kanedyn/reduce.hpp"
 #include "kanedyn/terms.hpp"
 
 namespace kanedyn::python {
@@ -132,22 +133,51 @@ py::dict linearization_dict(const Linearization& lin) {
   return d;
 }
 
+/// The reduced linearization (include/kanedyn/reduce.hpp) as a dict for _analysis.py's Reduced.
+py::dict reduced_dict(const ReducedLinearization& red) {
+  py::list dropped;
+  for (const DroppedCoordinate& d : red.dropped) {
+    py::dict e;
+    e["index"] = d.index;
+    e["name"] = d.name;
+    e["kind"] = d.kind;
+    dropped.append(e);
+  }
+  py::dict d;
+  d["dropped"] = dropped;
+  d["kept"] = red.kept;
+  d["state"] = red.state;
+  d["A"] = to_numpy(red.A);
+  d["B"] = to_numpy(red.B);
+  d["eigenvalues"] = complex_numpy(red.eigenvalues);
+  d["modes"] = red.modes.size() > 0 ? py::object(complex_numpy(red.modes)) : py::none();
+  d["steady"] = red.steady;
+  d["reduced_rate"] = red.reduced_rate;
+  d["rates"] = red.rates;
+  d["lift"] = to_numpy(red.lift);
+  return d;
+}
+
 py::dict linearize_model(const PyModel& m, py::object state, py::object u_obj, bool modes,
-                         py::object q_obj, py::object z_obj) {
+                         py::object q_obj, py::object z_obj, bool reduced) {
   VectorX q, z, u;
   model_state(m, state, q_obj, z_obj, q, z);
   input_values(m, u_obj, u);
   Linearization lin;
+  ReducedLinearization red;
   try {
     py::gil_scoped_release release;
     lin = linearize(m.model(), q, z, u, modes);
+    if (reduced) red = reduce(m.model(), lin, modes);
   } catch (const std::invalid_argument& e) {
     // The sizes are checked above: what is left is an A that overflowed.
     throw py::value_error(
         std::string("linearize(): the derivatives at this state are not finite (") + e.what() +
         ")");
   }
-  return linearization_dict(lin);
+  py::dict d = linearization_dict(lin);
+  d["reduced"] = reduced ? py::object(reduced_dict(red)) : py::none();
+  return d;
 }
 
 /// The tangent coordinates (0..n-1, sorted, each once) that `free` names: body names (all of
@@ -305,7 +335,7 @@ void register_analysis(py::class_<PyModel, std::shared_ptr<PyModel>>& cls) {
           "body, NAME.r1..r3 of a spherical joint, NAME.j1.. of any other), then its speeds "
           "(NAME.w1..w3, NAME.sd1..sd3, NAME.jd1..)")
       .def("_linearize", &linearize_model, py::arg("state"), py::arg("u"), py::arg("modes"),
-           py::arg("q"), py::arg("z"))
+           py::arg("q"), py::arg("z"), py::arg("reduce"))
       .def("_equilibrium", &equilibrium_of, py::arg("free"), py::arg("u"), py::arg("state"),
            py::arg("tolerance"), py::arg("max_iterations"), py::arg("q"));
 }
