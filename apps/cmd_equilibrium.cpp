@@ -162,8 +162,9 @@ void run(const Options& o) {
   comment << "The rest pose of " << file.path << ", found by kanedyn equilibrium: largest\n"
           << "generalized force " << rest.residual_norm << " after " << rest.iterations
           << (rest.iterations == 1 ? " Newton iteration." : " Newton iterations.");
-  const std::string text =
-      io::model_file_text(model, rest.q, VectorX::Zero(n), file.simulation, comment.str());
+  // The file's parameters and expressions are kept; the pose and speeds it changed are numbers.
+  const std::string text = io::model_file_text(model, rest.q, VectorX::Zero(n), file.simulation,
+                                               comment.str(), file.parameters);
   if (to_stdout) {
     io::write_to_stdout(text);
     return;

@@ -1,6 +1,7 @@
 // `kanedyn info MODEL`: the topology of the notes (N, L(K), u_K, chains) and the total mass;
 // for a jointed model each body's joint and its coordinates.
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -99,6 +100,17 @@ void print_info(const io::ModelFile& file, std::ostream& out) {
     if (model.lower_body(k) == kGround) out << " " << frame_label(model, k);
   out << "\nforce elements: " << model.forces().size() << ", gravity = ["
       << model.gravity().transpose() << "]\n";
+  if (const auto& parameters = file.parameters.parameters; !parameters.empty()) {
+    // Each value as evaluated (shortest round-trip digits), and the expression that gave it.
+    out << "parameters: " << parameters.size() << "\n";
+    for (const io::Parameters::Parameter& p : parameters) {
+      char value[32];
+      const auto end = std::to_chars(value, value + sizeof value, p.value).ptr;
+      out << "  " << p.name << " = " << std::string(value, end);
+      if (!p.text.empty()) out << "  (= " << io::printable(p.text, 200) << ")";
+      out << "\n";
+    }
+  }
   if (!model.frames().empty()) {
     out << "frames: " << model.frames().size() << "\n";
     for (const Frame& f : model.frames())

@@ -40,6 +40,7 @@
 #include "kanedyn/io/urdf.hpp"
 #include "kanedyn/rotation.hpp"
 #include "model_tree.hpp"
+#include "parameters.hpp"
 #include "urdf_convert.hpp"
 
 namespace kanedyn::io {
@@ -90,6 +91,8 @@ inline bool same(std::string_view a, std::string_view b) {
 constexpr const char* kMaxFileText = "256 MiB";
 /// Mappings with more entries than this look keys up by hash; smaller ones by a linear scan.
 constexpr size_t kHashedMapping = 16;
+/// The depth of parameters evaluated within one another's expressions (a stack each).
+constexpr size_t kMaxParameterDepth = 256;
 
 // ---- Messages -----------------------------------------------------------------------------
 
@@ -253,6 +256,11 @@ class Node {
   }
   Pos mark() const { return node().pos; }
   uint32_t index() const { return index_; }  ///< in Tree::nodes
+  /// The byte offset of a scalar's text in the file, when it stands there as it is.
+  std::optional<size_t> text_offset() const {
+    if (kind() != Kind::scalar || !node().in_text) return std::nullopt;
+    return node().first;
+  }
 
  private:
   const TreeNode& node() const { return tree_->nodes[index_]; }
@@ -481,6 +489,7 @@ class Reader {
   double number(const Field& f) const {
     if (const auto v = plain_number(f.node)) return *v;
     if (!f.node.IsScalar()) fail(f, "expected a number, got " + describe(f.node));
+    if (const auto v = expression_number(f)) return *v;
     const std::string_view s = f.node.Scalar();
     if (f.node.IsString()) fail(f, "expected a number, got the quoted string " + quote(s));
     if (is_yaml_inf_or_nan(s))
@@ -496,24 +505,205 @@ class Reader {
 
   double positive(const Field& f) const {
     const double v = number(f);
-    if (!(v > 0.0)) fail(f, "must be > 0, got " + printable(f.node.Scalar()));
+    if (!(v > 0.0)) fail(f, "must be > 0, got " + got(f, v));
     return v;
   }
 
   double non_negative(const Field& f) const {
     const double v = number(f);
-    if (v < 0.0) fail(f, "must be >= 0, got " + printable(f.node.Scalar()));
+    if (v < 0.0) fail(f, "must be >= 0, got " + got(f, v));
     return v;
   }
 
+  /// A number read from `f` for a message: as the file gives it, and an expression's value too.
+  std::string got(const Field& f, double v) const {
+    if (!is_expression(f.node)) return printable(f.node.Scalar());
+    char buf[32];
+    const auto end = std::to_chars(buf, buf + sizeof buf, v).ptr;
+    return quote(f.node.Scalar()) + " = " + std::string(buf, end);
+  }
+
+  // ---- Parameters and expressions (docs/model-format.md, "Parameters") --------------------
+
+  /// A scalar whose text starts with '=' (after blanks): an expression.
+  static bool is_expression(const Node& n) {
+    if (!n.IsScalar()) return false;
+    const std::string_view s = n.Scalar();
+    const size_t p = s.find_first_not_of(" \t");
+    return p != std::string_view::npos && s[p] == '=';
+  }
+
+  /// Reads the `parameters` section: every name checked, then every value evaluated (a
+  /// parameter may use earlier or later ones), each once.
+  void read_parameters(const Field& f) const {
+    mapping(f);  // a mapping, its keys checked
+    for (size_t i = 0; i < f.node.size(); ++i) {
+      const Node key = f.node.key(i);
+      const std::string_view name = key.Scalar();
+      const std::string path = child_path(f.path.str(), printable(name));
+      if (!detail::is_parameter_name(name))
+        fail(key.mark(), path,
+             "parameter name " + quote(name) +
+                 " must start with a letter or '_' and use only [A-Za-z0-9_]");
+      if (detail::is_reserved_name(name))
+        fail(key.mark(), path,
+             quote(name) +
+                 " is reserved in expressions (pi and the functions); choose another "
+                 "parameter name");
+      const Node value = f.node.value(i);
+      params_.push_back({name, Field{value, KeyPath(path),
+                                     value.IsNull() ? key.mark() : value.mark(), key.mark()}});
+    }
+    for (size_t i = 0; i < params_.size(); ++i) parameter(i);
+    for (const ParameterEntry& p : params_) {
+      std::string text;
+      if (!plain_number(p.field.node)) text = std::string(expression_text(p.field.node).first);
+      record_.parameters.push_back({std::string(p.name), text, p.value, p.field.node.index()});
+    }
+  }
+
+  /// The file's parameters and expressions read so far.
+  const Parameters& parameters() const { return record_; }
+
+ private:
+  struct ParameterEntry {
+    std::string_view name;
+    Field field;
+    int state = 0;  // 0 not yet evaluated, 1 being evaluated, 2 done
+    double value = 0.0;
+  };
+
+  /// The expression of a scalar (a leading '=' and blanks left out; a parameter's value may
+  /// leave the '=' out) and its byte offset in the scalar.
+  static std::pair<std::string_view, size_t> expression_text(const Node& n) {
+    std::string_view s = n.Scalar();
+    size_t at = s.find_first_not_of(" \t");
+    if (at == std::string_view::npos) at = s.size();
+    if (at < s.size() && s[at] == '=') ++at;
+    while (at < s.size() && (s[at] == ' ' || s[at] == '\t')) ++at;
+    size_t end = s.size();
+    while (end > at && (s[end - 1] == ' ' || s[end - 1] == '\t')) --end;
+    return {s.substr(at, end - at), at};
+  }
+
+  /// Parameter i's value, evaluated on first use.
+  double parameter(size_t i) const {
+    ParameterEntry& p = params_[i];
+    if (p.state == 2) return p.value;
+    const Field& f = p.field;
+    if (const auto v = plain_number(f.node)) {
+      p.value = *v;
+    } else {
+      if (!f.node.IsScalar())
+        fail(f, "expected a number or an expression, got " + describe(f.node));
+      if (is_yaml_inf_or_nan(f.node.Scalar()))
+        fail(f, "non-finite number " + quote(f.node.Scalar()) + "; numbers must be finite");
+      // A chain of parameters each using the next is evaluated by recursion: bounded.
+      if (evaluating_.size() >= kMaxParameterDepth)
+        fail(f, "parameters refer to parameters more than " + std::to_string(kMaxParameterDepth) +
+                    " deep");
+      p.state = 1;
+      evaluating_.push_back(i);
+      p.value = evaluate(f);
+      evaluating_.pop_back();
+    }
+    p.state = 2;
+    return p.value;
+  }
+
+  /// The value of the expression in `f`'s scalar; an error points at the character it is about
+  /// (when the scalar stands in the file as it is) and names it.
+  double evaluate(const Field& f) const {
+    const auto [text, start] = expression_text(f.node);
+    // The scalar up to the expression's end (trailing blanks left out), read from `start`: the
+    // parser's offsets and "character N" are the scalar's.
+    const std::string_view scalar = f.node.Scalar().substr(0, start + text.size());
+    try {
+      return detail::evaluate_expression(
+          scalar, [this](std::string_view name, size_t at) { return lookup(name, at); }, start);
+    } catch (const detail::ExpressionError& e) {
+      const size_t column = e.at;
+      Mark mark = this->mark(f.mark);
+      if (const auto offset = f.node.text_offset())
+        mark = mark_of_offset(tree_.text, *offset + column);
+      fail_at(mark, f.path.str(),
+              "in the expression " + quote(f.node.Scalar()) + ", at its character " +
+                  std::to_string(column + 1) + ": " + printable(e.problem, 300));
+    }
+  }
+
+  /// A parameter's value for an expression: refused when unknown (with the closest name) or
+  /// being evaluated (a cycle, named member by member).
+  double lookup(std::string_view name, size_t at) const {
+    for (size_t j = 0; j < params_.size(); ++j) {
+      if (!same(params_[j].name, name)) continue;
+      if (params_[j].state == 1) {
+        std::string cycle;
+        const auto from = std::find(evaluating_.begin(), evaluating_.end(), j);
+        for (auto it = from; it != evaluating_.end(); ++it)
+          cycle += std::string(params_[*it].name) + " -> ";
+        throw detail::ExpressionError{
+            at, "the parameters form a cycle: " + printable(cycle, 300) + std::string(name)};
+      }
+      return parameter(j);
+    }
+    std::string problem = "unknown name " + quote(name);
+    if (params_.empty()) {
+      problem += "; the file has no 'parameters' section to define it";
+    } else {
+      std::string best;
+      size_t best_distance = std::numeric_limits<size_t>::max();
+      for (const ParameterEntry& p : params_)
+        if (const size_t d = edit_distance(name, p.name); d < best_distance) {
+          best_distance = d;
+          best = std::string(p.name);
+        }
+      problem += " (closest parameter: " + quote(best) + ")";
+    }
+    throw detail::ExpressionError{at, problem};
+  }
+
+  /// The value of an expression `= ...` in a number's place, recorded for the writer; nothing
+  /// for any other scalar.
+  std::optional<double> expression_number(const Field& f) const {
+    if (!is_expression(f.node)) return std::nullopt;
+    const double v = evaluate(f);
+    record_.numbers.push_back(
+        {f.path.str(), std::string(expression_text(f.node).first), v, f.node.index()});
+    return v;
+  }
+
+  mutable std::vector<ParameterEntry> params_;
+  mutable std::vector<size_t> evaluating_;  // the parameters being evaluated, innermost last
+  mutable Parameters record_;
+
+ public:
   /// A list of exactly `n` numbers (at most 6: no allocation).
   Numbers numbers(const Field& f, int n) const {
     if (!f.node.IsSequence() || f.node.size() != static_cast<size_t>(n))
       fail(f, "expected a list of " + std::to_string(n) + " numbers, got " + describe(f.node));
     Numbers v(n);
+    const size_t recorded = record_.numbers.size();
     for (int i = 0; i < n; ++i) {
       const auto value = plain_number(f.node[static_cast<size_t>(i)]);
       v[i] = value ? *value : number(element(f, static_cast<size_t>(i)));
+    }
+    if (record_.numbers.size() > recorded) {
+      // Every component of a list that holds an expression, in order: a direction is
+      // written back from all of them (model_writer.cpp).
+      std::vector<Parameters::Number> list;
+      for (int i = 0; i < n; ++i) {
+        const Node node = f.node[static_cast<size_t>(i)];
+        const auto it = std::find_if(
+            record_.numbers.begin() + static_cast<std::ptrdiff_t>(recorded), record_.numbers.end(),
+            [&](const Parameters::Number& r) { return r.node == node.index(); });
+        if (it != record_.numbers.end())
+          list.push_back(*it);
+        else
+          list.push_back({element(f, static_cast<size_t>(i)).path.str(), "", v[i], node.index()});
+      }
+      record_.numbers.resize(recorded);
+      record_.numbers.insert(record_.numbers.end(), list.begin(), list.end());
     }
     return v;
   }
@@ -1389,7 +1579,7 @@ std::vector<Input> read_inputs(const Reader& r, const Field& f, const BodiesSect
           r.fail(*v, "speed must be a whole number from 1 to " + std::to_string(speeds) +
                          " (body '" + body.name + "' has a " + to_string(jt) + " joint with " +
                          std::to_string(speeds) + " speed" + (speeds == 1 ? "" : "s") + "), got " +
-                         printable(v->node.Scalar()));
+                         r.got(*v, s));
         in.speed = static_cast<int>(s) - 1;
       }
     } else if (type == "force") {
@@ -1626,8 +1816,10 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
   if (const std::string f = r.text(format); f != kFormat)
     r.fail(format, "unsupported format " + quote(f) +
                        "; this version reads 'format: " + std::string(kFormat) + "'");
-  top.allow({"format", "name", "gravity", "bodies", "forces", "frames", "inputs", "constraints",
-             "independent_speeds", "simulation"});
+  top.allow({"format", "name", "parameters", "gravity", "bodies", "forces", "frames", "inputs",
+             "constraints", "independent_speeds", "simulation"});
+  // The parameters before any number that may use them.
+  if (const auto v = top.get("parameters")) r.read_parameters(*v);
 
   const std::string name = top.has("name") ? r.text(*top.get("name")) : "";
   const Vector3 gravity = top.has("gravity") ? r.vector3(*top.get("gravity")) : Vector3::Zero();
@@ -1680,7 +1872,8 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
                    VectorX(),
                    VectorX(),
                    {},
-                   {}};
+                   {},
+                   r.parameters()};
     const Model& m = file.model;
     file.q = VectorX::Zero(m.num_coordinates());
     file.z = VectorX::Zero(m.num_speeds());
@@ -2012,7 +2205,16 @@ ModelDocument::Number ModelDocument::find_number(std::string_view key_path) cons
     for (size_t k = 0; k < node.size(); ++k) keys.emplace_back(node.key(k).Scalar());
     fail(whole + " holds a mapping; name one of its keys: " + join(keys));
   }
-  const auto value = Reader::plain_number(node);
+  std::optional<double> value = Reader::plain_number(node);
+  if (!value) {
+    // An expression (a parameter's, or `= ...` in a number's place): the value it had. A
+    // change replaces it by the number given.
+    const Parameters& p = base().parameters;
+    for (const Parameters::Parameter& e : p.parameters)
+      if (e.node == node.index()) value = e.value;
+    for (const Parameters::Number& e : p.numbers)
+      if (e.node == node.index() && !e.text.empty()) value = e.value;
+  }
   if (!value) fail(whole + " holds " + describe(node) + ", not a number");
   const Mark m = mark_of_pos(tree.text, node.mark());
   Number n;

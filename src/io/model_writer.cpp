@@ -3,6 +3,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -10,6 +11,7 @@
 
 #include "kanedyn/analysis.hpp"
 #include "kanedyn/constraint.hpp"
+#include "kanedyn/direction.hpp"
 #include "kanedyn/forces.hpp"
 #include "kanedyn/joints.hpp"
 
@@ -38,6 +40,57 @@ std::string axis_angle(const Vector4& eps) {
   const double angle = 2.0 * std::atan2(n, eps[3]);
   return "{axis: " + list(Vector3(e / n)) + ", angle: " + yaml_float(angle) + "}";
 }
+
+/// Numbers as the writer writes them, each at its key path (as the reader's messages spell it):
+/// the file's expression where the source gave one whose value is the number written, else the
+/// number (docs/model-format.md, "Parameters").
+class Numbers {
+ public:
+  explicit Numbers(const Parameters& source) : source_(source) {}
+
+  std::string number(const std::string& path, double v) const {
+    const Parameters::Number* n = source_.numbers.empty() ? nullptr : source_.find(path);
+    return n && !n->text.empty() && same(n->value, v) ? expression(n->text) : yaml_float(v);
+  }
+
+  template <typename Vec>
+  std::string vector(const std::string& path, const Vec& v) const {
+    if (source_.numbers.empty()) return list(v);
+    std::string out = "[";
+    for (Eigen::Index i = 0; i < v.size(); ++i)
+      out += (i > 0 ? ", " : "") + number(element(path, i), v[i]);
+    return out + "]";
+  }
+
+  /// A unit vector the model made of the file's direction at `path`: the file's components,
+  /// expressions and all, when they give it bit for bit (unit_direction, as the Model does).
+  std::string direction(const std::string& path, const Vector3& v) const {
+    if (source_.numbers.empty()) return list(v);
+    Vector3 raw;
+    std::string out = "[";
+    bool any = false;
+    for (int i = 0; i < 3; ++i) {
+      const Parameters::Number* n = source_.find(element(path, i));
+      if (!n) return vector(path, v);
+      raw[i] = n->value;
+      any = any || !n->text.empty();
+      out += (i > 0 ? ", " : "") + (n->text.empty() ? yaml_float(n->value) : expression(n->text));
+    }
+    const std::optional<Vector3> u = unit_direction(raw);
+    if (!any || !u || !same(u->x(), v.x()) || !same(u->y(), v.y()) || !same(u->z(), v.z()))
+      return vector(path, v);
+    return out + "]";
+  }
+
+ private:
+  static bool same(double a, double b) { return a == b && std::signbit(a) == std::signbit(b); }
+  // Single-quoted: an expression holds no quote, and a plain `*a` would read as an alias.
+  static std::string expression(const std::string& text) { return "'= " + text + "'"; }
+  static std::string element(const std::string& path, Eigen::Index i) {
+    return path + "[" + std::to_string(i) + "]";
+  }
+  const Parameters& source_;
+};
 
 bool is_identity(const Vector4& e) {
   return e[0] == 0.0 && e[1] == 0.0 && e[2] == 0.0 && e[3] == 1.0;
@@ -72,7 +125,8 @@ std::string yaml_float(double v) {
 }
 
 std::string model_file_text(const Model& model, const VectorX& q, const VectorX& z,
-                            const SimulationSection& simulation, const std::string& comment) {
+                            const SimulationSection& simulation, const std::string& comment,
+                            const Parameters& parameters) {
   if (q.size() != model.num_coordinates() || z.size() != model.num_speeds())
     throw std::invalid_argument("model_file_text: q or z of the wrong size");
   std::ostringstream out;
@@ -82,50 +136,69 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
   }
   out << "format: kanedyn-model/1\n";
   if (!model.name().empty()) out << "name: " << name(model.name()) << "\n";
-  out << "gravity: " << list(model.gravity()) << "\n";
+  const Numbers num(parameters);
+  if (!parameters.parameters.empty()) {
+    // As the file gave them: a number, or its expression.
+    out << "parameters:\n";
+    for (const Parameters::Parameter& p : parameters.parameters)
+      out << "  " << p.name << ": " << (p.text.empty() ? yaml_float(p.value) : "'= " + p.text + "'")
+          << "\n";
+  }
+  out << "gravity: " << num.vector("gravity", model.gravity()) << "\n";
   out << "bodies:\n";
   for (int k = 0; k < model.num_bodies(); ++k) {
     const BodySpec& b = model.body(k);
     const Joint& jt = model.joint(k);
     const int o = model.coordinate_offset(k), p = model.speed_offset(k);
+    const std::string at = "bodies[" + std::to_string(k) + "].";
     out << "  - name: " << name(b.name) << "\n";
     out << "    parent: "
         << (b.lower_body == kGround ? std::string("ground") : name(model.body(b.lower_body).name))
         << "\n";
-    out << "    mass: " << yaml_float(b.mass) << "\n";
+    out << "    mass: " << num.number(at + "mass", b.mass) << "\n";
     const Matrix3& I = b.inertia;
     out << "    inertia: "
-        << list(Eigen::Matrix<double, 6, 1>(I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)))
+        << num.vector(at + "inertia", Eigen::Matrix<double, 6, 1>(I(0, 0), I(1, 1), I(2, 2),
+                                                                  I(0, 1), I(0, 2), I(1, 2)))
         << "\n";
-    out << "    com: " << list(b.com) << "\n";
+    out << "    com: " << num.vector(at + "com", b.com) << "\n";
     if (jt.type == JointType::free) {
-      out << "    joint: " << list(b.joint) << "\n";
+      out << "    joint: " << num.vector(at + "joint", b.joint) << "\n";
       out << "    initial:\n";
       out << "      euler_parameters: " << list(Vector4(q.segment<4>(o))) << "\n";
-      out << "      translation: " << list(Vector3(q.segment<3>(o + 4))) << "\n";
-      out << "      angular_velocity: " << list(Vector3(z.segment<3>(p))) << "\n";
-      out << "      translation_rate: " << list(Vector3(z.segment<3>(p + 3))) << "\n";
+      out << "      translation: "
+          << num.vector(at + "initial.translation", Vector3(q.segment<3>(o + 4))) << "\n";
+      out << "      angular_velocity: "
+          << num.vector(at + "initial.angular_velocity", Vector3(z.segment<3>(p))) << "\n";
+      out << "      translation_rate: "
+          << num.vector(at + "initial.translation_rate", Vector3(z.segment<3>(p + 3))) << "\n";
       continue;
     }
     out << "    joint:\n";
-    out << "      at: " << list(b.joint) << "\n";
+    out << "      at: " << num.vector(at + "joint.at", b.joint) << "\n";
     out << "      type: " << to_string(jt.type) << "\n";
     if (!is_identity(jt.frame)) out << "      frame: " << axis_angle(jt.frame) << "\n";
     if (jt.type == JointType::revolute || jt.type == JointType::prismatic ||
         jt.type == JointType::cylindrical)
-      out << "      axis: " << list(jt.axis) << "\n";
+      out << "      axis: " << num.direction(at + "joint.axis", jt.axis) << "\n";
     if (jt.type == JointType::universal)
       out << "      axes: [" << list(jt.axes[0]) << ", " << list(jt.axes[1]) << "]\n";
     if (jt.type == JointType::weld) {
-      out << "    initial:\n      translation: " << list(jt.translation) << "\n";
+      out << "    initial:\n      translation: "
+          << num.vector(at + "initial.translation", jt.translation) << "\n";
       continue;
     }
     out << "    initial:\n";
-    out << "      joint: " << list(VectorX(q.segment(o, coordinate_count(jt.type)))) << "\n";
-    out << "      joint_rate: " << list(VectorX(z.segment(p, speed_count(jt.type)))) << "\n";
+    out << "      joint: "
+        << num.vector(at + "initial.joint", VectorX(q.segment(o, coordinate_count(jt.type))))
+        << "\n";
+    out << "      joint_rate: "
+        << num.vector(at + "initial.joint_rate", VectorX(z.segment(p, speed_count(jt.type))))
+        << "\n";
   }
   if (!model.forces().empty()) {
     out << "forces:\n";
+    size_t index = 0;  // of the entry written, as the file that reads it back numbers them
     for (const auto& element : model.forces()) {
       const std::string body = name(model.body(element->body()).name);
       const std::vector<ForceElement::FileEntry> entries = element->file_entries();
@@ -134,15 +207,16 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
                                     model.body(element->body()).name +
                                     " cannot be written to a model file");
       for (const ForceElement::FileEntry& entry : entries) {
+        const std::string at = "forces[" + std::to_string(index++) + "].";
         out << "  - type: " << entry.type << "\n    body: " << body << "\n";
         for (const ForceElement::FileKey& key : entry.keys) {
           out << "    " << key.key << ": ";
           if (key.body != -2)
             out << (key.body == kGround ? std::string("ground") : name(model.body(key.body).name));
           else if (key.scalar)
-            out << yaml_float(key.value[0]);
+            out << num.number(at + key.key, key.value[0]);
           else
-            out << list(key.value);
+            out << num.vector(at + key.key, key.value);
           out << "\n";
         }
       }
@@ -150,7 +224,9 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
   }
   if (!model.inputs().empty()) {
     out << "inputs:\n";
-    for (const Input& in : model.inputs()) {
+    for (size_t i = 0; i < model.inputs().size(); ++i) {
+      const Input& in = model.inputs()[i];
+      const std::string at = "inputs[" + std::to_string(i) + "].";
       out << "  - name: " << name(in.name) << "\n    type: " << input_type(in.type)
           << "\n    body: " << name(model.body(in.body).name) << "\n";
       switch (in.type) {
@@ -158,11 +234,11 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
           out << "    speed: " << in.speed + 1 << "\n";
           break;
         case InputType::force:
-          out << "    direction: " << list(in.direction) << "\n    point: " << list(in.point)
-              << "\n";
+          out << "    direction: " << num.direction(at + "direction", in.direction)
+              << "\n    point: " << num.vector(at + "point", in.point) << "\n";
           break;
         case InputType::torque:
-          out << "    axis: " << list(in.axis)
+          out << "    axis: " << num.direction(at + "axis", in.axis)
               << "\n    reaction: " << (in.reaction ? "true" : "false") << "\n";
           break;
       }
@@ -170,10 +246,11 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
   }
   if (!model.frames().empty()) {
     out << "frames:\n";
-    for (const Frame& f : model.frames()) {
+    for (size_t i = 0; i < model.frames().size(); ++i) {
+      const Frame& f = model.frames()[i];
       out << "  - name: " << name(f.name) << "\n    body: "
           << (f.body == kGround ? std::string("ground") : name(model.body(f.body).name)) << "\n";
-      out << "    at: " << list(f.at) << "\n";
+      out << "    at: " << num.vector("frames[" + std::to_string(i) + "].at", f.at) << "\n";
       if (!is_identity(f.rotation)) out << "    rotation: " << axis_angle(f.rotation) << "\n";
     }
   }
@@ -183,21 +260,28 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
     const auto body_name = [&](int k) {
       return k == kGround ? std::string("ground") : name(model.body(k).name);
     };
-    for (const Constraint& c : model.constraints()) {
+    for (size_t i = 0; i < model.constraints().size(); ++i) {
+      const Constraint& c = model.constraints()[i];
+      const std::string at = "constraints[" + std::to_string(i) + "].";
       out << "  - name: " << name(c.name) << "\n    type: " << to_string(c.type)
           << "\n    body: " << body_name(c.body) << "\n";
       if (c.type == ConstraintType::rolling_disc) {
-        out << "    center: " << list(c.at) << "\n    axis: " << list(c.axis)
-            << "\n    radius: " << yaml_float(c.radius)
-            << "\n    plane: {normal: " << list(c.plane_normal)
-            << ", offset: " << yaml_float(c.plane_offset) << "}\n";
+        out << "    center: " << num.vector(at + "center", c.at)
+            << "\n    axis: " << num.direction(at + "axis", c.axis)
+            << "\n    radius: " << num.number(at + "radius", c.radius)
+            << "\n    plane: {normal: " << num.direction(at + "plane.normal", c.plane_normal)
+            << ", offset: " << num.number(at + "plane.offset", c.plane_offset) << "}\n";
         continue;
       }
-      out << "    at: " << list(c.at) << "\n";
-      if (c.type == ConstraintType::hinge) out << "    axis: " << list(c.axis) << "\n";
-      out << "    other: " << body_name(c.other) << "\n    other_at: " << list(c.other_at) << "\n";
-      if (c.type == ConstraintType::hinge) out << "    other_axis: " << list(c.other_axis) << "\n";
-      if (c.type == ConstraintType::distance) out << "    length: " << yaml_float(c.length) << "\n";
+      out << "    at: " << num.vector(at + "at", c.at) << "\n";
+      if (c.type == ConstraintType::hinge)
+        out << "    axis: " << num.direction(at + "axis", c.axis) << "\n";
+      out << "    other: " << body_name(c.other)
+          << "\n    other_at: " << num.vector(at + "other_at", c.other_at) << "\n";
+      if (c.type == ConstraintType::hinge)
+        out << "    other_axis: " << num.direction(at + "other_axis", c.other_axis) << "\n";
+      if (c.type == ConstraintType::distance)
+        out << "    length: " << num.number(at + "length", c.length) << "\n";
     }
   }
   if (!model.independent_speeds().empty()) {
@@ -213,12 +297,12 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
   const SimulationSection& s = simulation;
   if (s.t_end || s.dt_out || s.integrator || s.rtol || s.atol || s.step || s.route) {
     out << "simulation:\n";
-    if (s.t_end) out << "  t_end: " << yaml_float(*s.t_end) << "\n";
-    if (s.dt_out) out << "  dt_out: " << yaml_float(*s.dt_out) << "\n";
+    if (s.t_end) out << "  t_end: " << num.number("simulation.t_end", *s.t_end) << "\n";
+    if (s.dt_out) out << "  dt_out: " << num.number("simulation.dt_out", *s.dt_out) << "\n";
     if (s.integrator) out << "  integrator: " << *s.integrator << "\n";
-    if (s.rtol) out << "  rtol: " << yaml_float(*s.rtol) << "\n";
-    if (s.atol) out << "  atol: " << yaml_float(*s.atol) << "\n";
-    if (s.step) out << "  step: " << yaml_float(*s.step) << "\n";
+    if (s.rtol) out << "  rtol: " << num.number("simulation.rtol", *s.rtol) << "\n";
+    if (s.atol) out << "  atol: " << num.number("simulation.atol", *s.atol) << "\n";
+    if (s.step) out << "  step: " << num.number("simulation.step", *s.step) << "\n";
     if (s.route)
       out << "  route: " << (*s.route == "kane" ? std::string("assembled") : *s.route) << "\n";
   }

@@ -9,6 +9,7 @@
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/joints.hpp"
@@ -53,6 +54,33 @@ struct SimulationSection {
 /// keywords then override single fields, so both start from the same numbers.
 SimulationSettings simulation_settings(const SimulationSection& section);
 
+/// The `parameters` section and the numbers written as expressions (docs/model-format.md,
+/// "Parameters"): what `info` prints and what the model writer keeps.
+struct Parameters {
+  struct Parameter {
+    std::string name;
+    std::string text;  ///< the expression as written (without '='); "" for a plain number
+    double value = 0.0;
+    uint32_t node = 0;  ///< its value's node in the document (ModelDocument)
+  };
+  /// A number of the file given as `= expression`, or a plain number in a list that holds one
+  /// (a direction is written back from all its components).
+  struct Number {
+    std::string key_path;  ///< as messages spell it: `bodies[2].joint.at[0]`
+    std::string text;      ///< the expression (without '='); "" for a plain number
+    double value = 0.0;    ///< as evaluated, before any normalization
+    uint32_t node = 0;
+  };
+  std::vector<Parameter> parameters;  ///< in the file's order
+  std::vector<Number> numbers;        ///< in reading order
+  /// The number at `key_path`, or nullptr.
+  const Number* find(std::string_view key_path) const {
+    for (const Number& n : numbers)
+      if (n.key_path == key_path) return &n;
+    return nullptr;
+  }
+};
+
 /// What a model file holds.
 struct ModelFile {
   Model model;
@@ -68,6 +96,8 @@ struct ModelFile {
   /// hold the projected state), and the independent speeds there.
   Projection projection;
   SpeedPartition partition;
+  /// The file's parameters and expressions (empty for a file without them).
+  Parameters parameters;
   /// True when some joint is not free (the file has the mapping form of `joint`).
   bool jointed() const { return !model.all_free(); }
 };

@@ -18,9 +18,13 @@ namespace kanedyn::io {
 /// normalized again when read: they come back to within a unit in the last place. The chosen
 /// independent speeds are written by name, in z's order. `comment` (lines without '#') heads the
 /// file. Throws std::invalid_argument for a force element of a type a model file cannot hold.
+/// With `parameters` (a loaded file's), its `parameters` section is written, and every number the
+/// file gave as an expression is written as that expression where its value is the number to
+/// write (bit for bit; a direction when its components give the model's unit vector); a number
+/// that changed is written as the number (docs/model-format.md, "Parameters").
 std::string model_file_text(const Model& model, const VectorX& q, const VectorX& z,
                             const SimulationSection& simulation = {},
-                            const std::string& comment = "");
+                            const std::string& comment = "", const Parameters& parameters = {});
 
 /// A double as model_file_text writes it: shortest round-trip digits, a float under YAML 1.1.
 std::string yaml_float(double v);
