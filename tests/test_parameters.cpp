@@ -5,7 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <numbers>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -393,6 +397,121 @@ TEST(Parameters, DocumentFindsExpressionsAndParameters) {
   const io::ModelFile f = doc.build(changes);
   EXPECT_EQ(f.model.body(0).inertia(0, 0), 1.0 * 9.0 / 12);  // follows the new length
   EXPECT_EQ(f.model.body(0).com.z(), -0.5);                  // the number given
+}
+
+// ---- The bicycle example (examples/bicycle.yaml, docs/bicycle.md) ----------------------------
+
+// examples/bicycle_upright.yaml is examples/bicycle.yaml with no roll rate (and its own name): the
+// two cannot drift apart.
+TEST(BicycleExample, UprightIsThePushedOneWithoutItsRollRate) {
+  const std::string pushed = slurp(kExamples + "/bicycle.yaml");
+  std::string upright = edit(pushed, "  roll_rate: 0.5                # rad/s: the initial push\n",
+                             "  roll_rate: 0                  # rad/s: none, the upright steady "
+                             "motion\n");
+  upright = edit(upright, "name: Whipple bicycle (Meijaard et al. 2007)\n",
+                 "name: Whipple bicycle (Meijaard et al. 2007) upright at 5 m/s\n");
+  EXPECT_EQ(slurp(kExamples + "/bicycle_upright.yaml"), upright);
+  // Its numbers are the benchmark's (Table 1), derived by the file's expressions: the steer
+  // axis meets the ground at the wheelbase plus the trail, w + c = 1.1 m.
+  const io::ModelFile f = io::load_model_file(kExamples + "/bicycle_upright.yaml");
+  const Model& m = f.model;
+  const double lambda = std::numbers::pi / 10;
+  const Vector3 at = m.body(2).joint,
+                axis = m.joint(2).axis;  // the steer axis, at rear-axle height
+  EXPECT_NEAR(at.x() - 0.3 * axis.x() / axis.z(), 1.1, 1e-15);
+  EXPECT_NEAR(axis.x(), -std::sin(lambda), 1e-15);
+  EXPECT_NEAR(m.body(2).joint.x() + m.body(3).joint.x(), 1.02, 1e-15);  // the front axle at w
+  EXPECT_EQ(m.total_mass(), 94.0);
+  // The rear wheel's spin v / rR and no roll rate, after the projection onto the constraints
+  // (round-off).
+  EXPECT_NEAR(f.z.cwiseAbs().maxCoeff(), 5.0 / 0.3, 1e-12);
+  EXPECT_NEAR(f.z[0], 0.0, 1e-12);
+}
+
+// Table 2 of Meijaard et al. (2007) at v = 5 m/s: tests/data/meijaard2007.json holds the
+// published values.
+std::vector<std::complex<double>> published_at_five() {
+  std::ifstream in(KANEDYN_SOURCE_DIR "/tests/data/meijaard2007.json");
+  const nlohmann::json paper = nlohmann::json::parse(in);
+  std::vector<std::complex<double>> values;
+  for (const auto& entry : paper["eigenvalues_published"])
+    if (entry["v"].get<double>() == 5.0)
+      for (const auto& pair : entry["eigenvalues"])
+        values.emplace_back(pair[0].get<double>(), pair[1].get<double>());
+  return values;
+}
+
+// The README's `linearize` line of the bicycle, run exactly as written there (from a folder with
+// a copy of examples/, as tests/test_tutorials.cpp runs the README's lines), prints the
+// paper's four eigenvalues of roll and steer at 5 m/s and six zeros. The summary prints 5
+// significant digits: each printed value is the published one rounded so (half a unit in the
+// fifth digit).
+TEST(BicycleExample, ReadmeLinePrintsTableTwo) {
+  std::istringstream readme(slurp(fs::path(KANEDYN_SOURCE_DIR) / "README.md"));
+  std::string args;
+  for (std::string line; std::getline(readme, line);)
+    if (line.starts_with("build/kanedyn linearize examples/bicycle")) {
+      EXPECT_TRUE(args.empty()) << "two such lines";
+      args = line.substr(std::string("build/kanedyn ").size());
+      args.resize(args.find(" #"));
+      while (args.back() == ' ') args.pop_back();
+    }
+  ASSERT_FALSE(args.empty()) << "the README has no bicycle linearize line";
+  const fs::path dir = temp_dir("parameters_readme_bicycle");
+  fs::copy(kExamples, dir / "examples", fs::copy_options::recursive);
+  const ToolRun r = run_in(dir, args);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.find("periodic"), std::string::npos) << r.out;
+  std::vector<std::complex<double>> printed;
+  std::istringstream out(r.out);
+  for (std::string line; std::getline(out, line);) {
+    std::istringstream words(line);
+    int index = 0;
+    std::string re, im;
+    if (!(words >> index >> re >> im) || index != static_cast<int>(printed.size()) + 1) continue;
+    printed.emplace_back(std::stod(re), std::stod(im));
+  }
+  ASSERT_EQ(printed.size(), 10u) << r.out;
+  const auto rounding = [](double x) {  // half a unit in the fifth significant digit of x
+    return x == 0.0 ? 0.0 : 0.5 * std::pow(10.0, std::floor(std::log10(std::abs(x))) - 4);
+  };
+  for (const std::complex<double>& want : published_at_five()) {
+    const auto near = std::find_if(printed.begin(), printed.end(), [&](std::complex<double> p) {
+      return std::abs(p.real() - want.real()) <= rounding(want.real()) &&
+             std::abs(p.imag() - want.imag()) <= rounding(want.imag());
+    });
+    ASSERT_NE(near, printed.end()) << want << " is not printed:\n" << r.out;
+    printed.erase(near);
+  }
+  ASSERT_EQ(printed.size(), 6u);
+  for (const auto& zero : printed) EXPECT_EQ(zero, std::complex<double>(0.0, 0.0)) << r.out;
+}
+
+// docs/bicycle.md's trail sweep: five runs, each with the model its trail gives. They differ
+// (the steer axis moves), and the benchmark's trail rights the bicycle: its final roll rate is
+// below a fiftieth of the push (0.5 rad/s; the decay of docs/bicycle.md, e^-0.32 t at 5 s).
+TEST(BicycleExample, TrailStudyRuns) {
+  const fs::path dir = temp_dir("parameters_bicycle_trail");
+  const ToolRun r = run_in(dir, "sweep '" + kExamples + "/studies/bicycle_trail.yaml' -o trail");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = read_csv(dir / "trail" / "results.csv");
+  ASSERT_EQ(rows.size(), 6u);
+  const std::vector<std::string>& head = rows[0];
+  const auto column = [&](const std::string& name) {
+    const auto it = std::find(head.begin(), head.end(), name);
+    EXPECT_NE(it, head.end()) << name;
+    return static_cast<size_t>(it - head.begin());
+  };
+  std::vector<double> finals;
+  for (size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i][column("status")], "ok");
+    finals.push_back(parse(rows[i][column("final:rear_frame.w1")]));
+    if (parse(rows[i][column("parameters.trail")]) == 0.08) {
+      EXPECT_LT(std::abs(finals.back()), 0.01);
+    }
+  }
+  std::sort(finals.begin(), finals.end());
+  EXPECT_EQ(std::unique(finals.begin(), finals.end()), finals.end());
 }
 
 }  // namespace
