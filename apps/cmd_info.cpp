@@ -15,29 +15,8 @@
 namespace kanedyn::cli {
 namespace {
 
-// What a joint's q holds, for the table of joints (a switch: a new joint type is a
-// compile-time reminder here).
-const char* coordinates_meaning(JointType type) {
-  switch (type) {
-    case JointType::free:
-      return "the notes' own: eps_K, s'_K";
-    case JointType::weld:
-      return "none";
-    case JointType::revolute:
-      return "angle about the axis";
-    case JointType::prismatic:
-      return "distance along the axis";
-    case JointType::cylindrical:
-      return "angle, distance";
-    case JointType::universal:
-      return "angles about a1, a2";
-    case JointType::spherical:
-      return "Euler parameters of K rel. F";
-    case JointType::planar:
-      return "x, y in F's x-y plane, angle about F's z";
-  }
-  return "?";
-}
+// What a joint's q holds, for the table of joints (its row of the joint table).
+const char* coordinates_meaning(JointType type) { return joint_type_info(type).meaning; }
 
 std::string frame_label(const Model& model, int k) {
   if (k == kGround) return "0 (inertial frame R)";

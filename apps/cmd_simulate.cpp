@@ -146,7 +146,7 @@ std::vector<std::string> energy_not_conserved_by(const Model& model, const Simul
 bool has_euler_parameters(const Model& model) {
   for (int k = 0; k < model.num_bodies(); ++k) {
     const JointType t = model.joint(k).type;
-    if (t == JointType::free || t == JointType::spherical) return true;
+    if (joint_type_info(t).euler) return true;
   }
   return false;
 }

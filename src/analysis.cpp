@@ -26,6 +26,7 @@
 #include "dual.hpp"
 #include "equations.hpp"
 #include "generic_dynamics.hpp"
+#include "joint_table.hpp"
 #include "tree_loads.hpp"
 
 namespace kanedyn {
@@ -53,29 +54,10 @@ M3<S> product_transposed(const M3<S>& a, const M3<S>& b) {
                        a.a[3 * i + 2] * b.a[3 * j + 2];
   return r;
 }
-// The Euler parameters of K from J's and K's relative to J ([R] = [R(rel)][R_J]): J rel in
-// Hamilton algebra, relative_euler_parameters of conj(J).
-template <typename S>
-Eu<S> compose(const Eu<S>& j, const Eu<S>& rel) {
-  const Eu<S> conj{{-j.e[0], -j.e[1], -j.e[2], j.e[3]}};
-  return eq::relative_euler_parameters(conj, rel);
-}
+using detail::compose;  // K's Euler parameters from J's and K's relative to J
 template <typename S>
 Eu<S> constant_euler(const Vector4& e) {
   return {{S(e[0]), S(e[1]), S(e[2]), S(e[3])}};
-}
-// The turn by `angle` about a unit axis (the joints' table, src/joints.cpp).
-template <typename S>
-Eu<S> turn(const Vector3& axis, const S& angle) {
-  using std::cos;
-  using std::sin;
-  const S half = 0.5 * angle;
-  const S s = sin(half);
-  return {{s * axis.x(), s * axis.y(), s * axis.z(), cos(half)}};
-}
-
-bool is_identity(const Vector4& e) {
-  return e[0] == 0.0 && e[1] == 0.0 && e[2] == 0.0 && e[3] == 1.0;
 }
 
 // The constant per-body tables of a model.
@@ -85,8 +67,8 @@ struct Tables {
   // The force elements that load bodies, and those on joint coordinates (ForceElement).
   std::vector<const ForceElement*> body_elements, joint_elements;
   std::vector<int> speed_body;  // the body of each speed
-  // [G_K]'s columns (body K), constant but for a universal joint's first, and the mask of the
-  // nonzero ones.
+  // [G_K]'s columns (body K), constant but for a turning first one (universal: the joint
+  // table's turning_axis), and the mask of the nonzero ones.
   std::vector<std::array<Vector3, 3>> turn_axes;
   std::vector<unsigned> turns;
   // Whether every force element gives its law for every scalar (ForceElement::any_scalar).
@@ -115,27 +97,15 @@ struct Tables {
       const Joint& jt = model.joint(k);
       std::array<Vector3, 3> axes{Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ()};
       unsigned turning = 0;
-      switch (jt.type) {
-        case JointType::free:
-        case JointType::spherical:
-          turning = 7u;
-          break;
-        case JointType::revolute:
-        case JointType::cylindrical:
-          axes[0] = jt.axis;
-          turning = 1u;
-          break;
-        case JointType::universal:
-          axes[1] = jt.axes[1];
-          turning = 3u;
-          break;
-        case JointType::planar:
-          turning = 4u;
-          break;
-        case JointType::weld:
-        case JointType::prismatic:
-          break;
-      }
+      detail::visit_joint_row(jt.type, [&](auto row) {
+        using Row = decltype(row);
+        Matrix36 G = Matrix36::Zero();
+        Row::rotation_columns(jt, G);
+        for (int c = 0; c < 3; ++c) {
+          if (!G.col(c).isZero(0.0)) axes[at(c)] = G.col(c);
+          if (!G.col(c).isZero(0.0) || (c == 0 && Row::info.turning_axis)) turning |= 1u << c;
+        }
+      });
       turn_axes.push_back(axes);
       turns.push_back(turning);
       translation.push_back(joint_translation_block(model, k));
@@ -153,82 +123,39 @@ struct Tables {
       positions = positions || needs.positions;
     }
     for (int k = 0; k < model.num_bodies(); ++k)
-      if (model.joint(k).type == JointType::free && model.lower_body(k) != kGround)
+      if (joint_type_info(model.joint(k).type).absolute && model.lower_body(k) != kGround)
         absolute_rotation = true;
   }
 };
 
-// The joint table of body K over S (the table of detail::joint_motion, docs/theory.md,
-// "Joints"): eps, R, E, slide, sd, w_rel and a universal joint's first column of [G_K] into b
-// (the other columns are constant: Tables::turn_axes), [G dot] z_K into g_dot_z for a universal
-// joint (universal set); J's terms in lower (null for a root).
+// Body K's joint over S (its row of the joint table, src/joint_table.hpp): eps, R, E, slide,
+// sd, w_rel and a turning first column of [G_K] into b (the other columns are constant:
+// Tables::turn_axes), [G dot] z_K into g_dot_z where that column turns (turning set); J's terms
+// in lower (null for a root).
 template <typename S>
 void joint_terms(const Model& model, const Tables& tables, int k, const S* q, const S* z,
-                 const Body<S>* lower, Body<S>& b, V3<S>& g_dot_z, bool& universal) {
+                 const Body<S>* lower, Body<S>& b, V3<S>& g_dot_z, bool& turning) {
   const Joint& jt = model.joint(k);
   const int o = model.coordinate_offset(k);
-  const int p = model.speed_offset(k);
-  const S zero{};
-  const S one = zero + 1.0;
-  const V3<S> none{zero, zero, zero};
-  b.w_rel = none;
-  b.slide = none;
-  b.sd = none;
-  universal = false;
-  if (jt.type == JointType::free) {  // the notes' own: eps_K and s'_K in q, w'_K and s'_K dot in z
+  const JointTypeInfo& info = joint_type_info(jt.type);
+  detail::JointTerms<S> t;
+  detail::joint_terms(jt, model.slide_axes_in_j(k), q + o, z + model.speed_offset(k), t);
+  b.w_rel = t.w_rel;
+  b.slide = t.slide;
+  b.sd = t.slide_rate;
+  turning = info.turning_axis;
+  if (turning) {
+    b.g0 = t.g0;
+    g_dot_z = t.g_dot_z;
+  }
+  if (info.absolute) {  // the notes' own: eps_K in q
     b.eps = {{q[o], q[o + 1], q[o + 2], q[o + 3]}};
     b.R = eq::rotation_matrix(b.eps);
     b.E = lower ? product_transposed(b.R, lower->R) : b.R;
-    b.w_rel = {z[p], z[p + 1], z[p + 2]};
-    b.slide = {q[o + 4], q[o + 5], q[o + 6]};
-    b.sd = {z[p + 3], z[p + 4], z[p + 5]};
     return;
   }
-  Eu<S> rel{{zero, zero, zero, one}};  // K relative to F
-  switch (jt.type) {
-    case JointType::free:
-      break;
-    case JointType::weld:
-      b.slide = constant<S>(jt.translation);
-      break;
-    case JointType::revolute:
-    case JointType::cylindrical:
-      rel = turn(jt.axis, q[o]);
-      b.w_rel = scale(z[p], jt.axis);
-      break;
-    case JointType::prismatic:
-      break;
-    case JointType::universal: {
-      // a1 first, then a2 as the first turn carried it: a1 in K components is [R(a2, q2)] a1,
-      // and d/dt [R(a2, q2)] a1 = -(q2 dot a2) x [R(a2, q2)] a1.
-      const Eu<S> second = turn(jt.axes[1], q[o + 1]);
-      b.g0 = times_constant(eq::rotation_matrix(second), jt.axes[0]);
-      rel = compose(turn(jt.axes[0], q[o]), second);
-      b.w_rel = z[p] * b.g0 + scale(z[p + 1], jt.axes[1]);
-      g_dot_z = -(z[p] * z[p + 1]) * cross(jt.axes[1], b.g0);
-      universal = true;
-      break;
-    }
-    case JointType::spherical:
-      rel = {{q[o], q[o + 1], q[o + 2], q[o + 3]}};
-      b.w_rel = {z[p], z[p + 1], z[p + 2]};
-      break;
-    case JointType::planar:  // K's z is F's z
-      rel = turn(Vector3(Vector3::UnitZ()), q[o + 2]);
-      b.w_rel = {zero, zero, z[p + 2]};
-      break;
-  }
-  // The slides: z_K = dq_K/dt on every joint type with one (prismatic, cylindrical, planar).
-  const unsigned mask = tables.slides[at(k)];
-  for (int c = 0; c < 3; ++c)
-    if (mask & (1u << c)) {
-      const Vector3 t = tables.translation[at(k)].col(c);
-      b.slide = b.slide + scale(q[o + c], t);
-      b.sd = b.sd + scale(z[p + c], t);
-    }
-  if (!is_identity(jt.frame)) rel = compose(constant_euler<S>(jt.frame), rel);
-  b.E = eq::rotation_matrix(rel);
-  if (tables.absolute_euler) b.eps = lower ? compose(lower->eps, rel) : rel;
+  b.E = eq::rotation_matrix(t.rel);
+  if (tables.absolute_euler) b.eps = lower ? compose(lower->eps, t.rel) : t.rel;
   if (tables.absolute_rotation) b.R = lower ? product(b.E, lower->R) : b.E;
 }
 
@@ -430,10 +357,10 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     const int j = model.lower_body(k);
     Body<S>* lower = j == kGround ? nullptr : &bodies[at(j)];
     Body<S>& b = bodies[at(k)];
-    const bool free = model.joint(k).type == JointType::free;
-    V3<S> g_dot_z{};  // set for a universal joint only
-    bool universal = false;
-    joint_terms(model, tables, k, q, z, lower, b, g_dot_z, universal);
+    const bool free = joint_type_info(model.joint(k).type).absolute;
+    V3<S> g_dot_z{};  // set where [G_K]'s first column turns (a universal joint)
+    bool turning = false;
+    joint_terms(model, tables, k, q, z, lower, b, g_dot_z, turning);
     b.r = b.slide;
     add_constant(b.r, model.body(k).joint);
     b.w = free || !lower ? b.w_rel : b.w_rel + b.E * lower->w;
@@ -449,7 +376,7 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     V3<S> alpha = none;
     for (int c = 0; c < m; ++c) {
       const double rate = zdot[p + c];
-      if (universal && c == 0)
+      if (turning && c == 0)
         alpha = alpha + rate * b.g0;
       else if (turns & (1u << c))
         add_constant(alpha, Vector3(rate * tables.turn_axes[at(k)][at(c)]));
@@ -459,7 +386,7 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     if (!free) {
       if (lower) alpha = alpha + b.E * lower->alpha;
       alpha = alpha + eq::cross(b.w, b.w_rel);
-      if (universal) alpha = alpha + g_dot_z;
+      if (turning) alpha = alpha + g_dot_z;
     }
     b.alpha = alpha;
     const BodySpec& body = model.body(k);
@@ -484,10 +411,10 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     const V3<S> moment_j = eq::transpose_times(b.E, b.moment);
     const V3<S> force_j = eq::transpose_times(b.E, b.force);
     const int p = model.speed_offset(k);
-    const bool universal = model.joint(k).type == JointType::universal;
+    const bool turning = joint_type_info(model.joint(k).type).turning_axis;
     for (int c = 0; c < speed_count(model.joint(k).type); ++c) {
       S sum = zero;
-      if (universal && c == 0)
+      if (turning && c == 0)
         sum = eq::dot(b.g0, b.moment);
       else if (tables.turns[at(k)] & (1u << c))
         sum = dot_constant(tables.turn_axes[at(k)][at(c)], b.moment);
@@ -499,7 +426,7 @@ void inverse_dynamics(const Model& model, const Tables& tables, const S* q, cons
     if (j == kGround) continue;
     Body<S>& bj = bodies[at(j)];
     bj.moment = bj.moment + eq::cross(b.r, force_j);
-    if (model.joint(k).type != JointType::free) bj.moment = bj.moment + moment_j;
+    if (!joint_type_info(model.joint(k).type).absolute) bj.moment = bj.moment + moment_j;
     bj.force = bj.force + force_j;
   }
   // The loads on joint coordinates (the joint springs' and forces'), and the joint inputs on
@@ -542,17 +469,15 @@ void dual_inverse_dynamics(const Model& model, const Tables& tables, const Dual<
   dual_inverse_dynamics_16(model, tables, q, z, zdot, u, Q, bodies, work, rows);
 }
 
-// Whether tangent entry c of body k is a rotation-vector entry (a free body's first three, a
-// spherical joint's three).
-bool is_rotation_entry(JointType type, int c) {
-  return type == JointType::spherical || (type == JointType::free && c < 3);
-}
+// Whether tangent entry c of body k is a rotation-vector entry (the first three of a joint whose
+// q holds Euler parameters: free, spherical).
+bool is_rotation_entry(JointType type, int c) { return joint_type_info(type).euler && c < 3; }
 
 // The coordinate a non-rotation tangent entry c of body k moves: a free body's s'_K entries
 // follow its four Euler parameters; every other joint's coordinates are its speeds' own.
 int coordinate_of_entry(const Model& model, int k, int c) {
   const int o = model.coordinate_offset(k);
-  return model.joint(k).type == JointType::free ? o + 4 + (c - 3) : o + c;
+  return joint_type_info(model.joint(k).type).euler ? o + 4 + (c - 3) : o + c;
 }
 
 }  // namespace
@@ -618,7 +543,7 @@ VectorX retract(const Model& model, const VectorX& q0, const VectorX& dx) {
     const int p = model.speed_offset(k);
     const int m = speed_count(type);
     int c = 0;
-    if (type == JointType::free || type == JointType::spherical) {
+    if (joint_type_info(type).euler) {
       // [R] = exp(-[r~]) [R_0]: the parameters of R_0 composed with the small turn.
       q.segment<4>(o) =
           compose_euler_parameters(q0.segment<4>(o), small_rotation(dx.segment<3>(p)));
@@ -639,7 +564,7 @@ VectorX tangent_difference(const Model& model, const VectorX& q0, const VectorX&
     const int p = model.speed_offset(k);
     const int m = speed_count(type);
     int c = 0;
-    if (type == JointType::free || type == JointType::spherical) {
+    if (joint_type_info(type).euler) {
       // The turn from R_0 to R: [R][R_0]^T, whose rotation vector r has [R(r)] = exp(-[r~]).
       dx.segment<3>(p) =
           rotation_vector(relative_euler_parameters(q0.segment<4>(o), q.segment<4>(o)));
@@ -660,11 +585,11 @@ std::vector<std::string> tangent_state_names(const Model& model) {
     const JointType type = model.joint(k).type;
     const int m = speed_count(type);
     for (int c = 0; c < m; ++c) {
-      if (type == JointType::free) {
+      if (joint_type_info(type).absolute) {
         const std::string i = std::to_string(c % 3 + 1);
         coordinates.push_back(name + (c < 3 ? ".r" : ".s") + i);
         speeds.push_back(name + (c < 3 ? ".w" : ".sd") + i);
-      } else if (type == JointType::spherical) {
+      } else if (joint_type_info(type).euler) {
         coordinates.push_back(name + ".r" + std::to_string(c + 1));
         speeds.push_back(name + ".w" + std::to_string(c + 1));
       } else {
@@ -862,7 +787,7 @@ void Derivatives::Impl::inverse_directions(const VectorX& q0, const VectorX& z0,
   for (size_t i = 0; i < inputs.size(); ++i) {
     const Input& in = inputs[i];
     const int col = 2 * n + static_cast<int>(i);
-    if (in.type == InputType::joint && model.joint(in.body).type != JointType::free) {
+    if (in.type == InputType::joint && !joint_type_info(model.joint(in.body).type).absolute) {
       out.col(col).setZero();
       out(model.speed_offset(in.body) + in.speed, col) = -1.0;
     } else {
@@ -1170,11 +1095,11 @@ MatrixX rotation_rate_block(const Model& model, const VectorX& z, bool* periodic
   MatrixX K = MatrixX::Zero(n, n);
   for (int k = 0; k < model.num_bodies(); ++k) {
     const JointType type = model.joint(k).type;
-    if (type != JointType::free && type != JointType::spherical) continue;
+    if (!joint_type_info(type).euler) continue;
     const int p = model.speed_offset(k);
     const Vector3 w0 = z.segment<3>(p);
     K.block<3, 3>(p, p) = -skew(w0);
-    if (type == JointType::free && !w0.isZero(0.0) && periodic) *periodic = true;
+    if (joint_type_info(type).absolute && !w0.isZero(0.0) && periodic) *periodic = true;
   }
   return K;
 }

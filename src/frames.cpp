@@ -9,11 +9,8 @@ namespace kanedyn {
 namespace {
 size_t at(int i) { return static_cast<size_t>(i); }
 
-// Whether a joint of this type has a nonzero [T_K] (joint_translation_block).
-bool slides(JointType type) {
-  return type == JointType::free || type == JointType::prismatic ||
-         type == JointType::cylindrical || type == JointType::planar;
-}
+// Whether a joint of this type may have a nonzero [T_K] (joint_translation_block).
+bool slides(JointType type) { return joint_type_info(type).slides; }
 }  // namespace
 
 FrameState frame_state(const Model& model, int f, const State& state, const Kinematics& kin) {
@@ -48,7 +45,7 @@ void point_jacobian(const Model& model, int body, const Vector3& at_b, const Vec
   // L(c)). A free body's w'_c is its own speed (absolute, Eq. 1): the joints below it do not
   // turn it, they only move O_c, so below it the point moved is O_c and w gains nothing. Only
   // [G_c] of the joint's table is needed (no sine or cosine but a universal joint's), and
-  // [T_c] only where the joint slides.
+  // [T_c] only where the joint slides (the joint table's turns and slides).
   Vector3 point = p;
   bool turns = true;
   Matrix36 G;
@@ -59,7 +56,7 @@ void point_jacobian(const Model& model, int body, const Vector3& at_b, const Vec
       const Matrix3& Rc = kin.R[at(c)];
       const Vector3 r = point - kin.p_O[at(c)];
       const int first = model.speed_offset(c);
-      if (type != JointType::prismatic) {
+      if (joint_type_info(type).turns) {
         detail::joint_rotation_columns(model, c, q, G);
         for (int i = 0; i < m; ++i) {
           if (G.col(i).isZero(0.0)) continue;

@@ -24,6 +24,7 @@
 
 #include "equations.hpp"
 #include "joint_motion.hpp"
+#include "joint_table.hpp"
 #include "spatial.hpp"
 #include "spd.hpp"
 #include "tree_ldlt.hpp"
@@ -40,9 +41,7 @@ const Matrix3 kIdentity3 = Matrix3::Identity();
 // 6 x (speeds of one joint): fixed storage, no heap.
 using Block = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
 
-// Where [S_K] = ([S_w]; [S_v]) has nonzero rows: the products with it skip the zero half.
-// ball: a spherical joint's [S] = ([R_K]^T; 0).
-enum class Subspace { none, angular, ball, linear, general, free };
+using detail::Subspace;  // the shape of [S_K], from the joint table
 
 // Body K's terms of the recursions, in inertial components about O_K (docs/theory.md).
 struct Link {
@@ -545,35 +544,14 @@ void JointDynamics::Impl::solve_outward(int k, Eigen::Ref<MatrixX> x) {
   }
 }
 
-// Each joint type's speed count and shape of [S], for the templates above.
+// Each joint type's speed count and shape of [S] (its row of the joint table), for the
+// templates above.
 template <typename Step>
 void dispatch_joint_type(JointType type, Step&& step) {
-  switch (type) {
-    case JointType::free:
-      step.template operator()<6, Subspace::free>();
-      break;
-    case JointType::weld:
-      step.template operator()<0, Subspace::none>();
-      break;
-    case JointType::revolute:
-      step.template operator()<1, Subspace::angular>();
-      break;
-    case JointType::prismatic:
-      step.template operator()<1, Subspace::linear>();
-      break;
-    case JointType::cylindrical:
-      step.template operator()<2, Subspace::general>();
-      break;
-    case JointType::universal:
-      step.template operator()<2, Subspace::angular>();
-      break;
-    case JointType::spherical:
-      step.template operator()<3, Subspace::ball>();
-      break;
-    case JointType::planar:  // [S] = ([0 0 R_K^T e_z]; [R_J^T x_F, R_J^T y_F, 0])
-      step.template operator()<3, Subspace::general>();
-      break;
-  }
+  detail::visit_joint_row(type, [&step](auto row) {
+    using Row = decltype(row);
+    step.template operator()<Row::info.speeds, Row::subspace>();
+  });
 }
 
 void JointDynamics::Impl::recursive(Eigen::Ref<VectorX> zdot) {

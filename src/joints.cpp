@@ -14,6 +14,7 @@
 
 #include "equations.hpp"
 #include "joint_motion.hpp"
+#include "joint_table.hpp"
 
 namespace kanedyn {
 
@@ -24,67 +25,48 @@ size_t at(int i) { return static_cast<size_t>(i); }
 constexpr double kPerpendicularTolerance = 1e-9;  // |a1 . a2| of universal axes
 constexpr double kUnitNormTolerance = 1e-6;       // the rule of `euler_parameters`
 
-bool is_free(JointType t) { return t == JointType::free; }
-bool has_axis(JointType t) {
-  return t == JointType::revolute || t == JointType::prismatic || t == JointType::cylindrical;
-}
+bool is_free(JointType t) { return joint_type_info(t).absolute; }
 
 // The Euler-parameter slice of a body's q (spherical q, or a free body's eps_K), if any.
-int euler_slice(JointType t) { return t == JointType::free || t == JointType::spherical ? 4 : 0; }
+int euler_slice(JointType t) { return joint_type_info(t).euler ? 4 : 0; }
 
-// Euler parameters of the turn q about a unit axis (the Model normalized it): what
-// euler_parameters_from_axis_angle gives without its rescaling of an arbitrary axis.
-Vector4 turn_about_unit_axis(const Vector3& axis, double q) {
-  const double s = std::sin(0.5 * q);
-  return {s * axis.x(), s * axis.y(), s * axis.z(), std::cos(0.5 * q)};
-}
-
-bool is_identity(const Vector4& eps) {
-  return eps[0] == 0.0 && eps[1] == 0.0 && eps[2] == 0.0 && eps[3] == 1.0;
-}
-
-// F's x and y axes in J components, the columns of a planar joint's [T_K]: the first two
-// columns of [R(frame)]^T, [R(frame)] mapping J components to F components.
-Eigen::Matrix<double, 3, 2> plane_axes_in_j(const Vector4& frame) {
-  return rotation_matrix(frame).topRows<2>().transpose();
-}
-
-// Each type's name and counts, in the order of the enum (the table of joint.hpp).
-struct TypeRow {
-  const char* name;
-  int coordinates, speeds;
-};
-constexpr TypeRow kTypeRows[] = {{"free", 7, 6},      {"weld", 0, 0},        {"revolute", 1, 1},
-                                 {"prismatic", 1, 1}, {"cylindrical", 2, 2}, {"universal", 2, 2},
-                                 {"spherical", 4, 3}, {"planar", 3, 3}};
-static_assert(std::size(kTypeRows) == std::size(kJointTypes), "a row for every joint type");
-
-const TypeRow& row(JointType type) { return kTypeRows[static_cast<int>(type)]; }
+// Each type's row of the joint table, without its motion, in the order of the enum.
+#define KANEDYN_JOINT_INFO(name) detail::JointRow<JointType::name>::info,
+constexpr JointTypeInfo kInfo[] = {KANEDYN_JOINT_TYPES(KANEDYN_JOINT_INFO)};
+#undef KANEDYN_JOINT_INFO
+static_assert(std::size(kInfo) == std::size(kJointTypes), "a row for every joint type");
 
 }  // namespace
 
-const char* to_string(JointType type) { return row(type).name; }
+const JointTypeInfo& joint_type_info(JointType type) { return kInfo[static_cast<int>(type)]; }
 
-int coordinate_count(JointType type) { return row(type).coordinates; }
+const char* to_string(JointType type) { return joint_type_info(type).name; }
 
-int speed_count(JointType type) { return row(type).speeds; }
+int coordinate_count(JointType type) { return joint_type_info(type).coordinates; }
+
+int speed_count(JointType type) { return joint_type_info(type).speeds; }
 
 bool speeds_are_coordinate_rates(JointType type) {
-  return row(type).speeds > 0 && row(type).coordinates == row(type).speeds;
+  const JointTypeInfo& info = joint_type_info(type);
+  return info.speeds > 0 && info.coordinates == info.speeds;
 }
 
 std::string check_joint(const Joint& joint) {
   if (std::abs(joint.frame.norm() - 1.0) > kUnitNormTolerance)
     return "the joint frame's Euler parameters must have unit norm";
-  if (has_axis(joint.type) && !scaled_direction(joint.axis))
-    return std::string("the axis of a ") + to_string(joint.type) +
-           " joint must be finite and not zero";
-  if (joint.type == JointType::universal) {
+  const JointTypeInfo& info = joint_type_info(joint.type);
+  if (info.takes_axis && !scaled_direction(joint.axis))
+    return std::string("the axis of a ") + info.name + " joint must be finite and not zero";
+  if (info.takes_pitch && !std::isfinite(joint.pitch))
+    return std::string("the pitch of a ") + info.name + " joint must be finite";
+  if (info.takes_axes) {
     const auto a1 = unit_direction(joint.axes[0]), a2 = unit_direction(joint.axes[1]);
-    if (!a1 || !a2) return "the axes of a universal joint must be finite and not zero";
+    if (!a1 || !a2)
+      return std::string("the axes of a ") + info.name + " joint must be finite and not zero";
     const double c = a1->dot(*a2);
     if (!(std::abs(c) <= kPerpendicularTolerance))
-      return "the axes of a universal joint must be perpendicular (|a1 . a2| <= 1e-9)";
+      return std::string("the axes of a ") + info.name +
+             " joint must be perpendicular (|a1 . a2| <= 1e-9)";
   }
   return "";
 }
@@ -134,103 +116,47 @@ namespace detail {
 
 namespace {
 
-// [G_K] (3 x speeds, body-K components): w_rel = [G_K] z_K. Only a universal joint's depends on
-// q: a1, fixed in F and in the intermediate frame, is [R(a2, q2)] a1 in K components, and a2 is
-// fixed in K; its second turn's Euler parameters go to `second` for the joint's rotation.
-inline void rotation_columns(const Joint& jt, const VectorX& q, int o, Matrix36& G,
-                             Vector4& second) {
+// [G_K] (3 x speeds, body-K components): w_rel = [G_K] z_K. Only a row whose first column turns
+// with q (universal) evaluates its motion here.
+template <typename Row>
+inline void rotation_columns(Row, const Joint& jt, const double* q, Matrix36& G) {
   G.setZero();
-  switch (jt.type) {
-    case JointType::free:  // the notes' own: w'_K = z_K
-    case JointType::spherical:
-      G.leftCols<3>().setIdentity();
-      break;
-    case JointType::revolute:  // n is fixed by the turn about n
-    case JointType::cylindrical:
-      G.col(0) = jt.axis;
-      break;
-    case JointType::universal:
-      second = turn_about_unit_axis(jt.axes[1], q[o + 1]);
-      G.col(0) = rotation_matrix(second) * jt.axes[0];
-      G.col(1) = jt.axes[1];
-      break;
-    case JointType::planar:  // e_z has the same components in F and K
-      G.col(2) = Vector3::UnitZ();
-      break;
-    case JointType::prismatic:
-    case JointType::weld:
-      break;
+  Row::rotation_columns(jt, G);
+  if constexpr (Row::info.turning_axis) {
+    constexpr double zeros[6] = {};
+    RowMotion<double> m{no_turn<double>(), zero_vec<double>(), zero_vec<double>(),
+                        zero_vec<double>()};
+    Row::template motion<double>(jt, q, zeros, m);
+    G.col(0) = eq::eigen(m.g0);
   }
 }
 
 }  // namespace
 
 void joint_rotation_columns(const Model& model, int k, const VectorX& q, Matrix36& G) {
-  Vector4 second;
-  rotation_columns(model.joint(k), q, model.coordinate_offset(k), G, second);
+  const Joint& jt = model.joint(k);
+  const double* qk = q.data() + model.coordinate_offset(k);
+  visit_joint_row(jt.type, [&](auto row) { rotation_columns(row, jt, qk, G); });
 }
 
 void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k, JointMotion& m) {
   const Joint& jt = model.joint(k);
-  const int o = model.coordinate_offset(k);
-  const auto rate = [z_k](int c) { return z_k ? z_k[c] : 0.0; };
-  Vector4 second;  // a universal joint's second turn
-  rotation_columns(jt, q, o, m.G, second);
-  m.w_rel.setZero();
-  m.slide.setZero();
-  m.slide_rate.setZero();
-  m.g_dot_z.setZero();
-  Vector4 joint_rel{0.0, 0.0, 0.0, 1.0};  // K relative to F
-  switch (jt.type) {
-    case JointType::free:  // the notes' own: w'_K = z_K, s'_K dot = the next three
-      m.rel = jt.frame;
-      m.w_rel = Vector3(rate(0), rate(1), rate(2));
-      m.slide = q.segment<3>(o + 4);
-      m.slide_rate = Vector3(rate(3), rate(4), rate(5));
-      return;
-    case JointType::weld:
-      m.slide = jt.translation;
-      break;
-    case JointType::revolute:
-      joint_rel = turn_about_unit_axis(jt.axis, q[o]);
-      m.w_rel = rate(0) * jt.axis;
-      break;
-    case JointType::prismatic:
-      m.slide = q[o] * model.axis_in_j(k);
-      m.slide_rate = rate(0) * model.axis_in_j(k);
-      break;
-    case JointType::cylindrical:
-      joint_rel = turn_about_unit_axis(jt.axis, q[o]);
-      m.w_rel = rate(0) * jt.axis;
-      m.slide = q[o + 1] * model.axis_in_j(k);
-      m.slide_rate = rate(1) * model.axis_in_j(k);
-      break;
-    case JointType::universal: {
-      // a1 first, then a2 as the first turn carried it (rotation_columns); d/dt [R(a2, q2)] a1 =
-      // -(q2 dot a2) x [R(a2, q2)] a1.
-      joint_rel = compose(turn_about_unit_axis(jt.axes[0], q[o]), second);
-      const Vector3 a1_k = m.G.col(0);
-      m.w_rel = rate(0) * a1_k + rate(1) * jt.axes[1];
-      m.g_dot_z = -rate(0) * rate(1) * jt.axes[1].cross(a1_k);
-      break;
-    }
-    case JointType::spherical:
-      joint_rel = q.segment<4>(o);
-      m.w_rel = Vector3(rate(0), rate(1), rate(2));
-      break;
-    case JointType::planar: {
-      // q = (x, y, angle): K is F turned by angle about F's z, which is also K's z; the slide
-      // x, y along F's x and y axes, constant in J, so [T_K] = [x_F y_F 0] (J components).
-      joint_rel = turn_about_unit_axis(Vector3::UnitZ(), q[o + 2]);
-      m.w_rel = Vector3(0.0, 0.0, rate(2));
-      const Eigen::Matrix<double, 3, 2> t = plane_axes_in_j(jt.frame);
-      m.slide = q[o] * t.col(0) + q[o + 1] * t.col(1);
-      m.slide_rate = rate(0) * t.col(0) + rate(1) * t.col(1);
-      break;
-    }
-  }
-  // A product with the identity is exact: skipping it keeps the bits.
-  m.rel = is_identity(jt.frame) ? joint_rel : compose(jt.frame, joint_rel);
+  const double* qk = q.data() + model.coordinate_offset(k);
+  constexpr double zeros[6] = {};
+  const double* zk = z_k ? z_k : zeros;
+  visit_joint_row(jt.type, [&](auto row) {
+    using Row = decltype(row);
+    JointTerms<double> t;
+    row_terms<double>(row, jt, model.slide_axes_in_j(k), qk, zk, t);
+    m.G.setZero();
+    Row::rotation_columns(jt, m.G);
+    if constexpr (Row::info.turning_axis) m.G.col(0) = eq::eigen(t.g0);
+    m.rel = Row::info.absolute ? jt.frame : eq::eigen(t.rel);
+    m.w_rel = eq::eigen(t.w_rel);
+    m.slide = eq::eigen(t.slide);
+    m.slide_rate = eq::eigen(t.slide_rate);
+    m.g_dot_z = eq::eigen(t.g_dot_z);
+  });
 }
 
 JointMotion joint_motion(const Model& model, int k, const VectorX& q, const double* z_k) {
@@ -254,7 +180,7 @@ void joint_state(const Model& model, const VectorX& q, const VectorX& z, State& 
       state.euler_parameters(k) = m.rel;
       state.angular_velocity(k) = m.w_rel;
     } else {  // w'_K = w_rel + [R(rel)] w'_J, [R(rel)] = [R_K][R_J]^T
-      state.euler_parameters(k) = compose(state.euler_parameters(j), m.rel);
+      state.euler_parameters(k) = kanedyn::compose(state.euler_parameters(j), m.rel);
       state.angular_velocity(k) =
           m.w_rel + eq::eigen(eq::rotate(eq::euler(m.rel), eq::vec(state.angular_velocity(j))));
     }
@@ -281,22 +207,11 @@ Matrix36 joint_rotation_block(const Model& model, int k, const VectorX& q) {
 
 Matrix36 joint_translation_block(const Model& model, int k) {
   Matrix36 t = Matrix36::Zero();
-  switch (model.joint(k).type) {
-    case JointType::free:
-      t.rightCols<3>().setIdentity();
-      break;
-    case JointType::prismatic:
-      t.col(0) = model.axis_in_j(k);
-      break;
-    case JointType::cylindrical:
-      t.col(1) = model.axis_in_j(k);
-      break;
-    case JointType::planar:
-      t.leftCols<2>() = plane_axes_in_j(model.joint(k).frame);
-      break;
-    default:
-      break;
-  }
+  detail::visit_joint_row(model.joint(k).type, [&](auto row) {
+    using Row = decltype(row);
+    for (int c = 0; c < Row::slide_count; ++c)
+      t.col(Row::first_slide + c) = model.slide_axes_in_j(k).col(c);
+  });
   return t;
 }
 
@@ -334,12 +249,12 @@ void joint_coordinates(const Model& model, const State& state, VectorX& q, Vecto
   for (int k = 0; k < n; ++k) {
     const JointType type = model.joint(k).type;
     const int o = model.coordinate_offset(k), p = model.speed_offset(k);
-    if (type == JointType::free) {  // the notes' own coordinates and speeds
+    if (joint_type_info(type).absolute) {  // the notes' own coordinates and speeds
       q.segment<4>(o) = state.euler_parameters(k);
       q.segment<3>(o + 4) = state.translation(k);
       z.segment<3>(p) = state.angular_velocity(k);
       z.segment<3>(p + 3) = state.translation_rate(k);
-    } else if (type == JointType::weld) {
+    } else if (speed_count(type) == 0) {  // a weld: checked below
       welds = true;
     } else {
       throw std::invalid_argument("body '" + model.body(k).name + "' has a " + to_string(type) +
@@ -351,7 +266,7 @@ void joint_coordinates(const Model& model, const State& state, VectorX& q, Vecto
   State held(model);
   joint_state(model, q, z, held);
   for (int k = 0; k < n; ++k) {
-    if (model.joint(k).type != JointType::weld) continue;
+    if (speed_count(model.joint(k).type) != 0 || is_free(model.joint(k).type)) continue;
     const auto off = [](const auto& a, const auto& b) {
       return ((a - b).array().abs() > 1e-9 * (1.0 + b.array().abs())).any();
     };
@@ -383,18 +298,14 @@ void joint_coordinate_rates(const Model& model, const VectorX& q, const VectorX&
                             Eigen::Ref<VectorX> qdot) {
   for (int k = 0; k < model.num_bodies(); ++k) {
     const int o = model.coordinate_offset(k), p = model.speed_offset(k);
-    switch (model.joint(k).type) {
-      case JointType::free:  // Eqs. (39)-(41), (40)
-        qdot.segment<4>(o) = euler_parameter_rates(q.segment<4>(o), z.segment<3>(p));
-        qdot.segment<3>(o + 4) = z.segment<3>(p + 3);
-        break;
-      case JointType::spherical:  // Eq. (39) for K relative to F, w_rel in body-K components
-        qdot.segment<4>(o) = euler_parameter_rates(q.segment<4>(o), z.segment<3>(p));
-        break;
-      default:
-        qdot.segment(o, coordinate_count(model.joint(k).type)) =
-            z.segment(p, speed_count(model.joint(k).type));
-        break;
+    const JointTypeInfo& info = joint_type_info(model.joint(k).type);
+    if (info.euler) {
+      // Eq. (39) for eps_K (free) or for K relative to F (spherical, w_rel in body-K
+      // components); then the rest of q is the rest of z (Eq. 40 for a free body's s'_K).
+      qdot.segment<4>(o) = euler_parameter_rates(q.segment<4>(o), z.segment<3>(p));
+      qdot.segment(o + 4, info.coordinates - 4) = z.segment(p + 3, info.speeds - 3);
+    } else {
+      qdot.segment(o, info.coordinates) = z.segment(p, info.speeds);
     }
   }
 }

@@ -10,6 +10,8 @@
 #include "kanedyn/forces.hpp"
 #include "kanedyn/rotation.hpp"
 
+#include "joint_table.hpp"
+
 namespace kanedyn {
 
 namespace {
@@ -311,7 +313,7 @@ void Model::set_up_joints() {
                      std::to_string(n) + " bodies");
   q_offset_.assign(at(n + 1), 0);
   z_offset_.assign(at(n + 1), 0);
-  axis_j_.assign(at(n), Vector3::Zero());
+  slides_j_.assign(at(n), Matrix3::Zero());
   w_chain_.resize(at(n));
   for (int k = 0; k < n; ++k) {
     Joint& jt = joints_[at(k)];
@@ -324,8 +326,17 @@ void Model::set_up_joints() {
       if (const auto u = unit_direction(a)) a = *u;
     q_offset_[at(k + 1)] = q_offset_[at(k)] + coordinate_count(jt.type);
     z_offset_[at(k + 1)] = z_offset_[at(k)] + speed_count(jt.type);
-    // F's axis in J components: [R(frame)] maps J to F components.
-    axis_j_[at(k)] = rotation_matrix(jt.frame).transpose() * jt.axis;
+    // The sliding columns of [T_K] in J components: [R(frame)] maps J to F components.
+    detail::visit_joint_row(jt.type, [&](auto row) {
+      using Row = decltype(row);
+      Matrix36 T = Matrix36::Zero();
+      Row::translation_columns(jt, T);
+      // A joint without a frame (free: the notes' own body) has its slides in J already.
+      const Matrix3 to_j = Row::info.takes_frame ? Matrix3(rotation_matrix(jt.frame).transpose())
+                                                 : Matrix3::Identity();
+      for (int c = 0; c < Row::slide_count; ++c)
+        slides_j_[at(k)].col(c) = to_j * T.col(Row::first_slide + c);
+    });
     if (jt.type != JointType::free) all_free_ = false;
   }
   // The angular chains' total length grows as N^2 along a chain of joints; they are stored up

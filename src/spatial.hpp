@@ -124,7 +124,7 @@ inline void add_carried_inertia(const BodyMap& m, const Matrix6& M, Matrix6& tar
                                                    const Matrix3& rj, const Matrix36& G,
                                                    const Matrix36& T, unsigned slides, double* s) {
   Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> out(s, 6, m);
-  if (type == JointType::prismatic) {
+  if (!joint_type_info(type).turns) {
     out.topRows<3>().setZero();
   } else {
     for (int col = 0; col < m; ++col)
@@ -158,7 +158,7 @@ inline void velocity_product_acceleration(JointType type, bool root, const Vecto
     c.head<3>().setZero();
   } else {
     c.head<3>() = w_k.cross(w_k - w_j);
-    if (type == JointType::universal) c.head<3>().noalias() += rk.transpose() * jm.g_dot_z;
+    if (joint_type_info(type).turning_axis) c.head<3>().noalias() += rk.transpose() * jm.g_dot_z;
   }
   if (root) {
     c.tail<3>().setZero();

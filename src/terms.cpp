@@ -268,7 +268,7 @@ void Terms::Impl::newton_euler(const VectorX& q, const VectorX* z, const VectorX
       alpha += in_k.col(0);
       if (z) {
         alpha += l.w.cross(jm.w_rel);
-        if (type == JointType::universal) alpha += jm.g_dot_z;
+        if (joint_type_info(type).turning_axis) alpha += jm.g_dot_z;
       }
     }
     l.A.head<3>() = alpha;

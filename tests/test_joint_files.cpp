@@ -314,7 +314,7 @@ std::vector<BadCase> joint_bad_cases() {
        "body: ^base",
        "forces[0].body",
        {"joint_spring acts on joint coordinates", "free joint",
-        "revolute, prismatic, cylindrical, universal and planar joints"}},
+        "revolute, prismatic, cylindrical, universal, planar and screw joints"}},
       {"joint force on a spherical joint",
        edit(b, "    body: cyl\n", "    body: ball\n"),
        "body: ^ball\n    value",
@@ -376,6 +376,7 @@ double joint_violation(const Model& model, const State& s) {
     switch (jt.type) {
       case JointType::revolute:
       case JointType::cylindrical:
+      case JointType::screw:
         note((m * jt.axis - jt.axis).norm());  // a turn about the axis leaves it
         note(w_rel.cross(jt.axis).norm());
         if (jt.type == JointType::revolute) {

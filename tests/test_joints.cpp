@@ -149,6 +149,14 @@ void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
       r_expected = reference_rotation(q.segment<4>(o));
       w_expected = z.segment<3>(p);
       break;
+    case JointType::screw:  // the turn about n, and pitch times it along n
+      r_expected = turn(n, q[o]);
+      w_expected = z[p] * n;
+      s_expected = jt.pitch * q[o] * n_j;
+      sd_expected = jt.pitch * z[p] * n_j;
+      EXPECT_LT((w_rel.cross(n)).norm(), kRoundOff) << "screw: w_rel along the axis";
+      EXPECT_LT(s_k.cross(n_j).norm(), kRoundOff) << "screw: s' along the axis";
+      break;
     case JointType::planar: {
       // x, y along F's x and y axes (J components), the turn about F's z axis.
       const Vector3 x_j = r_f.transpose() * Vector3::UnitX(),
@@ -174,7 +182,7 @@ void expect_body_follows_joint(const Jointed& j, const State& s, int k) {
 }
 
 TEST(Joints, CountsOfTheSpecTable) {
-  const int q[] = {7, 0, 1, 1, 2, 2, 4, 3}, z[] = {6, 0, 1, 1, 2, 2, 3, 3};
+  const int q[] = {7, 0, 1, 1, 2, 2, 4, 3, 1}, z[] = {6, 0, 1, 1, 2, 2, 3, 3, 1};
   ASSERT_EQ(std::size(kJointTypes), std::size(q));
   for (size_t i = 0; i < std::size(q); ++i) {
     EXPECT_EQ(coordinate_count(kJointTypes[i]), q[i]) << to_string(kJointTypes[i]);
@@ -405,9 +413,9 @@ TEST(Joints, ValidationNamesEachProblem) {
 // The names are the model format's, and the joints that take joint_spring and joint_force are
 // those whose speeds are the coordinates' rates.
 TEST(Joints, NamesAndLoadableTypesOfTheSpecTable) {
-  const char* names[] = {"free",        "weld",      "revolute",  "prismatic",
-                         "cylindrical", "universal", "spherical", "planar"};
-  const bool loadable[] = {false, false, true, true, true, true, false, true};
+  const char* names[] = {"free",      "weld",      "revolute", "prismatic", "cylindrical",
+                         "universal", "spherical", "planar",   "screw"};
+  const bool loadable[] = {false, false, true, true, true, true, false, true, true};
   ASSERT_EQ(std::size(kJointTypes), std::size(names));
   for (size_t i = 0; i < std::size(names); ++i) {
     EXPECT_EQ(std::string(to_string(kJointTypes[i])), names[i]);

@@ -318,6 +318,7 @@ inline Joint random_joint(std::mt19937& rng, JointType type) {
   const Vector3 a1 = random_unit(rng);
   j.axes = {2.0 * a1, a1.cross(random_unit(rng)).normalized()};
   j.translation = random_vector(rng, -0.3, 0.3);
+  j.pitch = uniform(rng, -0.3, 0.3);
   return j;
 }
 
@@ -337,6 +338,7 @@ inline void random_joint_state(const Model& tree, std::mt19937& rng, VectorX& q,
         q.segment<4>(o) = random_euler_parameters(rng);
         break;
       case JointType::revolute:
+      case JointType::screw:
         q[o] = uniform(rng, -3, 3);
         break;
       case JointType::prismatic:

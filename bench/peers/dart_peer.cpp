@@ -410,6 +410,8 @@ JointedSkeleton build_skeleton(const JointedSystem& system) {
         node = c.second;
         break;
       }
+      case JointKind::screw:  // refused by dart_jointed_engine's check
+        throw std::runtime_error("peers: DART: screw joints are not translated");
       case JointKind::planar: {
         // DART's positions are (x, y along the plane's axes, angle about its normal), kanedyn's
         // order; the x-y plane of the joint frame F.
@@ -770,6 +772,8 @@ class DartJointedEngine final : public JointedEngine {
 JointedEngineInfo dart_jointed_engine() {
   return {"DART", DART_VERSION,
           [](const JointedSystem& s) {
+            for (const JointSpec& j : s.joints)
+              if (j.type == JointKind::screw) return std::string("screw joints not translated");
             if (!s.springs.empty()) return std::string("point-to-point springs not translated");
             return s.constraints.empty() ? std::string()
                                          : std::string("constraints not translated");

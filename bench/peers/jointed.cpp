@@ -25,8 +25,8 @@ using kanedyn::VectorX;
 size_t at(int i) { return static_cast<size_t>(i); }
 
 // describe_jointed casts JointType to JointKind: the same enumerators in the same order.
-static_assert(std::size(kanedyn::kJointTypes) == static_cast<size_t>(JointKind::planar) + 1 &&
-                  static_cast<int>(JointType::planar) == static_cast<int>(JointKind::planar),
+static_assert(std::size(kanedyn::kJointTypes) == static_cast<size_t>(JointKind::screw) + 1 &&
+                  static_cast<int>(JointType::screw) == static_cast<int>(JointKind::screw),
               "peer.hpp's JointKind must list kanedyn's joint types");
 
 // Uniform in [lo, hi] from the raw 32-bit output (std::uniform_real_distribution's results
@@ -175,6 +175,28 @@ std::unique_ptr<JointedCase> planar_joints(unsigned seed) {
   return c;
 }
 
+// Screw joints (a turn about the axis and pitch times it along it) among others.
+std::unique_ptr<JointedCase> screw_joints(unsigned seed) {
+  const kanedyn::GeneratedSystem g = kanedyn::random_tree_model(5, seed);
+  std::mt19937 rng(seed + 29);
+  const JointType types[5] = {JointType::screw, JointType::revolute, JointType::screw,
+                              JointType::screw, JointType::prismatic};
+  std::vector<Joint> joints;
+  std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads;
+  for (int k = 0; k < 5; ++k) {
+    Joint j = joint(types[k], random_unit(rng));
+    j.frame = random_turn(rng, M_PI);
+    j.pitch = uniform(rng, -0.2, 0.2);  // lengths per radian, of the bodies' size
+    loads.push_back(load(k, kanedyn::coordinate_count(types[k]), uniform(rng, 5, 50),
+                         uniform(rng, 0.1, 1), uniform(rng, -0.3, 0.3), uniform(rng, -2, 2)));
+    joints.push_back(j);
+  }
+  auto c = std::make_unique<JointedCase>(
+      "screw-joints", with_bushings_on(g.model, {}, "screw-joints"), joints, loads);
+  size_state(*c);
+  return c;
+}
+
 void random_joint_state(JointedCase& c, std::mt19937& rng) {
   size_state(c);
   for (int k = 0; k < c.model.num_bodies(); ++k) {
@@ -189,6 +211,7 @@ void random_joint_state(JointedCase& c, std::mt19937& rng) {
         break;
       case JointType::revolute:
       case JointType::universal:
+      case JointType::screw:
         for (int i = 0; i < kanedyn::coordinate_count(c.model.joint(k).type); ++i)
           c.q[o + i] = uniform(rng, -1.2, 1.2);
         break;
@@ -239,6 +262,7 @@ JointedSystem describe_jointed(const JointedCase& c) {
     spec.axis = j.type == JointType::universal ? arr(j.axes[0]) : arr(j.axis);
     spec.axis2 = arr(j.axes[1]);
     spec.translation = arr(j.translation);
+    spec.pitch = j.pitch;
     sys.joints.push_back(spec);
     sys.q_offset.push_back(tree.coordinate_offset(k));
     sys.z_offset.push_back(tree.speed_offset(k));

@@ -52,6 +52,7 @@ std::unique_ptr<JointedCase> every_joint_type(unsigned seed);
 /// revolute, planar, planar, prismatic, with random joint frames (the planes) and axes, and joint
 /// springs, dampers and constant forces on every joint; no bushing.
 std::unique_ptr<JointedCase> planar_joints(unsigned seed);
+std::unique_ptr<JointedCase> screw_joints(unsigned seed);
 
 /// A random state: angles in [-1.2, 1.2] rad, slides (and planar x, y) in [-0.1, 0.1] m, spherical
 /// joints and the free root turned by up to 1.2 rad about a random axis, the root's s' up to 2 cm;

@@ -82,6 +82,7 @@ std::vector<std::unique_ptr<JointedCase>> make_cases(const JointedOptions& opt) 
   if (wanted(opt, "eight-body-jointed")) cases.push_back(jointed_eight_body(opt.eight_body));
   if (wanted(opt, "every-joint-type")) cases.push_back(every_joint_type(opt.seed));
   if (wanted(opt, "planar-joints")) cases.push_back(planar_joints(opt.seed));
+  if (wanted(opt, "screw-joints")) cases.push_back(screw_joints(opt.seed));
   std::vector<int> chains;
   if (opt.models.empty()) chains.push_back(opt.chain);
   for (const std::string& name : opt.models)

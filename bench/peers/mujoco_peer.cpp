@@ -564,6 +564,8 @@ class MujocoJointedEngine final : public JointedEngine {
         case JointKind::spherical:
           x += "<joint name=\"" + id + "_j0\" type=\"ball\"/>\n";
           break;
+        case JointKind::screw:  // refused by mujoco_jointed_engine's check
+          throw std::runtime_error("peers: MuJoCo: no screw joint");
         case JointKind::planar:
           // MuJoCo has no planar joint type; two slides along the body frame's (F's) x and y,
           // then a hinge about its z through the moved origin, are one: each joint of a body
@@ -594,6 +596,9 @@ JointedEngineInfo mujoco_jointed_engine() {
   const EngineInfo free = mujoco_engine();
   return {free.name, free.version,
           [](const JointedSystem& s) {
+            // MuJoCo 2.2 has no joint that couples a turn and a slide.
+            for (const JointSpec& j : s.joints)
+              if (j.type == JointKind::screw) return std::string("no screw joint in MuJoCo");
             if (!s.springs.empty()) return std::string("point-to-point springs not translated");
             return s.constraints.empty() ? std::string()
                                          : std::string("constraints not translated");

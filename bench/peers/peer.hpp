@@ -152,16 +152,27 @@ inline long equal_steps(double span, double step) {
 // coordinates q and independent speeds z of kanedyn's layout (include/kanedyn/joints.hpp).
 
 /// kanedyn::JointType in plain terms, in the same order (jointed.cpp checks the count).
-enum class JointKind { free, weld, revolute, prismatic, cylindrical, universal, spherical, planar };
+enum class JointKind {
+  free,
+  weld,
+  revolute,
+  prismatic,
+  cylindrical,
+  universal,
+  spherical,
+  planar,
+  screw
+};
 
 /// The joint of body K at Q_K, relative to its lower body J, in plain numbers.
 struct JointSpec {
   JointKind type = JointKind::free;
   Quat frame{1, 0, 0, 0};  ///< F relative to J (Hamilton: maps F components to J components)
-  Vec3 axis{1, 0, 0};      ///< revolute, prismatic, cylindrical axis; universal a1 (unit, F)
+  Vec3 axis{1, 0, 0};      ///< revolute, prismatic, cylindrical, screw axis; universal a1 (F)
                            ///< (a planar joint moves in F's x-y plane and turns about F's z)
   Vec3 axis2{0, 1, 0};     ///< universal a2 (unit, F components, perpendicular to a1)
   Vec3 translation{};      ///< weld: the constant s'_K, body-J components
+  double pitch = 0;        ///< screw: translation along the axis per radian of turn
   /// Joint load on coordinate i of kanedyn's q (revolute, prismatic, cylindrical, universal,
   /// planar): Q_i = value_i - stiffness_i (q_i - rest_i) - damping_i dq_i/dt.
   std::array<double, 3> stiffness{}, damping{}, rest{}, value{};

@@ -440,7 +440,7 @@ int main(int argc, char** argv) {
   app.add_option(
          "--models", opt.models,
          "Models to run: eight-body, chain-N, tree-N; eight-body-jointed, every-joint-type, "
-         "planar-joints, revolute-chain-N (default: all)")
+         "planar-joints, screw-joints, revolute-chain-N (default: all)")
       ->delimiter(',');
   app.add_option("--sizes", opt.sizes, "N of the chains and random trees")
       ->delimiter(',')

@@ -310,6 +310,7 @@ Rotation axes_rotation(const JointSpec& j) {
   switch (j.type) {
     case JointKind::revolute:
     case JointKind::cylindrical:
+    case JointKind::screw:
       return columns(u, n % u, n);
     case JointKind::prismatic:
       return columns(n, u, n % u);
@@ -361,6 +362,9 @@ class SimbodyJointedEngine final : public JointedEngine {
           break;
         case JointKind::planar:  // S is the identity: Simbody's plane is F's x-y plane
           bodies_.push_back(SimTK::MobilizedBody::Planar(parent, X_PF, body, X_BM));
+          break;
+        case JointKind::screw:  // the turn about M's z = F's z, and pitch times it along it
+          bodies_.push_back(SimTK::MobilizedBody::Screw(parent, X_PF, body, X_BM, j.pitch));
           break;
       }
     }

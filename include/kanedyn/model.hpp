@@ -96,8 +96,10 @@ class Model {
   int coordinate_offset(int k) const { return q_offset_[static_cast<size_t>(k)]; }
   /// Offset of body k's slice of z (k = N gives the size of z).
   int speed_offset(int k) const { return z_offset_[static_cast<size_t>(k)]; }
-  /// The axis of a revolute, prismatic or cylindrical joint in body-J components.
-  const Vector3& axis_in_j(int k) const { return axis_j_[static_cast<size_t>(k)]; }
+  /// The sliding columns of body k's [T_K] in body-J components, column c for the joint's
+  /// c-th sliding speed (the joint table's first_slide onwards; src/joint_table.hpp): a
+  /// prismatic joint's axis, a planar joint's F x and y axes, a screw's pitch times its axis.
+  const Matrix3& slide_axes_in_j(int k) const { return slides_j_[static_cast<size_t>(k)]; }
   /// The bodies whose z enter w'_K: K (if it has speeds), then down its chain through welds
   /// and joints up to and including the first free body (a free body's w' is its own z).
   /// Only when has_angular_chains() (empty otherwise).
@@ -232,7 +234,7 @@ class Model {
   bool all_free_ = true, body_forces_ = false, body_inputs_ = false;
   std::vector<const ForceElement*> joint_elements_;
   std::vector<int> q_offset_, z_offset_;
-  std::vector<Vector3> axis_j_;
+  std::vector<Matrix3> slides_j_;
   std::vector<std::vector<int>> w_chain_;
   long long w_chain_entries_ = 0;
   std::vector<int> depth_, root_, lower_;

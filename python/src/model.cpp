@@ -136,8 +136,7 @@ VectorX zero_coordinates(const Model& model) {
   VectorX q = VectorX::Zero(model.num_coordinates());
   for (int k = 0; k < model.num_bodies(); ++k) {
     const JointType type = model.joint(k).type;
-    if (type == JointType::free || type == JointType::spherical)
-      q[model.coordinate_offset(k) + 3] = 1.0;
+    if (joint_type_info(type).euler) q[model.coordinate_offset(k) + 3] = 1.0;
   }
   return q;
 }

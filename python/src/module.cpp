@@ -210,7 +210,7 @@ void register_state(py::module_& m) {
             const Model& model = s.model->model();
             for (int k = 0; k < model.num_bodies(); ++k) {
               const JointType type = model.joint(k).type;
-              if (type != JointType::free && type != JointType::spherical) continue;
+              if (!joint_type_info(type).euler) continue;
               const double norm = s.q.segment<4>(model.coordinate_offset(k)).norm();
               if (std::isfinite(norm) && norm > 0.0) continue;
               throw py::value_error("normalize(): the Euler parameters of body '" +

@@ -801,7 +801,7 @@ void check_rows(const PyModel& m, const std::string& caller, const py::array& t,
         not_unit("x", r, 4 * k, k, "the Euler parameters", norm);
     if (tree)
       for (int k = 0; k < n; ++k) {
-        if (tree->joint(k).type != JointType::spherical) continue;
+        if (!relative_euler_joint(tree->joint(k).type)) continue;
         const int first = tree->coordinate_offset(k);
         const double* q = doubles(qa) + r * stride(qa, 0) + first * stride(qa, 1);
         if (const double norm = reader_norm(q, stride(qa, 1));

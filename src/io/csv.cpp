@@ -73,7 +73,7 @@ const Model* rows_with_joints(const Model& model) { return model.all_free() ? nu
 bool has_joint_columns(const Model* joints, int k) {
   if (!joints) return false;
   const JointType t = joints->joint(k).type;
-  return t != JointType::free && t != JointType::weld;
+  return joint_type_info(t).coordinates > 0 && !joint_type_info(t).absolute;
 }
 
 std::vector<std::string> trajectory_columns(const Model& model, const Model* joints);

@@ -1110,42 +1110,68 @@ Vector3 read_direction(const Reader& r, const Field& f, const std::string& what)
 /// The mapping form of `joint` (docs/model-format.md, "Joints"); its `at` goes to `at`.
 Joint read_joint(const Reader& r, const Field& f, Vector3& at) {
   const Mapping m = r.mapping(f);
-  m.allow({"at", "type", "frame", "axis", "axes"});
+  m.allow({"at", "type", "frame", "axis", "axes", "pitch"});
   Joint joint;
   const std::string type = r.choice(m.require("type"), joint_type_names(), "joint type");
   joint.type = joint_type_of(type);
+  // The keys a type takes are its row of the joint table (JointTypeInfo).
+  const JointTypeInfo& info = joint_type_info(joint.type);
+  const auto types_taking = [](bool JointTypeInfo::*key) {
+    std::vector<std::string> names;
+    for (const JointType t : kJointTypes)
+      if (joint_type_info(t).*key) names.emplace_back(to_string(t));
+    std::string s;
+    for (size_t i = 0; i < names.size(); ++i)
+      s += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + names[i];
+    return s + " joints";
+  };
   if (auto v = m.get("at")) at = r.vector3(*v);
   const auto refuse = [&](const std::optional<Field>& v, const std::string& why) {
     if (v) r.fail(v->key_mark, v->path.str(), why);
   };
+  const auto require = [&](const std::optional<Field>& v, const char* key,
+                           const std::string& what) {
+    if (!v)
+      r.fail(
+          f.mark, child_path(f.path.str(), key),
+          "missing required key '" + std::string(key) + "' (" + what + ") of a " + type + " joint");
+  };
   const auto frame = m.get("frame");
-  if (joint.type == JointType::free)
-    refuse(frame, "'frame' is refused on a free joint, where it would mean nothing");
+  if (!info.takes_frame)
+    refuse(frame, "'frame' is refused on a " + type + " joint, where it would mean nothing");
   if (frame) joint.frame = read_rotation(r, *frame);
-  const bool axial = joint.type == JointType::revolute || joint.type == JointType::prismatic ||
-                     joint.type == JointType::cylindrical;
   const auto axis = m.get("axis");
-  if (!axial)
-    refuse(axis, "'axis' is refused on a " + type +
-                     " joint; it is for revolute, prismatic and cylindrical joints" +
-                     (joint.type == JointType::universal ? " (a universal joint takes 'axes')"
-                      : joint.type == JointType::planar  ? " (orient a planar joint's plane with "
-                                                           "'frame': the plane is F's x-y plane)"
-                                                         : ""));
+  if (!info.takes_axis)
+    refuse(axis, "'axis' is refused on a " + type + " joint; it is for " +
+                     types_taking(&JointTypeInfo::takes_axis) +
+                     (info.takes_axes ? " (a " + type + " joint takes 'axes')"
+                      : info.slides && info.turns && !info.absolute
+                          ? " (orient a " + type +
+                                " joint's plane with 'frame': the plane is F's "
+                                "x-y plane)"
+                          : std::string()));
   const auto axes = m.get("axes");
-  if (joint.type != JointType::universal)
-    refuse(axes, "'axes' is refused on a " + type + " joint; it is for universal joints" +
-                     (joint.type == JointType::planar
-                          ? " (orient a planar joint's plane with 'frame': the plane is F's x-y "
-                            "plane)"
+  if (!info.takes_axes)
+    refuse(axes, "'axes' is refused on a " + type + " joint; it is for " +
+                     types_taking(&JointTypeInfo::takes_axes) +
+                     (info.slides && info.turns && !info.takes_axis && !info.absolute
+                          ? " (orient a " + type +
+                                " joint's plane with 'frame': the plane is F's "
+                                "x-y plane)"
                           : ""));
-  if (axial) {
-    if (!axis)
-      r.fail(f.mark, child_path(f.path.str(), "axis"),
-             "missing required key 'axis' (F components) of a " + type + " joint");
+  const auto pitch = m.get("pitch");
+  if (!info.takes_pitch)
+    refuse(pitch, "'pitch' is refused on a " + type + " joint; it is for " +
+                      types_taking(&JointTypeInfo::takes_pitch));
+  if (info.takes_axis) {
+    require(axis, "axis", "F components");
     joint.axis = read_direction(r, *axis, "the joint axis");
   }
-  if (joint.type == JointType::universal) {
+  if (info.takes_pitch) {
+    require(pitch, "pitch", "translation along the axis per radian");
+    joint.pitch = r.number(*pitch);
+  }
+  if (info.takes_axes) {
     if (!axes)
       r.fail(f.mark, child_path(f.path.str(), "axes"),
              "missing required key 'axes' ([a1, a2], F components) of a universal joint");
@@ -1174,33 +1200,34 @@ void read_initial(const Reader& r, const Field& f, int k, State& state, Joint& j
   m.allow({"euler_parameters", "rotation", "translation", "angular_velocity", "translation_rate",
            "joint", "joint_rate"});
   const std::string type = to_string(joint.type);
-  if (joint.type != JointType::free) {
+  const JointTypeInfo& info = joint_type_info(joint.type);
+  if (!info.absolute) {
     for (const char* key :
          {"euler_parameters", "rotation", "translation", "angular_velocity", "translation_rate"}) {
       const auto v = m.get(key);
-      if (!v || (joint.type == JointType::weld && std::string_view(key) == "translation")) continue;
+      if (!v || (info.fixed_translation && std::string_view(key) == "translation")) continue;
       r.fail(v->key_mark, v->path.str(),
              "'" + std::string(key) + "' is refused on a body with a " + type +
                  " joint: its motion follows from the joint and from its parent" +
-                 (joint.type == JointType::weld ? " (a weld takes only 'translation')"
-                                                : "; give 'joint' and 'joint_rate'"));
+                 (info.fixed_translation ? " (a " + type + " joint takes only 'translation')"
+                                         : "; give 'joint' and 'joint_rate'"));
     }
   }
-  if (joint.type == JointType::free || joint.type == JointType::weld) {
+  if (info.coordinates == 0 || info.absolute) {
     for (const char* key : {"joint", "joint_rate"})
       if (const auto v = m.get(key))
-        r.fail(v->key_mark, v->path.str(),
-               "'" + std::string(key) + "' is refused on a " + type + " joint" +
-                   (joint.type == JointType::free
-                        ? ", whose initial state is given by the keys euler_parameters (or "
-                          "rotation), translation, angular_velocity and translation_rate"
-                        : ", which has no coordinates"));
+        r.fail(
+            v->key_mark, v->path.str(),
+            "'" + std::string(key) + "' is refused on a " + type + " joint" +
+                (info.absolute ? ", whose initial state is given by the keys euler_parameters (or "
+                                 "rotation), translation, angular_velocity and translation_rate"
+                               : ", which has no coordinates"));
   }
-  if (joint.type == JointType::weld) {
+  if (info.fixed_translation) {
     if (auto v = m.get("translation")) joint.translation = r.vector3(*v);
     return;
   }
-  if (joint.type != JointType::free) {
+  if (!info.absolute) {
     const auto list = [&](const Field& v, int count, const char* what) {
       if (!v.node.IsSequence() || v.node.size() != static_cast<size_t>(count)) {
         const std::string got =
@@ -1212,7 +1239,7 @@ void read_initial(const Reader& r, const Field& f, int k, State& state, Joint& j
     };
     if (auto v = m.get("joint")) {
       q = list(*v, coordinate_count(joint.type), "coordinate");
-      if (joint.type == JointType::spherical) q = read_euler_parameters(r, *v);
+      if (info.euler) q = read_euler_parameters(r, *v);
     }
     if (auto v = m.get("joint_rate")) z = list(*v, speed_count(joint.type), "rate");
     return;
@@ -1613,9 +1640,9 @@ std::vector<std::string> speed_names(const BodiesSection& bodies) {
     const std::string& body = bodies.names.names[k];
     const JointType type = bodies.joints[k].type;
     for (int c = 0; c < speed_count(type); ++c) {
-      if (type == JointType::free)
+      if (joint_type_info(type).absolute)
         names.push_back(body + (c < 3 ? ".w" : ".sd") + std::to_string(c % 3 + 1));
-      else if (type == JointType::spherical)
+      else if (joint_type_info(type).euler)
         names.push_back(body + ".w" + std::to_string(c + 1));
       else
         names.push_back(body + ".jd" + std::to_string(c + 1));
@@ -1857,7 +1884,7 @@ ModelFile read_model(const Reader& r, const Node& root_node, const std::string& 
     Joint& joint = bodies.joints[i];
     q[i] = VectorX::Zero(coordinate_count(joint.type));
     z[i] = VectorX::Zero(speed_count(joint.type));
-    if (joint.type == JointType::spherical) q[i][3] = 1.0;
+    if (relative_euler_joint(joint.type)) q[i][3] = 1.0;  // the identity's Euler parameters
     if (bodies.initial[i]) read_initial(r, *bodies.initial[i], k, initial, joint, q[i], z[i]);
   }
 

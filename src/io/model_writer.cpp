@@ -162,7 +162,8 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
                                                                   I(0, 1), I(0, 2), I(1, 2)))
         << "\n";
     out << "    com: " << num.vector(at + "com", b.com) << "\n";
-    if (jt.type == JointType::free) {
+    const JointTypeInfo& info = joint_type_info(jt.type);
+    if (info.absolute) {
       out << "    joint: " << num.vector(at + "joint", b.joint) << "\n";
       out << "    initial:\n";
       out << "      euler_parameters: " << list(Vector4(q.segment<4>(o))) << "\n";
@@ -178,12 +179,11 @@ std::string model_file_text(const Model& model, const VectorX& q, const VectorX&
     out << "      at: " << num.vector(at + "joint.at", b.joint) << "\n";
     out << "      type: " << to_string(jt.type) << "\n";
     if (!is_identity(jt.frame)) out << "      frame: " << axis_angle(jt.frame) << "\n";
-    if (jt.type == JointType::revolute || jt.type == JointType::prismatic ||
-        jt.type == JointType::cylindrical)
-      out << "      axis: " << num.direction(at + "joint.axis", jt.axis) << "\n";
-    if (jt.type == JointType::universal)
+    if (info.takes_axis) out << "      axis: " << num.direction(at + "joint.axis", jt.axis) << "\n";
+    if (info.takes_axes)
       out << "      axes: [" << list(jt.axes[0]) << ", " << list(jt.axes[1]) << "]\n";
-    if (jt.type == JointType::weld) {
+    if (info.takes_pitch) out << "      pitch: " << yaml_float(jt.pitch) << "\n";
+    if (info.fixed_translation) {
       out << "    initial:\n      translation: "
           << num.vector(at + "initial.translation", jt.translation) << "\n";
       continue;

@@ -681,7 +681,7 @@ void row_values(const Model& model, double t, const State& state, const VectorX&
     put(state.angular_velocity(k));
     put(state.translation_rate(k));
     const JointType type = model.joint(k).type;
-    if (jointed && type != JointType::free && type != JointType::weld) {
+    if (jointed && joint_type_info(type).coordinates > 0 && !joint_type_info(type).absolute) {
       put(q.segment(model.coordinate_offset(k), coordinate_count(type)));
       put(z.segment(model.speed_offset(k), speed_count(type)));
     }

@@ -106,8 +106,8 @@ void check_row_state(const Model& model, const std::vector<std::string>& columns
     check(b + 3, "Euler parameters");
     b += 16;
     const JointType type = model.joint(k).type;
-    if (type == JointType::free || type == JointType::weld) continue;
-    if (type == JointType::spherical) check(b, "a spherical joint's Euler parameters");
+    if (joint_type_info(type).coordinates == 0 || joint_type_info(type).absolute) continue;
+    if (relative_euler_joint(type)) check(b, "a spherical joint's Euler parameters");
     b += static_cast<size_t>(coordinate_count(type) + speed_count(type));
   }
 }
@@ -200,7 +200,7 @@ TrajectoryRow read_trajectory_row(const Model& model, const std::string& path, d
       if (type == JointType::free) {  // the notes' own: (eps, s'), (w', s' dot)
         for (int i = 0; i < 7; ++i) out.q[o + i] = best[b + 3 + static_cast<size_t>(i)];
         for (int i = 0; i < 6; ++i) out.z[p + i] = best[b + 10 + static_cast<size_t>(i)];
-      } else if (type != JointType::weld) {
+      } else if (coordinate_count(type) > 0) {
         const int nq = coordinate_count(type), nz = speed_count(type);
         for (int i = 0; i < nq; ++i) out.q[o + i] = best[b + 16 + static_cast<size_t>(i)];
         for (int i = 0; i < nz; ++i) out.z[p + i] = best[b + 16 + static_cast<size_t>(nq + i)];
@@ -332,7 +332,7 @@ TrajectoryMotion trajectory_motion(const Model& model, const Trajectory& traject
           out.q(o + i, c) = trajectory.at(r, b + 3 + static_cast<size_t>(i));
         for (int i = 0; i < 6; ++i)
           out.z(p + i, c) = trajectory.at(r, b + 10 + static_cast<size_t>(i));
-      } else if (type != JointType::weld) {
+      } else if (coordinate_count(type) > 0) {
         const int jq = coordinate_count(type), jz = speed_count(type);
         for (int i = 0; i < jq; ++i)
           out.q(o + i, c) = trajectory.at(r, b + 16 + static_cast<size_t>(i));
@@ -365,7 +365,7 @@ std::vector<std::pair<std::string, TableColumn>> joint_table_columns(const Model
   std::vector<std::pair<std::string, TableColumn>> out{{"t", {}}};
   for (int k = 0; k < model.num_bodies(); ++k) {
     const JointType type = model.joint(k).type;
-    if (type == JointType::free || type == JointType::weld) continue;
+    if (joint_type_info(type).coordinates == 0 || joint_type_info(type).absolute) continue;
     const std::string& name = model.body(k).name;
     for (int i = 0; i < coordinate_count(type); ++i)
       out.push_back({name + ".j" + std::to_string(i + 1), {TableColumn::coordinate, k, i}});
@@ -452,7 +452,7 @@ TrajectoryMotion read_joint_table_motion(const Model& model, const std::string& 
   bool differentiated = false;
   for (int k = 0; k < model.num_bodies(); ++k) {
     const JointType type = model.joint(k).type;
-    if (type == JointType::weld) continue;
+    if (coordinate_count(type) == 0) continue;
     size_t first_rate = 0, rates = 0, missing_rate = 0;
     for (size_t a = 0; a < known.size(); ++a) {
       const TableColumn& w = known[a].second;
@@ -522,7 +522,7 @@ TrajectoryMotion read_joint_table_motion(const Model& model, const std::string& 
     // A spherical joint's q are Euler parameters: unit, and continuous from row to row (e and
     // -e are the same rotation, but differentiating across the jump is not).
     for (int k = 0; k < model.num_bodies(); ++k) {
-      if (model.joint(k).type != JointType::spherical) continue;
+      if (!relative_euler_joint(model.joint(k).type)) continue;
       const size_t o =
           r * static_cast<size_t>(nq) + static_cast<size_t>(model.coordinate_offset(k));
       const std::string cols =
@@ -563,9 +563,9 @@ TrajectoryMotion read_joint_table_motion(const Model& model, const std::string& 
   VectorX q(nq), z(nz), qdot(nq);
   for (int k = 0; k < model.num_bodies(); ++k) {
     const JointType type = model.joint(k).type;
-    if (type == JointType::weld || rates_given[static_cast<size_t>(k)]) continue;
+    if (coordinate_count(type) == 0 || rates_given[static_cast<size_t>(k)]) continue;
     const int o = model.coordinate_offset(k), p = model.speed_offset(k);
-    if (type != JointType::spherical) {
+    if (!relative_euler_joint(type)) {
       for (int i = 0; i < coordinate_count(type); ++i)
         out.z.row(p + i) = spline_slopes(out.t, out.q.row(o + i).transpose()).transpose();
       continue;

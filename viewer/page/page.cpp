@@ -134,8 +134,10 @@ Json body_json(const Model& model, int k) {
 }
 
 /// The joint of body k as the page draws it: each axis as a unit vector in the components of
-/// the body it is fixed in, "parent" (J, or the inertial frame for a root) or "body" (K). A
-/// revolute, prismatic or cylindrical axis is fixed in both and given in J, where Q_K is too;
+/// the body it is fixed in, "parent" (J, or the inertial frame for a root) or "body" (K), and
+/// whether K turns about it and slides along it. A joint's `axis` (revolute, prismatic,
+/// cylindrical, screw: the joint table's takes_axis) is fixed in both and given in J, where Q_K
+/// is too;
 /// a universal joint's a1 is fixed in J and its a2, about which K turns last, in K (at zero
 /// angles K's axes are F's, so a2's K components are its F components). A planar joint's
 /// plane normal, F's z axis, is fixed in both and given in J.
@@ -143,22 +145,25 @@ void add_joint_json(const Model& model, int k, Json& o) {
   const Joint& jt = model.joint(k);
   o["joint_type"] = to_string(jt.type);
   Json axes = Json::array();
-  const auto axis = [&](const Vector3& v, const char* in) {
-    axes.push_back(Json{{"axis", vec(v.normalized())}, {"in", in}});
+  const auto axis = [&](const Vector3& v, const char* in, bool turn, bool slide) {
+    axes.push_back(
+        Json{{"axis", vec(v.normalized())}, {"in", in}, {"turn", turn}, {"slide", slide}});
   };
+  const JointTypeInfo& info = joint_type_info(jt.type);
+  if (info.takes_axis) {
+    // [R(frame)] maps J components to F components. The first sliding column of [T_K] is along
+    // the axis (zero for a screw of pitch 0).
+    axis(rotation_matrix(jt.frame).transpose() * jt.axis, "parent", info.turns,
+         info.slides && !model.slide_axes_in_j(k).col(0).isZero(0.0));
+  }
   switch (jt.type) {
-    case JointType::revolute:
-    case JointType::prismatic:
-    case JointType::cylindrical:
-      axis(model.axis_in_j(k), "parent");
-      break;
     case JointType::universal:
       // [R(frame)] maps J components to F components.
-      axis(rotation_matrix(jt.frame).transpose() * jt.axes[0], "parent");
-      axis(jt.axes[1], "body");
+      axis(rotation_matrix(jt.frame).transpose() * jt.axes[0], "parent", true, false);
+      axis(jt.axes[1], "body", true, false);
       break;
     case JointType::planar:
-      axis(rotation_matrix(jt.frame).transpose() * Vector3::UnitZ(), "parent");
+      axis(rotation_matrix(jt.frame).transpose() * Vector3::UnitZ(), "parent", true, false);
       break;
     default:
       break;

@@ -16,8 +16,9 @@ export function hasJoints(model) {
 
 /**
  * The axis lines: per axis of every body { body, name, type, axis, in, turn, slide }, turn
- * true when the body turns about it (all but a prismatic joint's), slide when it slides
- * along it (a prismatic or cylindrical joint's).
+ * true when the body turns about it, slide when it slides along it, as the page's joint_axes
+ * say (the joint table's answer: a prismatic axis slides only, a cylindrical or screw axis
+ * both).
  */
 export function jointLines(model) {
   const lines = [];
@@ -26,7 +27,7 @@ export function jointLines(model) {
       const type = b.joint_type;
       lines.push({
         body: k, name: b.name, type, axis: a.axis, in: a.in,
-        turn: type !== 'prismatic', slide: type === 'prismatic' || type === 'cylindrical',
+        turn: a.turn !== false, slide: a.slide === true,
       });
     }
   });

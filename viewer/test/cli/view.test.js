@@ -54,8 +54,11 @@ test("a jointed model's page has each body's joint type and axes", () => {
   // for a universal joint's a2 (at zero angles K's axes are F's, here J's).
   let r = kanedyn(dir, 'view', human, '-o', 'human.html');
   assert.equal(r.code, 0, r.err);
-  const y = { axis: [0, 1, 0], in: 'parent' };
-  const hip = [y, { axis: [1, 0, 0], in: 'body' }];
+  const y = { axis: [0, 1, 0], in: 'parent', turn: true, slide: false };
+  const hip = [
+    { axis: [0, 1, 0], in: 'parent', turn: true, slide: false },
+    { axis: [1, 0, 0], in: 'body', turn: true, slide: false },
+  ];
   const joints = (d) => d.model.bodies.map((b) => [b.name, b.joint_type, b.joint_axes]);
   assert.deepEqual(joints(pageData(join(dir, 'human.html'))), [
     ['torso', 'free', []],
@@ -71,7 +74,7 @@ test("a jointed model's page has each body's joint type and axes", () => {
   assert.equal(r.code, 0, r.err);
   const d = pageData(join(dir, 'cart.html'));
   assert.deepEqual(joints(d), [
-    ['cart', 'prismatic', [{ axis: [1, 0, 0], in: 'parent' }]],
+    ['cart', 'prismatic', [{ axis: [1, 0, 0], in: 'parent', turn: false, slide: true }]],
     ['pendulum', 'revolute', [y]],
   ]);
   // The joint point the axes pass through: Q_K, q'_K in J (the origin, for both).

@@ -26,12 +26,16 @@ const body = (name, L, joint_type, joint_axes) => ({
 const model = {
   gravity: [0, 0, -9.81],
   bodies: [
-    body('cart', -1, 'prismatic', [{ axis: [1, 0, 0], in: 'parent' }]),
-    body('yoke', 0, 'universal', [{ axis: [0, 1, 0], in: 'parent' }, { axis: [1, 0, 0], in: 'body' }]),
-    body('link', 1, 'revolute', [{ axis: [0, 0, 1], in: 'parent' }]),
+    body('cart', -1, 'prismatic', [{ axis: [1, 0, 0], in: 'parent', turn: false, slide: true }]),
+    body('yoke', 0, 'universal', [
+      { axis: [0, 1, 0], in: 'parent', turn: true, slide: false },
+      { axis: [1, 0, 0], in: 'body', turn: true, slide: false },
+    ]),
+    body('link', 1, 'revolute', [{ axis: [0, 0, 1], in: 'parent', turn: true, slide: false }]),
     body('tip', 2, 'spherical', []),
     body('plate', 2, 'weld', []),
-    body('drum', 0, 'cylindrical', [{ axis: [0, 0, 1], in: 'parent' }]),
+    body('drum', 0, 'cylindrical', [{ axis: [0, 0, 1], in: 'parent', turn: true, slide: true }]),
+    body('nut', 0, 'screw', [{ axis: [0, 0, 1], in: 'parent', turn: true, slide: true }]),
   ],
 };
 // Poses: each body turned about its own axis by its own angle, Q_K somewhere of its own.
@@ -42,6 +46,7 @@ const frame = [
   { e: axisAngle([0.6, 0.8, 0], 0.4), q: [1, 2, 3] },
   { e: axisAngle([0, 0, 1], 2.0), q: [-1, 0, 1] },
   { e: axisAngle([1, 0, 0], 0.2), q: [0, 0, 4] },
+  { e: axisAngle([0, 0, 1], 0.5), q: [0, 0, 2] },
 ].map((f) => ({ ...f, g: [0, 0, 0], o: f.q }));
 
 test('a model is jointed when its bodies have a joint type', () => {
@@ -49,7 +54,7 @@ test('a model is jointed when its bodies have a joint type', () => {
   assert.equal(hasJoints({ bodies: [{ name: 'a', L: -1 }] }), false);
 });
 
-test('one line per axis, turning or sliding by the joint type; markers for ball and weld', () => {
+test('one line per axis, turning or sliding as the page says; markers for ball and weld', () => {
   const lines = jointLines(model);
   assert.deepEqual(lines.map((l) => [l.name, l.in, l.turn, l.slide]), [
     ['cart', 'parent', false, true],
@@ -57,8 +62,9 @@ test('one line per axis, turning or sliding by the joint type; markers for ball 
     ['yoke', 'body', true, false],
     ['link', 'parent', true, false],
     ['drum', 'parent', true, true],
+    ['nut', 'parent', true, true],
   ]);
-  assert.deepEqual(lines.map(segmentCount), [5, 1, 1, 1, 5]);
+  assert.deepEqual(lines.map(segmentCount), [5, 1, 1, 1, 5, 5]);
   assert.deepEqual(jointMarkers(model).map((m) => [m.name, m.type]), [['tip', 'spherical'], ['plate', 'weld']]);
   assert.deepEqual(jointLines({ bodies: [{ name: 'free', L: -1, joint_type: 'free', joint_axes: [] }] }), []);
 });
