@@ -19,7 +19,9 @@
 #include <stdexcept>
 #include <thread>
 #include <unordered_set>
+#include <variant>
 
+#include "kanedyn/analysis.hpp"
 #include "kanedyn/constraints.hpp"
 #include "kanedyn/energy.hpp"
 #include "kanedyn/io/csv.hpp"
@@ -416,17 +418,164 @@ std::string reread(const std::string& path, const ModelFileError& refusal) {
   }
 }
 
+/// The index of the state entry `name` of the linearization, or why there is none.
+std::variant<Eigen::Index, std::string> state_entry(const Linearization& lin,
+                                                    const std::string& name) {
+  const auto it = std::find(lin.state.begin(), lin.state.end(), name);
+  if (it != lin.state.end()) return static_cast<Eigen::Index>(it - lin.state.begin());
+  std::string problem = "no entry " + quote(name) + " in the linearization's state";
+  if (const std::string c = closest_word(name, lin.state, 1000); !c.empty())
+    problem += " (closest: " + quote(c) + ")";
+  return problem;
+}
+
+/// The indices of the block `of` of the linearization's state in `block`; or why it is not a
+/// block whose eigenvalues are A's.
+std::optional<std::string> linearize_block(const Linearization& lin,
+                                           const std::vector<std::string>& of,
+                                           std::vector<Eigen::Index>& block) {
+  const auto size = static_cast<Eigen::Index>(lin.state.size());
+  std::vector<bool> in(static_cast<size_t>(size), false);
+  block.clear();
+  for (const std::string& name : of) {
+    const auto entry = state_entry(lin, name);
+    if (const auto* problem = std::get_if<std::string>(&entry)) return *problem;
+    const Eigen::Index k = std::get<Eigen::Index>(entry);
+    in[static_cast<size_t>(k)] = true;
+    block.push_back(k);
+  }
+  // The block's eigenvalues are eigenvalues of A when A is block-triangular: the block's rows
+  // do not depend on the other entries, or the other rows do not depend on the block. Zero is
+  // judged against A's largest entry: 1e-9 of it is far above the round-off of a derivative
+  // that vanishes (1e-17 where the bicycle's forward speed meets its lean) and far below a
+  // coupling that matters.
+  const double zero = 1e-9 * (size > 0 ? lin.A.cwiseAbs().maxCoeff() : 0.0);
+  double rows_out = 0.0, cols_in = 0.0;
+  Eigen::Index worst_row = 0, worst_col = 0;
+  for (Eigen::Index i = 0; i < size; ++i)
+    for (Eigen::Index j = 0; j < size; ++j) {
+      if (in[static_cast<size_t>(i)] == in[static_cast<size_t>(j)]) continue;
+      const double a = std::abs(lin.A(i, j));
+      if (in[static_cast<size_t>(i)] && a > rows_out) {
+        rows_out = a;
+        worst_row = i;
+        worst_col = j;
+      }
+      if (!in[static_cast<size_t>(i)]) cols_in = std::max(cols_in, a);
+    }
+  if (rows_out > zero && cols_in > zero) {
+    char value[32];
+    std::snprintf(value, sizeof value, "%.3g", lin.A(worst_row, worst_col));
+    return "the block is coupled to the rest of A both ways (the rate of " +
+           quote(lin.state[static_cast<size_t>(worst_row)]) + " depends on " +
+           quote(lin.state[static_cast<size_t>(worst_col)]) + ", A = " + value +
+           "), so its eigenvalues are not A's: add the entries it depends on";
+  }
+  return std::nullopt;
+}
+
+/// The operating point of a run's `linearize` outputs: its initial state, the inputs at the
+/// run's constant values (zero for those not varied).
+VectorX linearize_inputs(const Model& model, const SimulationSettings& settings) {
+  VectorX u = VectorX::Zero(model.num_inputs());
+  if (settings.inputs && settings.inputs->num_inputs() == model.num_inputs())
+    settings.inputs->value(settings.t_start, u);
+  return u;
+}
+
+/// Reads one `linearize` output (`at` is its key path) into `o`; `lin` is the study's model
+/// linearized about its initial state, whose state names `of` is checked against.
+void read_linearize(const StudyReader& r, const YNode& value, const std::string& at,
+                    const Linearization& lin, StudyOutput& o) {
+  StudyLinearize l;
+  if (value.is(Kind::scalar)) {
+    if (value.scalar() != "max_real")
+      r.fail(value, at,
+             "expected max_real or a mapping {mode: NAME, rank: K, of: [STATE, ...], value: "
+             "real|imag|frequency|damping}, got " +
+                 describe(value));
+    o.name = "linearize:max_real";
+    o.linearize = std::move(l);
+    return;
+  }
+  const auto m = r.mapping(value, at, {"mode", "rank", "of", "value"});
+  if (!m.count("mode")) r.fail(value, at, "missing required key 'mode' (the mode's name)");
+  l.mode = r.text(m.at("mode"), at + ".mode");
+  if (l.mode.empty() || l.mode.size() > 64 ||
+      l.mode.find_first_not_of(
+          "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-") != std::string::npos)
+    r.fail(m.at("mode"), at + ".mode",
+           "a mode's name is 1 to 64 letters, digits, '_' or '-', got " + quote(l.mode));
+  if (const auto it = m.find("of"); it != m.end()) {
+    const YNode& list = it->second;
+    if (!list.is(Kind::sequence) || list.size() == 0)
+      r.fail(list, at + ".of",
+             "expected a non-empty list of the linearization's state names, got " + describe(list));
+    for (size_t k = 0; k < list.size(); ++k) {
+      const std::string name = r.text(list[k], at + ".of[" + std::to_string(k) + "]");
+      if (std::find(l.of.begin(), l.of.end(), name) != l.of.end())
+        r.fail(list[k], at + ".of[" + std::to_string(k) + "]", quote(name) + " is named twice");
+      l.of.push_back(name);
+      const auto entry = state_entry(lin, name);
+      if (const auto* problem = std::get_if<std::string>(&entry))
+        r.fail(list[k], at + ".of[" + std::to_string(k) + "]", *problem);
+    }
+    // Whether the block is one whose eigenvalues are A's depends on the run's values: each
+    // run checks it (a failure of the run when it is not).
+  }
+  const long long entries =
+      l.of.empty() ? static_cast<long long>(lin.state.size()) : static_cast<long long>(l.of.size());
+  if (entries == 0) r.fail(value, at, "the model's linearization has no state: no modes");
+  if (const auto it = m.find("rank"); it != m.end())
+    l.rank = static_cast<int>(r.integer(it->second, at + ".rank", 1, entries));
+  const std::vector<std::string> values{"real", "imag", "frequency", "damping"};
+  std::string v = "real";
+  if (const auto it = m.find("value"); it != m.end()) {
+    v = r.text(it->second, at + ".value");
+    const auto k = std::find(values.begin(), values.end(), v);
+    if (k == values.end()) {
+      std::string problem =
+          "unknown value " + quote(v) + "; allowed: real, imag, frequency, damping";
+      if (const std::string c = closest_word(v, values); !c.empty())
+        problem += " (did you mean " + quote(c) + "?)";
+      r.fail(it->second, at + ".value", problem);
+    }
+    l.value = static_cast<ModeValue>(k - values.begin());
+  }
+  o.name = "linearize:" + l.mode + "." + v;
+  o.linearize = std::move(l);
+}
+
 void read_outputs(const StudyReader& r, const YNode& list, Study& study) {
   if (!list.is(Kind::sequence)) r.fail(list, "outputs", "expected a list, got " + describe(list));
-  const std::vector<std::string> columns = trajectory_columns(study.model.base().model);
-  const std::vector<std::string> statistics{"final", "max", "min", "mean", "rms"};
+  const ModelFile& base = study.model.base();
+  const std::vector<std::string> columns = trajectory_columns(base.model);
+  const std::vector<std::string> statistics{"final", "max", "min", "mean", "rms", "linearize"};
+  std::optional<Linearization> lin;  // the model's, made for the first `linearize` output
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string path = "outputs[" + std::to_string(i) + "]";
     const auto m = r.mapping(list[i], path, statistics);
     if (m.size() != 1)
-      r.fail(list[i], path, "expected one of final, max, min, mean, rms with a column name");
+      r.fail(list[i], path,
+             "expected one of final, max, min, mean, rms with a column name, or linearize");
     const auto& [kind, value] = *m.begin();
     StudyOutput o;
+    if (kind == "linearize") {
+      if (!lin) {
+        try {
+          lin = linearize(base.model, base.q, base.z, VectorX::Zero(base.model.num_inputs()));
+        } catch (const std::exception& e) {
+          r.fail(value, path + ".linearize",
+                 "the model cannot be linearized about its initial state: " +
+                     printable(e.what(), 400));
+        }
+      }
+      read_linearize(r, value, path + ".linearize", *lin, o);
+      for (const StudyOutput& earlier : study.outputs)
+        if (earlier.name == o.name) r.fail(value, path, quote(o.name) + " is asked for twice");
+      study.outputs.push_back(std::move(o));
+      continue;
+    }
     o.statistic = static_cast<Statistic>(std::find(statistics.begin(), statistics.end(), kind) -
                                          statistics.begin());
     o.column = r.text(value, path + "." + kind);
@@ -587,9 +736,43 @@ std::vector<std::string> Study::columns() const {
   std::vector<std::string> c{"run"};
   for (const StudyVary& v : vary) c.push_back(v.key);
   for (const StudyOutput& o : outputs) c.push_back(o.name);
+  for (const std::string& name : function_outputs) c.push_back(name);
   c.emplace_back("status");
   c.emplace_back("wall_s");
   return c;
+}
+
+void Study::set_function_outputs(std::vector<std::string> names) {
+  function_outputs.clear();
+  const std::vector<std::string> taken = columns();
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::string& name = names[i];
+    const std::string at = "function output " + std::to_string(i) + " ";
+    if (name.empty()) throw std::invalid_argument(at + "has an empty name");
+    if (std::any_of(name.begin(), name.end(),
+                    [](char ch) { return static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f; }))
+      throw std::invalid_argument(at + quote(name) + " holds a control character");
+    if (std::find(taken.begin(), taken.end(), name) != taken.end())
+      throw std::invalid_argument(at + quote(name) + " is already a column of the study's table");
+    if (std::find(names.begin(), names.begin() + static_cast<long>(i), name) !=
+        names.begin() + static_cast<long>(i))
+      throw std::invalid_argument(at + quote(name) + " is named twice");
+  }
+  // The names are part of the folder's identity: the rows of a study without them (or with
+  // others) are another table's.
+  std::string joined = "function outputs";
+  for (const std::string& name : names) joined += "\n" + name;
+  fingerprint = fnv1a(model.text(), fnv1a(text));
+  if (!names.empty()) fingerprint = fnv1a(joined, fingerprint);
+  function_outputs = std::move(names);
+}
+
+bool Study::simulates() const {
+  // A study of trajectory outputs, or of none (its runs' statuses are its results), simulates;
+  // one whose every output is a linearization's or a function's needs no trajectory.
+  const bool reads_trajectory = std::any_of(outputs.begin(), outputs.end(),
+                                            [](const StudyOutput& o) { return !o.linearize; });
+  return keep_every > 0 || reads_trajectory || (outputs.empty() && function_outputs.empty());
 }
 
 double study_uniform(std::uint64_t seed, std::uint64_t run, std::uint64_t entry, std::uint64_t k) {
@@ -779,6 +962,7 @@ class RowReducer {
                               model.num_inputs() - reaction_count(model);
     needs_energy_ = needs_kinematics_ = keep;
     for (const StudyOutput& o : study.outputs) {
+      if (o.linearize) continue;
       needs_energy_ = needs_energy_ || o.column_index == energy_column;
       needs_kinematics_ =
           needs_kinematics_ || (o.column_index > 0 && o.column_index <= energy_column);
@@ -794,7 +978,8 @@ class RowReducer {
                                  : total_energy_of_kinematics(model_, state, q, data);
     row_values(model_, t, state, q, z, data, needs_kinematics_, energy, row_);
     for (size_t i = 0; i < outputs_.size(); ++i)
-      outputs_[i].add(row_[static_cast<size_t>(study_.outputs[i].column_index)]);
+      if (!study_.outputs[i].linearize)
+        outputs_[i].add(row_[static_cast<size_t>(study_.outputs[i].column_index)]);
     if (!keep_) return;
     for (size_t i = 0; i < row_.size(); ++i) {
       if (i) trajectory_ += ',';
@@ -816,7 +1001,56 @@ class RowReducer {
 
 }  // namespace
 
-StudyRun run_study_run(const Study& study, long run, const std::function<bool()>& stop) {
+namespace {
+
+/// A run's `linearize` output from its linearization: throws RunFailure when the block or
+/// the mode it names is not there.
+double linearize_output(const Linearization& lin, const StudyOutput& o) {
+  const StudyLinearize& l = *o.linearize;
+  Eigen::VectorXcd eigenvalues = lin.eigenvalues;
+  if (!l.of.empty()) {
+    std::vector<Eigen::Index> block;
+    if (const auto problem = linearize_block(lin, l.of, block))
+      throw RunFailure(one_line("linearize", o.name + ": " + *problem));
+    eigenvalues = sorted_eigenvalues(lin.A(block, block));
+  }
+  if (eigenvalues.size() == 0)
+    throw RunFailure(one_line("linearize", o.name + ": the linearization has no state"));
+  if (l.mode.empty()) return eigenvalues.real().maxCoeff();
+  // The modes: a complex pair (its member of positive imaginary part; Eigen's solver for a
+  // real matrix gives the two exactly conjugate) or a real eigenvalue each, ranked by
+  // decreasing |Im|, then by decreasing Re (a stable sort of the sorted eigenvalues).
+  std::vector<std::complex<double>> modes;
+  for (Eigen::Index k = 0; k < eigenvalues.size(); ++k)
+    if (eigenvalues[k].imag() >= 0.0) modes.push_back(eigenvalues[k]);
+  std::stable_sort(modes.begin(), modes.end(), [](const auto& a, const auto& b) {
+    return std::abs(a.imag()) > std::abs(b.imag());
+  });
+  if (static_cast<size_t>(l.rank) > modes.size())
+    throw RunFailure(one_line(
+        "linearize", o.name + ": rank " + std::to_string(l.rank) + ", but " +
+                         (l.of.empty() ? std::string("A") : std::string("the block")) + " has " +
+                         std::to_string(modes.size()) + (modes.size() == 1 ? " mode" : " modes")));
+  const std::complex<double> lambda = modes[static_cast<size_t>(l.rank - 1)];
+  switch (l.value) {
+    case ModeValue::real:
+      return lambda.real();
+    case ModeValue::imag:
+      return std::abs(lambda.imag());
+    case ModeValue::frequency:
+      return std::abs(lambda.imag()) / (2.0 * std::numbers::pi);
+    case ModeValue::damping:
+      return std::abs(lambda) == 0.0 ? 0.0 : -lambda.real() / std::abs(lambda);
+  }
+  return 0.0;
+}
+
+}  // namespace
+
+StudyRun run_study_run(const Study& study, long run, const std::function<bool()>& stop,
+                       const StudyFunction& function) {
+  if (!study.function_outputs.empty() && !function)
+    throw std::logic_error("run_study_run: the study has function outputs and no function");
   const auto start = std::chrono::steady_clock::now();
   const std::vector<double> p = study.parameters(run);
   StudyRun result;
@@ -824,27 +1058,57 @@ StudyRun run_study_run(const Study& study, long run, const std::function<bool()>
   std::vector<double> outputs;
   try {
     auto [file, settings] = run_model(study, p);
-    RowReducer reducer(study, file.model, study.keeps_trajectory(run), result.trajectory);
-    settings.observer_kinematics = reducer.needs_kinematics();
-    if (stop) settings.on_step = [&stop](double) { return !stop(); };
-    const SimulationStats stats =
-        simulate(file.model, file.q, file.z, settings,
-                 [&reducer](double t, const State& state, const VectorX& q, const VectorX& z,
-                            Data& data) { reducer.add(t, state, q, z, data); });
-    if (stats.status == SimulationStatus::interrupted) {
-      result.interrupted = true;
-      return result;
+    outputs.resize(study.outputs.size());
+    if (study.simulates()) {
+      RowReducer reducer(study, file.model, study.keeps_trajectory(run), result.trajectory);
+      settings.observer_kinematics = reducer.needs_kinematics();
+      if (stop) settings.on_step = [&stop](double) { return !stop(); };
+      const SimulationStats stats =
+          simulate(file.model, file.q, file.z, settings,
+                   [&reducer](double t, const State& state, const VectorX& q, const VectorX& z,
+                              Data& data) { reducer.add(t, state, q, z, data); });
+      if (stats.status == SimulationStatus::interrupted) {
+        result.interrupted = true;
+        return result;
+      }
+      if (!stats.ok())
+        throw RunFailure(one_line(to_string(stats.status),
+                                  stats.message.empty() ? to_string(stats.status) : stats.message));
+      for (size_t i = 0; i < study.outputs.size(); ++i)
+        if (!study.outputs[i].linearize) outputs[i] = reducer.output(i);
     }
-    result.status = stats.ok()
-                        ? "ok"
-                        : one_line(to_string(stats.status),
-                                   stats.message.empty() ? to_string(stats.status) : stats.message);
-    if (stats.ok())
-      for (size_t i = 0; i < study.outputs.size(); ++i) outputs.push_back(reducer.output(i));
+    if (std::any_of(study.outputs.begin(), study.outputs.end(),
+                    [](const StudyOutput& o) { return o.linearize.has_value(); })) {
+      std::optional<Linearization> lin;
+      try {
+        lin = linearize(file.model, file.q, file.z, linearize_inputs(file.model, settings));
+      } catch (const std::exception& e) {
+        throw RunFailure(one_line("linearize", e.what()));
+      }
+      for (size_t i = 0; i < study.outputs.size(); ++i)
+        if (study.outputs[i].linearize) outputs[i] = linearize_output(*lin, study.outputs[i]);
+    }
+    if (!study.function_outputs.empty()) {
+      std::vector<double> values;
+      try {
+        values = function(std::move(file), run);
+      } catch (const std::exception& e) {
+        throw RunFailure(one_line("function", e.what()));
+      }
+      if (values.size() != study.function_outputs.size())
+        throw RunFailure(
+            one_line("function", "gave " + std::to_string(values.size()) +
+                                     (values.size() == 1 ? " value" : " values") + " for " +
+                                     std::to_string(study.function_outputs.size()) + " outputs"));
+      outputs.insert(outputs.end(), values.begin(), values.end());
+    }
+    result.status = "ok";
   } catch (const RunFailure& e) {
     result.status = e.what();
+    outputs.clear();
   } catch (const std::exception& e) {
     result.status = one_line("error", e.what());
+    outputs.clear();
   }
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -855,7 +1119,7 @@ StudyRun run_study_run(const Study& study, long run, const std::function<bool()>
     line += ',';
     put_number(line, v);
   }
-  for (size_t i = 0; i < study.outputs.size(); ++i) {
+  for (size_t i = 0; i < study.outputs.size() + study.function_outputs.size(); ++i) {
     line += ',';
     if (i < outputs.size()) put_number(line, outputs[i]);
   }
@@ -1133,7 +1397,8 @@ class RunPool {
     size_t queue_runs, queue_trajectories, queue_bytes;
   };
 
-  RunPool(const Study& study, int threads, Limits limits) : study_(study), limits_(limits) {
+  RunPool(const Study& study, const StudyFunction& function, int threads, Limits limits)
+      : study_(study), function_(function), limits_(limits) {
     // A thread that cannot start: those started end at once (stopping_), are joined, and the
     // error goes to the caller.
     threads_ = start_threads(
@@ -1216,7 +1481,7 @@ class RunPool {
           run = todo_.front();
           todo_.pop_front();
         }
-        StudyRun r = run_study_run(study_, run, stop);
+        StudyRun r = run_study_run(study_, run, stop, function_);
         std::unique_lock lock(mutex_);
         // A stop lets a finished run in whatever the queue holds: it is recorded, and there
         // are at most as many as threads.
@@ -1236,6 +1501,7 @@ class RunPool {
   }
 
   const Study& study_;
+  const StudyFunction& function_;
   const Limits limits_;
   std::mutex mutex_;
   std::condition_variable has_work_, has_room_, finished_;
@@ -1282,7 +1548,7 @@ SweepResult sweep(const Study& study, StudyFolder& folder, const SweepOptions& o
     // writer takes a few ms for each), and no more than 64 MiB. Rows alone are small: a
     // second's worth of the quickest runs.
     const RunPool::Limits limits{16384, 4 * static_cast<size_t>(threads) + 4, size_t{64} << 20};
-    RunPool pool(study, threads, limits);
+    RunPool pool(study, options.function, threads, limits);
     result.threads = pool.threads();
     // The missing runs are handed over a few thousand at a time: nothing is held per run of
     // the study. Runs handed over are past `cursor`, so none is handed twice.

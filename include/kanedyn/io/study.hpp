@@ -41,12 +41,32 @@ struct StudyVary {
 
 enum class Statistic { final, max, min, mean, rms };
 
-/// One entry of `outputs`: a statistic of one trajectory column over the rows of a run.
+/// What a `linearize` output reads of its eigenvalue (docs/studies.md, "Linearize outputs").
+enum class ModeValue { real, imag, frequency, damping };
+
+/// A `linearize` output: read from the eigenvalues of A, the linearization about the run's
+/// initial state (docs/studies.md, "Linearize outputs").
+struct StudyLinearize {
+  /// Empty: `max_real`, the largest real part of A's eigenvalues (of the block `of`, if
+  /// given). Else the name of the mode ranked `rank` among the block's modes (a complex pair
+  /// or a real eigenvalue each one mode), ranked by decreasing |imaginary part|, then by
+  /// decreasing real part.
+  std::string mode;
+  int rank = 1;
+  /// Names of the linearization's state (Linearization::state) whose rows and columns of A
+  /// make the block; empty: all of A. Its rows must not depend on the other entries.
+  std::vector<std::string> of;
+  ModeValue value = ModeValue::real;  ///< of the mode; `max_real` reads the real part
+};
+
+/// One entry of `outputs`: a statistic of one trajectory column over the rows of a run, or a
+/// reading of the linearization's eigenvalues.
 struct StudyOutput {
   Statistic statistic = Statistic::final;
   std::string column;  ///< a column of the trajectory CSV ("head.z", "energy")
   int column_index = 0;
-  std::string name;  ///< "max:head.z"
+  std::string name;                         ///< "max:head.z", "linearize:weave.real"
+  std::optional<StudyLinearize> linearize;  ///< set for a `linearize` output (no column)
 };
 
 /// A study file, checked: every key path resolved, every setting valid for the model.
@@ -64,9 +84,21 @@ struct Study {
   long grid_points = 1;  ///< the product of the grids' sizes
   long runs = 1;         ///< grid_points * runs_per_point, at most kMaxStudyRuns
   std::uint64_t fingerprint = 0;  ///< of the study's and the model's texts
+  /// The names of the outputs of a caller's function (StudyFunction): columns after the
+  /// file's outputs. Set by set_function_outputs().
+  std::vector<std::string> function_outputs;
 
-  /// The header of results.csv: run, each varied key, each output's name, status, wall_s.
+  /// The header of results.csv: run, each varied key, each output's name, each function
+  /// output's name, status, wall_s.
   std::vector<std::string> columns() const;
+  /// Names the outputs of the function the runs will call, and makes them part of the
+  /// fingerprint (a folder of the study without them, or with others, is another study's).
+  /// Throws std::invalid_argument for an empty name, one with a control character, one given
+  /// twice or one that is already a column.
+  void set_function_outputs(std::vector<std::string> names);
+  /// Whether a run simulates: unless every output is a `linearize` or a function output (and
+  /// there is one) and no trajectory is kept.
+  bool simulates() const;
   /// Run `run`'s value of each `vary` entry: the grids' values by the run's grid point
   /// (run / runs_per_point, the last grid varying fastest), the draws by (seed, run, entry).
   std::vector<double> parameters(long run) const;
@@ -102,11 +134,21 @@ struct StudyRun {
   bool interrupted = false;  ///< stopped by `stop`: no result, to be run again
 };
 
-/// Runs run `run` of the study: builds its model, simulates, reduces the outputs. A model made
-/// invalid by the run's values, invalid settings or a failed simulation are the run's status.
-/// `stop` (if set) is polled at every step of the integration; when it returns true the run
-/// ends, interrupted. Throws only for a run index out of range (std::out_of_range).
-StudyRun run_study_run(const Study& study, long run, const std::function<bool()>& stop = {});
+/// A caller's outputs of one run (kanedyn.Study's function): their values, in the order of
+/// Study::function_outputs, from the run's model file (the model with the run's numbers, given
+/// to the function to keep) and its index. An exception fails the run; its status is
+/// "function: " and its what(). Called from several threads at once by sweep().
+using StudyFunction = std::function<std::vector<double>(ModelFile file, long run)>;
+
+/// Runs run `run` of the study: builds its model, simulates (when simulates()), reduces the
+/// outputs, linearizes (for `linearize` outputs) and calls `function` (when the study has
+/// function outputs). A model made invalid by the run's values, invalid settings, a failed
+/// simulation, a linearization or a function that fails are the run's status. `stop` (if set)
+/// is polled at every step of the integration; when it returns true the run ends,
+/// interrupted. Throws only for a run index out of range (std::out_of_range), and
+/// std::logic_error for a study with function outputs and no function.
+StudyRun run_study_run(const Study& study, long run, const std::function<bool()>& stop = {},
+                       const StudyFunction& function = {});
 
 /// The kind of a status ("ok", "invalid model", "non-finite state", ...): its text up to ": ".
 std::string status_kind(const std::string& status);
@@ -180,6 +222,8 @@ struct SweepOptions {
   /// folder.total()), and the runs done by this call so far.
   std::function<void(long done, long ran)> progress;
   double flush_seconds = 1.0;  ///< the longest time between manifest parts
+  /// The function of a study with function outputs, called by the threads (concurrently).
+  StudyFunction function;
 };
 
 struct SweepResult {
