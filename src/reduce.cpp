@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "kanedyn/joints.hpp"
@@ -117,14 +118,44 @@ std::vector<Candidate> candidates(const Model& model, const Linearization& lin,
     if (t == JointType::free || t == JointType::spherical)
       for (int c = 0; c < 3; ++c) rotation[at(model.speed_offset(k) + c)] = 1;
   }
+  // A coordinate's column must vanish outside the rows of the other candidates; the rows that
+  // the moving coordinates change, and the rotation rows a turn may replace, are left to the
+  // full check.
+  std::vector<char> candidate(at(static_cast<int>(lin.state.size())), 0),
+      checked_later(candidate.size(), 0);
+  for (int i = 0; i < coordinates; ++i) candidate[at(i)] = !rotation[at(full_of[at(i)])];
+  const Vector3 up = vertical(model);
+  std::vector<char> moving(at(2 * n), 0);  // the rows the moving coordinates change
+  for (int k = 0; k < model.num_bodies(); ++k) {
+    if (!is_free(model, k)) continue;
+    const int p = model.speed_offset(k);
+    if (model.children(k).empty() && !symmetry_axis(model, k).isZero(0.0))
+      for (int c = 0; c < 3; ++c) moving[at(p + c)] = moving[at(n + p + c)] = 1;
+    if (model.lower_body(k) == kGround && !up.isZero(0.0))
+      for (int c = 0; c < 3; ++c) moving[at(p + c)] = moving[at(n + p + 3 + c)] = 1;
+  }
+  for (size_t i = 0; i < candidate.size(); ++i) checked_later[i] = moving[at(full_of[i])];
+  const double scale = std::max(1.0, lin.A.cwiseAbs().rowwise().sum().maxCoeff());
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int i = 0; i < coordinates; ++i) {
+      if (!candidate[at(i)]) continue;
+      for (Eigen::Index r = 0; r < lin.A.rows(); ++r)
+        if (!candidate[at(static_cast<int>(r))] && !checked_later[at(static_cast<int>(r))] &&
+            std::abs(lin.A(r, i)) > kIgnorableTolerance * scale) {
+          candidate[at(i)] = 0;
+          changed = true;
+          break;
+        }
+    }
+  }
   for (int i = 0; i < coordinates; ++i) {
-    if (rotation[at(full_of[at(i)])]) continue;
+    if (!candidate[at(i)]) continue;
     Candidate c;
     c.full = VectorX::Zero(2 * n);
     c.full[full_of[at(i)]] = 1.0;
     out.push_back(c);
   }
-  const Vector3 up = vertical(model);
   for (int k = 0; k < model.num_bodies(); ++k) {
     if (!is_free(model, k)) continue;
     const int p = model.speed_offset(k);
@@ -155,20 +186,22 @@ std::vector<Candidate> candidates(const Model& model, const Linearization& lin,
   return out;
 }
 
-// The rate of the change to moving coordinates (full tangent, 2n x 2n) for the candidates'
-// rates.
-MatrixX moving_frame_rate(const Model& model, const std::vector<Candidate>& cs,
-                          const std::vector<double>& rates) {
+// The rate of the change to moving coordinates for the candidates' rates, as 3 x 3 blocks on
+// the diagonal of the full tangent (2n x 2n): (first row and column, block).
+std::vector<std::pair<int, Matrix3>> moving_frame_rate(const Model& model,
+                                                       const std::vector<Candidate>& cs,
+                                                       const std::vector<double>& rates) {
   const int n = model.num_speeds();
-  MatrixX T = MatrixX::Zero(2 * n, 2 * n);
+  std::vector<std::pair<int, Matrix3>> T;
   for (size_t j = 0; j < cs.size(); ++j) {
-    const int p = cs[j].body >= 0 ? model.speed_offset(cs[j].body) : 0;
+    if (rates[j] == 0.0 || cs[j].kind == Kind::coordinate) continue;
+    const int p = model.speed_offset(cs[j].body);
     if (cs[j].kind == Kind::spin) {
       const Matrix3 s = rates[j] * skew(cs[j].axis);
-      T.block<3, 3>(p, p) += s;
-      T.block<3, 3>(n + p, n + p) += s;
-    } else if (cs[j].kind == Kind::heading) {
-      T.block<3, 3>(n + p + 3, n + p + 3) -= rates[j] * skew(cs[j].axis);
+      T.emplace_back(p, s);
+      T.emplace_back(n + p, s);
+    } else {
+      T.emplace_back(n + p + 3, -rates[j] * skew(cs[j].axis));
     }
   }
   return T;
@@ -281,13 +314,18 @@ Quotient quotient(const Model& model, const Linearization& lin) {
     const VectorX c = k > 0 ? VectorX(lu.solve(rate_p)) : VectorX();
     out.rates.assign(c.data(), c.data() + c.size());
     out.C = k > 0 ? MatrixX(GR * lu.inverse()) : MatrixX::Zero(r, 0);
-    const MatrixX T = moving_frame_rate(model, cs, out.rates);
+    // A + S T' F: S the state's rows of the full tangent, F the full tangent of a state.
     out.At = lin.A;
-    if (!T.isZero(0.0)) {
-      MatrixX ST(N, 2 * n);
-      for (int i = 0; i < N; ++i) ST.row(i) = T.row(full_of[at(i)]);
-      out.At += whole ? ST : MatrixX(ST * lin.full_state);
-    }
+    for (const auto& [first, block] : moving_frame_rate(model, cs, out.rates))
+      for (int i = 0; i < N; ++i) {
+        const int row = full_of[at(i)] - first;
+        if (row < 0 || row >= 3) continue;
+        if (whole) {
+          for (int c = 0; c < 3; ++c) out.At(i, first + c) += block(row, c);
+        } else {
+          out.At.row(i) += block.row(row) * lin.full_state.middleRows(first, 3);
+        }
+      }
     // Keep the directions on which the reduced rates do not depend: L (A + T') X_j = 0.
     const MatrixX moved = out.apply(out.At * G);
     std::vector<Candidate> kept_cs;

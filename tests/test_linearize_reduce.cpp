@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -246,6 +247,48 @@ TEST(ReducedLinearization, NamesTheCoinsPositionHeadingAndSpin) {
   EXPECT_EQ(turned.dropped.size(), 4u);
   const double w = largest_imaginary_part(red.eigenvalues);
   EXPECT_NEAR(largest_imaginary_part(turned.eigenvalues), w, 1e-10 * w);
+}
+
+// The Whipple bicycle riding straight at 5 m/s (examples/bicycle_upright.yaml): its wheels spin
+// on joints, so nothing turns and the full system is already time-invariant. Reduced, it drops
+// the rear frame's place, its heading and the wheels' angles, and keeps roll, steer, their rates
+// and the forward speed: the paper's four eigenvalues (Meijaard et al. 2007, Table 2, v = 5;
+// tests/data/meijaard2007.json) to 1e-12 of their size (as tests/test_bicycle.cpp asks of the
+// full system) and one zero, the forward speed (conserved to first order).
+TEST(ReducedLinearization, BicycleKeepsRollSteerAndTheForwardSpeed) {
+  const io::ModelFile f = io::load_model_file(test::kExamples + "/bicycle_upright.yaml");
+  const Linearization lin = linearize(f.model, f.q, f.z, VectorX());
+  const ReducedLinearization red = reduce(f.model, lin);
+  EXPECT_TRUE(red.steady);
+  std::vector<std::string> names;
+  for (const DroppedCoordinate& d : red.dropped) names.push_back(d.name + " " + d.kind);
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"rear_frame.s1 coordinate", "rear_frame.s2 coordinate",
+                                      "rear_wheel.j1 coordinate", "front_wheel.j1 coordinate",
+                                      "rear_frame.r3 heading"}));
+  EXPECT_EQ(red.state, (std::vector<std::string>{"rear_frame.r1", "front_frame.j1", "rear_frame.w1",
+                                                 "rear_wheel.jd1", "front_frame.jd1"}));
+  std::ifstream in(KANEDYN_SOURCE_DIR "/tests/data/meijaard2007.json");
+  const nlohmann::json paper = nlohmann::json::parse(in);
+  std::vector<std::complex<double>> ours(red.eigenvalues.data(),
+                                         red.eigenvalues.data() + red.eigenvalues.size());
+  int matched = 0;
+  for (const auto& entry : paper["eigenvalues_published"]) {
+    if (entry["v"].get<double>() != 5.0) continue;
+    for (const auto& pair : entry["eigenvalues"]) {
+      const std::complex<double> expected(pair[0].get<double>(), pair[1].get<double>());
+      const auto nearest = std::min_element(ours.begin(), ours.end(), [&](auto a, auto b) {
+        return std::abs(a - expected) < std::abs(b - expected);
+      });
+      EXPECT_LE(std::abs(*nearest - expected), 1e-12 * std::max(1.0, std::abs(expected)))
+          << expected << " against " << *nearest;
+      ours.erase(nearest);
+      ++matched;
+    }
+  }
+  EXPECT_EQ(matched, 4);
+  ASSERT_EQ(ours.size(), 1u);
+  EXPECT_LE(std::abs(ours[0]), 1e-12);
 }
 
 // ---- 4. The JSON of `linearize --reduce` ------------------------------------------------------
