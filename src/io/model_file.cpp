@@ -553,6 +553,7 @@ class Reader {
       const Node value = f.node.value(i);
       params_.push_back({name, Field{value, KeyPath(path),
                                      value.IsNull() ? key.mark() : value.mark(), key.mark()}});
+      param_index_.emplace(name, i);  // the keys are unique: Mapping checked them
     }
     for (size_t i = 0; i < params_.size(); ++i) parameter(i);
     for (const ParameterEntry& p : params_) {
@@ -635,13 +636,13 @@ class Reader {
   /// A parameter's value for an expression: refused when unknown (with the closest name) or
   /// being evaluated (a cycle, named member by member).
   double lookup(std::string_view name, size_t at) const {
-    for (size_t j = 0; j < params_.size(); ++j) {
-      if (!same(params_[j].name, name)) continue;
+    if (const auto it = param_index_.find(name); it != param_index_.end()) {
+      const size_t j = it->second;
       if (params_[j].state == 1) {
         std::string cycle;
         const auto from = std::find(evaluating_.begin(), evaluating_.end(), j);
-        for (auto it = from; it != evaluating_.end(); ++it)
-          cycle += std::string(params_[*it].name) + " -> ";
+        for (auto k = from; k != evaluating_.end(); ++k)
+          cycle += std::string(params_[*k].name) + " -> ";
         throw detail::ExpressionError{
             at, "the parameters form a cycle: " + printable(cycle, 300) + std::string(name)};
       }
@@ -674,6 +675,7 @@ class Reader {
   }
 
   mutable std::vector<ParameterEntry> params_;
+  mutable std::unordered_map<std::string_view, size_t> param_index_;  // name -> params_
   mutable std::vector<size_t> evaluating_;  // the parameters being evaluated, innermost last
   mutable Parameters record_;
 

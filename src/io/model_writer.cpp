@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "kanedyn/analysis.hpp"
@@ -46,10 +48,12 @@ std::string axis_angle(const Vector4& eps) {
 /// number (docs/model-format.md, "Parameters").
 class Numbers {
  public:
-  explicit Numbers(const Parameters& source) : source_(source) {}
+  explicit Numbers(const Parameters& source) : source_(source) {
+    for (const Parameters::Number& n : source.numbers) by_path_.emplace(n.key_path, &n);
+  }
 
   std::string number(const std::string& path, double v) const {
-    const Parameters::Number* n = source_.numbers.empty() ? nullptr : source_.find(path);
+    const Parameters::Number* n = find(path);
     return n && !n->text.empty() && same(n->value, v) ? expression(n->text) : yaml_float(v);
   }
 
@@ -70,7 +74,7 @@ class Numbers {
     std::string out = "[";
     bool any = false;
     for (int i = 0; i < 3; ++i) {
-      const Parameters::Number* n = source_.find(element(path, i));
+      const Parameters::Number* n = find(element(path, i));
       if (!n) return vector(path, v);
       raw[i] = n->value;
       any = any || !n->text.empty();
@@ -83,6 +87,11 @@ class Numbers {
   }
 
  private:
+  /// The file's number at `path`, or nullptr (a hash map: a file may hold 100,000 bodies).
+  const Parameters::Number* find(const std::string& path) const {
+    const auto it = by_path_.find(path);
+    return it == by_path_.end() ? nullptr : it->second;
+  }
   static bool same(double a, double b) { return a == b && std::signbit(a) == std::signbit(b); }
   // Single-quoted: an expression holds no quote, and a plain `*a` would read as an alias.
   static std::string expression(const std::string& text) { return "'= " + text + "'"; }
@@ -90,6 +99,7 @@ class Numbers {
     return path + "[" + std::to_string(i) + "]";
   }
   const Parameters& source_;
+  std::unordered_map<std::string_view, const Parameters::Number*> by_path_;
 };
 
 bool is_identity(const Vector4& e) {
