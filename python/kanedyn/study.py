@@ -5,6 +5,7 @@ random draws, the results gathered into one table.
     study = kanedyn.Study("examples/studies/eight_body_stiffness.yaml")
     table = study.run(out="stiffness")               # this machine's cores
     table = study.run(out="stiffness", client=dask_client)   # a dask.distributed cluster
+    kanedyn.Study("s.yaml", function=f, outputs=["a"])        # f(model, run) -> {"a": 1.0}
 
 Either way the folder `out` is written by the caller, by the rules `kanedyn sweep` follows, and
 results.csv is the same file, byte for byte but for the wall_s column.
@@ -13,6 +14,7 @@ results.csv is the same file, byte for byte but for the wall_s column.
 from __future__ import annotations
 
 import csv
+import inspect
 import io
 import json
 import math
@@ -20,7 +22,7 @@ import operator
 import os
 import sys
 import time
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -28,24 +30,87 @@ from ._kanedyn import _read_table_text, _Study, _StudyFolder
 
 __all__ = ["Study", "read_results"]
 
-# What a worker is sent: the study's text, its name in messages, and the model file's text, so
-# that it reads no file (it may be another machine).
-_Payload = Tuple[str, str, str]
+# What a worker is sent: the study's text, its name in messages, the model file's text (so
+# that it reads no file: it may be another machine), and the names of the function's outputs.
+_Payload = Tuple[str, str, str, Tuple[str, ...]]
 
 # Each worker process parses a study once and keeps it for the chunks that follow.
 _worker_studies: Dict[_Payload, _Study] = {}
 
 
-def _run_chunk(payload: _Payload, runs: Sequence[int]) -> List[Tuple[int, str, Optional[str], str]]:
+class _Caller:
+    """The study's function as the runs call it: with the run's kanedyn.Model (and the run's
+    index, when the function takes two arguments), its dict checked against the outputs'
+    names. Gives the values in the names' order, or, when the function raises an Exception
+    or gives something else than those names' numbers, the message that is the run's status.
+    Pickled to dask's workers with the function."""
+
+    def __init__(self, function: Callable[..., Mapping[str, float]], names: Sequence[str], with_run: bool):
+        self.function = function
+        self.names = tuple(names)
+        self.with_run = with_run
+
+    def __call__(self, model: Any, run: int) -> Union[List[float], str]:
+        try:
+            result = self.function(model, run) if self.with_run else self.function(model)
+        except Exception as e:  # noqa: BLE001 (an exception of the function fails its run)
+            return _message(e)
+        if not isinstance(result, Mapping):
+            return f"gave {type(result).__name__}, not a dict of its outputs ({', '.join(self.names)})"
+        if set(result) != set(self.names):
+            missing = [n for n in self.names if n not in result]
+            extra = sorted(repr(k) for k in result if k not in self.names)
+            what = []
+            if missing:
+                what.append("no " + ", ".join(repr(n) for n in missing))
+            if extra:
+                what.append("unknown " + ", ".join(extra))
+            return f"gave {' and '.join(what)}; its outputs are {', '.join(self.names)}"
+        values = []
+        for name in self.names:
+            v = result[name]
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+                return f"gave {type(v).__name__} for {name!r}, not a number"
+            values.append(float(v))
+        return values
+
+
+def _message(e: BaseException) -> str:
+    """An exception as a run's status shows it: its type and message on one line."""
+    text = " ".join(str(e).split())
+    return f"{type(e).__name__}: {text}" if text else type(e).__name__
+
+
+def _takes_run(function: Callable[..., Any]) -> bool:
+    """Whether the function takes the run's index after the model: whether two positional
+    arguments bind to it (else it must take one)."""
+    try:
+        signature = inspect.signature(function)
+    except (TypeError, ValueError):  # a builtin without a signature: given both
+        return True
+    for count in (2, 1):
+        try:
+            signature.bind(*range(count))
+            return count == 2
+        except TypeError:
+            continue
+    raise TypeError("function must take the run's model, or the model and the run's index")
+
+
+def _run_chunk(
+    payload: _Payload, runs: Sequence[int], caller: Optional[_Caller] = None
+) -> List[Tuple[int, str, Optional[str], str]]:
     """Runs a chunk of runs on a worker: (run, row, trajectory or None, status) for each."""
     study = _worker_studies.get(payload)
     if study is None:
-        text, name, model_text = payload
+        text, name, model_text, names = payload
         study = _Study.parse(text, name, "", model_text)
+        if names:
+            study.set_function_outputs(list(names))
         if len(_worker_studies) > 8:
             _worker_studies.clear()
         _worker_studies[payload] = study
-    return study.run_chunk(list(runs))
+    return study.run_chunk(list(runs), caller)
 
 
 def _integer(value: Any, name: str, lo: int, hi: int) -> int:
@@ -138,9 +203,29 @@ def read_results(path: Union[str, bytes, os.PathLike]) -> Any:
 class Study:
     """A study file (YAML or JSON, docs/studies.md) or a dict of the same structure, checked
     at once: a refusal raises kanedyn.ModelError with the tool's one-line message. A dict's
-    `model` is relative to the current folder, a file's to the file's folder."""
+    `model` is relative to the current folder, a file's to the file's folder.
 
-    def __init__(self, source: Union[str, bytes, os.PathLike, Mapping[str, Any]]):
+    With `function`, each run also calls function(model, run) (or function(model)) with the
+    run's kanedyn.Model (the model file with the run's numbers) and its index; it returns a
+    dict of the numbers named by `outputs`, which become columns after the file's outputs. An
+    exception it raises fails that run (its status "function: TYPE: message") and the study
+    goes on. A run simulates only when the file's outputs read a trajectory."""
+
+    def __init__(
+        self,
+        source: Union[str, bytes, os.PathLike, Mapping[str, Any]],
+        function: Optional[Callable[..., Mapping[str, float]]] = None,
+        outputs: Optional[Sequence[str]] = None,
+    ):
+        self._caller: Optional[_Caller] = None
+        if function is not None or outputs is not None:
+            if function is None or not callable(function):
+                raise TypeError("function must be a callable(model, run) returning a dict of its outputs")
+            if outputs is None or isinstance(outputs, (str, bytes)) or not all(isinstance(n, str) for n in outputs):
+                raise TypeError("outputs must be a list of the function's output names (str)")
+            if not outputs:
+                raise ValueError("outputs must name at least one output of the function")
+            self._caller = _Caller(function, list(outputs), _takes_run(function))
         if isinstance(source, Mapping):
             # The model's path, as every path the module takes: a NUL byte would end it there
             # and read another file.
@@ -153,6 +238,8 @@ class Study:
             self._core = _Study.load(source)
         else:
             raise TypeError(f"Study() takes a path or a dict, not {type(source).__name__}")
+        if self._caller is not None:
+            self._core.set_function_outputs(list(self._caller.names))
 
     @property
     def runs(self) -> int:
@@ -203,7 +290,7 @@ class Study:
 
     def _run_here(self, folder: _StudyFolder, threads: int, progress: bool) -> None:
         bar = _Bar(folder.total) if progress else None
-        _ran, stopped, interrupted = folder.sweep(threads, bar.update if bar else None)
+        _ran, stopped, interrupted = folder.sweep(threads, bar.update if bar else None, self._caller)
         if bar:
             bar.close()
         if stopped:
@@ -223,7 +310,7 @@ class Study:
             else:
                 in_flight = 4 * (sum(client.nthreads().values()) or 1)
             core = self._core
-            payload: _Payload = (core.text, core.path, core.model_text)
+            payload: _Payload = (core.text, core.path, core.model_text, tuple(core.function_outputs))
             cursor = first
 
             def next_chunk() -> List[int]:
@@ -244,7 +331,7 @@ class Study:
                 chunk = next_chunk()
                 if not chunk:
                     break
-                running.add(client.submit(_run_chunk, payload, chunk, pure=False))
+                running.add(client.submit(_run_chunk, payload, chunk, self._caller, pure=False))
             waiting = as_completed(list(running))
             bar = _Bar(folder.total) if progress else None
             pending: List[Tuple[int, str, Optional[str], str]] = []
@@ -256,7 +343,7 @@ class Study:
                     future.release()
                     chunk = next_chunk()
                     if chunk:
-                        submitted = client.submit(_run_chunk, payload, chunk, pure=False)
+                        submitted = client.submit(_run_chunk, payload, chunk, self._caller, pure=False)
                         running.add(submitted)
                         waiting.add(submitted)
                     if time.monotonic() - last >= 1.0:

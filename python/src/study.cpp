@@ -37,13 +37,42 @@ long run_number(const io::Study& study, py::handle obj) {
   return static_cast<long>(index_argument(obj, "run", 0, study.runs - 1));
 }
 
-std::vector<RunTuple> run_chunk(const io::Study& study, py::handle runs_obj) {
+/// The study's function (kanedyn.study._Caller: called with a kanedyn.Model and the run, it
+/// gives the outputs' values as a list of floats, or the message of the exception the user's
+/// function raised, as a str) for the library's runs, which call it from threads without the
+/// GIL. Nothing for None.
+io::StudyFunction study_function(py::handle caller_obj) {
+  if (caller_obj.is_none()) return {};
+  if (!PyCallable_Check(caller_obj.ptr())) throw py::type_error("function must be callable");
+  // Released with the GIL held, whichever thread drops the last copy.
+  const std::shared_ptr<py::object> caller(
+      new py::object(py::reinterpret_borrow<py::object>(caller_obj)), [](py::object* o) {
+        py::gil_scoped_acquire acquire;
+        delete o;
+      });
+  return [caller](io::ModelFile file, long run) -> std::vector<double> {
+    py::gil_scoped_acquire acquire;
+    try {
+      const py::object result = (*caller)(std::make_shared<PyModel>(std::move(file)), run);
+      if (py::isinstance<py::str>(result)) throw std::runtime_error(result.cast<std::string>());
+      return result.cast<std::vector<double>>();
+    } catch (py::error_already_set& e) {
+      // What the caller does not catch (a BaseException that is no Exception), as a message
+      // made while the GIL is held.
+      throw std::runtime_error(e.what());
+    }
+  };
+}
+
+std::vector<RunTuple> run_chunk(const io::Study& study, py::handle runs_obj,
+                                py::handle caller_obj) {
   std::vector<long> runs;
   for (py::handle r : runs_obj) runs.push_back(run_number(study, r));
+  const io::StudyFunction function = study_function(caller_obj);
   std::vector<io::StudyRun> done;
   {
     py::gil_scoped_release release;
-    for (const long r : runs) done.push_back(io::run_study_run(study, r));
+    for (const long r : runs) done.push_back(io::run_study_run(study, r, {}, function));
   }
   std::vector<RunTuple> out;
   for (io::StudyRun& r : done)
@@ -116,10 +145,26 @@ void register_study(py::module_& m) {
           [](const io::Study& s, py::handle run) { return s.parameters(run_number(s, run)); },
           py::arg("run"))
       .def(
-          "run_chunk", [](const StudyPtr& s, py::handle runs) { return run_chunk(*s, runs); },
-          py::arg("runs"),
-          "Runs these runs one after the other (without the GIL): a list of (run, row, "
-          "trajectory or None, status).");
+          "set_function_outputs",
+          [](io::Study& s, const std::vector<std::string>& names) {
+            try {
+              s.set_function_outputs(names);
+            } catch (const std::invalid_argument& e) {
+              throw py::value_error(e.what());
+            }
+          },
+          py::arg("names"),
+          "Names the outputs of the study's function: columns after the file's outputs.")
+      .def_property_readonly("function_outputs",
+                             [](const io::Study& s) { return s.function_outputs; })
+      .def(
+          "run_chunk",
+          [](const StudyPtr& s, py::handle runs, py::handle caller) {
+            return run_chunk(*s, runs, caller);
+          },
+          py::arg("runs"), py::arg("caller") = py::none(),
+          "Runs these runs one after the other (without the GIL but in the caller): a list of "
+          "(run, row, trajectory or None, status).");
 
   py::class_<PyFolder>(m, "_StudyFolder", "A study's output folder (docs/studies.md).")
       .def(py::init([](py::handle study_obj, py::handle dir_obj) {
@@ -163,8 +208,9 @@ void register_study(py::module_& m) {
       .def("write_results", [](const PyFolder& f) { f.folder->write_results(); })
       .def(
           "sweep",
-          [](PyFolder& f, py::handle threads_obj, py::object progress_obj) {
+          [](PyFolder& f, py::handle threads_obj, py::object progress_obj, py::handle caller_obj) {
             io::SweepOptions options;
+            options.function = study_function(caller_obj);
             options.threads =
                 static_cast<int>(integer_argument(threads_obj, "threads", 0, kMaxSweepThreads));
             if (!progress_obj.is_none() && !PyCallable_Check(progress_obj.ptr()))
@@ -194,7 +240,7 @@ void register_study(py::module_& m) {
             }
             return std::make_tuple(result.ran, result.stopped, interrupted);
           },
-          py::arg("threads"), py::arg("progress") = py::none(),
+          py::arg("threads"), py::arg("progress") = py::none(), py::arg("caller") = py::none(),
           "Runs the missing runs on threads (as `kanedyn sweep`): (runs done now, stopped, "
           "stopped by Ctrl-C).");
 }
