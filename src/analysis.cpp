@@ -23,6 +23,7 @@
 #include "kanedyn/rotation.hpp"
 #include "kanedyn/terms.hpp"
 
+#include "constraint_rows.hpp"
 #include "dual.hpp"
 #include "equations.hpp"
 #include "generic_dynamics.hpp"
@@ -235,9 +236,9 @@ void add_load(const Model& model, std::vector<Body<S>>& bodies,
   b.load_moment = b.load_moment + eq::cross(arm, f_b) + R * m;
 }
 
-// The constraints' rows at the motion (docs/theory.md, "Constraints"; the double version is
-// src/constraints.cpp), and with tables.reactions the loads of the multipliers tables.lambda
-// on the bodies.
+// The constraints' rows at the motion (detail::constraint_rows, src/constraint_rows.hpp: the
+// velocity, acceleration and position residuals), and with tables.reactions the loads of the
+// multipliers tables.lambda on the bodies.
 template <typename S>
 __attribute__((noinline)) void constraint_terms(const Model& model, const Tables& tables,
                                                 std::vector<Body<S>>& bodies,
@@ -249,94 +250,43 @@ __attribute__((noinline)) void constraint_terms(const Model& model, const Tables
   S* acc = vel + rows;
   S* err = acc + rows;
   const std::vector<Motion<S>>& motion = work.motion;
+  const auto end = [&](int k, const Vector3& offset) {
+    detail::ConstraintEnd<S> e;
+    e.point = point_motion(motion, k, offset);
+    if (k == kGround) {
+      const S one = zero + 1.0;
+      e.R = {{one, zero, zero, zero, one, zero, zero, zero, one}};
+      e.w = e.alpha = none;
+    } else {
+      e.R = motion[at(k)].R;
+      e.w = motion[at(k)].w;
+      e.alpha = motion[at(k)].alpha;
+    }
+    return e;
+  };
+  detail::ConstraintRows<S> out;
   int row = 0;
   for (size_t i = 0; i < model.constraints().size(); ++i) {
     const Constraint& c = model.constraints()[i];
-    const auto& dirs = tables.constraint_directions[i];
-    const double* lambda = tables.reactions ? tables.lambda.data() + row : nullptr;
-    switch (c.type) {
-      case ConstraintType::ball:
-      case ConstraintType::hinge:
-      case ConstraintType::distance: {
-        const PointMotion<S> p1 = point_motion(motion, c.body, c.at);
-        const PointMotion<S> p2 = point_motion(motion, c.other, c.other_at);
-        const V3<S> d = p1.p - p2.p, vrel = p1.v - p2.v, arel = p1.a - p2.a;
-        V3<S> f = none, m = none;
-        if (c.type == ConstraintType::distance) {
-          const S length = norm_of(d);
-          const V3<S> e = (1.0 / length) * d;
-          const S along = eq::dot(e, vrel);
-          vel[row] = along;
-          acc[row] = (eq::dot(vrel, vrel) - along * along) / length + eq::dot(e, arel);
-          err[row] = length - c.length;
-          if (lambda) f = lambda[0] * e;
-        } else {
-          const S v3[3] = {vrel.x, vrel.y, vrel.z}, a3[3] = {arel.x, arel.y, arel.z},
-                  d3[3] = {d.x, d.y, d.z};
-          for (int r = 0; r < 3; ++r) {
-            vel[row + r] = v3[r];
-            acc[row + r] = a3[r];
-            err[row + r] = d3[r];
-          }
-          if (lambda) f = constant<S>(Vector3(lambda[0], lambda[1], lambda[2]));
-        }
-        if (c.type == ConstraintType::hinge) {
-          const Motion<S>& mb = motion[at(c.body)];
-          const V3<S> axis = eq::transpose_times(mb.R, constant<S>(c.axis));
-          const V3<S> w_other = c.other == kGround ? none : motion[at(c.other)].w;
-          const V3<S> alpha_other = c.other == kGround ? none : motion[at(c.other)].alpha;
-          const V3<S> wrel = mb.w - w_other, alpha_rel = mb.alpha - alpha_other;
-          const V3<S> axis_rate = eq::cross(mb.w, axis);
-          for (int k = 0; k < 2; ++k) {
-            const V3<S> e = c.other == kGround ? constant<S>(dirs[at(k)])
-                                               : eq::transpose_times(motion[at(c.other)].R,
-                                                                     constant<S>(dirs[at(k)]));
-            const V3<S> arm = eq::cross(axis, e);
-            const V3<S> e_rate = eq::cross(w_other, e);
-            vel[row + 3 + k] = eq::dot(wrel, arm);
-            acc[row + 3 + k] = eq::dot(alpha_rel, arm) +
-                               eq::dot(wrel, eq::cross(axis_rate, e) + eq::cross(axis, e_rate));
-            err[row + 3 + k] = eq::dot(axis, e);
-            if (lambda) m = m + lambda[3 + k] * arm;
-          }
-        }
-        if (lambda) {
-          add_load(model, bodies, motion, c.body, p1.r, f, m);
-          add_load(model, bodies, motion, c.other, p2.r, -f, -m);
-        }
-        break;
-      }
-      case ConstraintType::rolling_disc: {
-        const Motion<S>& mb = motion[at(c.body)];
-        const V3<S> a = eq::transpose_times(mb.R, constant<S>(c.axis));
-        const V3<S> n = constant<S>(c.plane_normal);
-        const V3<S> u = eq::cross(a, n);
-        const S s = norm_of(u);
-        const S an = eq::dot(a, n);
-        const V3<S> d = (1.0 / s) * (an * a - n);
-        const PointMotion<S> centre = point_motion(motion, c.body, c.at);
-        const V3<S> rd = c.radius * d;
-        const V3<S> r_contact = centre.r + rd;
-        const V3<S> P = centre.p + rd;
-        const V3<S> v = centre.v + eq::cross(mb.w, rd);
-        const V3<S> a_rate = eq::cross(mb.w, a);
-        const V3<S> u_rate = eq::cross(a_rate, n);
-        const V3<S> d_rate =
-            (1.0 / s) * (an * a_rate + eq::dot(a_rate, n) * a) - (eq::dot(u, u_rate) / (s * s)) * d;
-        const V3<S> acc_p = centre.a + eq::cross(mb.alpha, rd) + eq::cross(mb.w, c.radius * d_rate);
-        const Vector3 basis[3] = {c.plane_normal, dirs[0], dirs[1]};
-        for (int r = 0; r < 3; ++r) {
-          const V3<S> e = constant<S>(basis[r]);
-          vel[row + r] = eq::dot(e, v);
-          acc[row + r] = eq::dot(e, acc_p);
-          err[row + r] = r == 0 ? eq::dot(e, P) - c.plane_offset : zero;
-        }
-        if (lambda) {
-          const Vector3 f = basis[0] * lambda[0] + basis[1] * lambda[1] + basis[2] * lambda[2];
-          add_load(model, bodies, motion, c.body, r_contact, constant<S>(f), none);
-        }
-        break;
-      }
+    const bool two_points = c.type != ConstraintType::rolling_disc;
+    const detail::ConstraintEnd<S> a = end(c.body, c.at);
+    const detail::ConstraintEnd<S> b =
+        two_points ? end(c.other, c.other_at) : end(kGround, Vector3::Zero());
+    detail::constraint_rows(c, tables.constraint_directions[i], a, b, out);
+    const int count = out.linear_count + out.angular_count;
+    for (int r = 0; r < count; ++r) {
+      vel[row + r] = out.velocity(r);
+      acc[row + r] = out.acc[at(r)];
+      err[row + r] = out.err[at(r)];
+    }
+    if (tables.reactions) {
+      const double* lambda = tables.lambda.data() + row;
+      V3<S> f = none, m = none;
+      for (int r = 0; r < out.linear_count; ++r) f = f + lambda[r] * out.linear[at(r)];
+      for (int k = 0; k < out.angular_count; ++k)
+        m = m + lambda[out.linear_count + k] * out.angular[at(k)];
+      add_load(model, bodies, motion, c.body, out.r, f, m);
+      if (two_points) add_load(model, bodies, motion, c.other, b.point.r, -f, -m);
     }
     row += equation_count(c.type);
   }

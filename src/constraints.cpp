@@ -17,6 +17,7 @@
 #include "kanedyn/kinematics.hpp"
 #include "kanedyn/terms.hpp"
 
+#include "constraint_rows.hpp"
 #include "joint_dynamics.hpp"
 
 namespace kanedyn {
@@ -121,6 +122,17 @@ struct ConstraintEquations::Impl {
 
   const Matrix3& rotation(int k) const { return tree->body_rotation(k); }
 
+  // The end of a constraint at body k (or the ground) for detail::constraint_rows: its point's
+  // motion m at z dot = 0, and the body's rotation and rates.
+  detail::ConstraintEnd<double> end(int k, const PointMotion& m) const {
+    detail::ConstraintEnd<double> e;
+    e.point = {eq::vec(m.r), eq::vec(m.p), eq::vec(m.v), eq::vec(m.a0)};
+    e.R = eq::mat(k == kGround ? Matrix3::Identity() : rotation(k));
+    e.w = eq::vec(m.w);
+    e.alpha = eq::vec(m.alpha0);
+    return e;
+  }
+
   // The rows at the tree's last evaluation.
   void compute_rows();
 };
@@ -132,107 +144,35 @@ void ConstraintEquations::Impl::compute_rows() {
   errors.setZero();
   for (auto& m : hinge_moment) m = {Vector3::Zero(), Vector3::Zero()};
   Directions directions;
+  detail::ConstraintRows<double> out;
   for (size_t i = 0; i < model.constraints().size(); ++i) {
     const Constraint& c = model.constraints()[i];
     const int row = first[i];
-    const auto where = [&c] { return "constraint '" + c.name + "'"; };
-    switch (c.type) {
-      case ConstraintType::ball:
-      case ConstraintType::hinge:
-      case ConstraintType::distance: {
-        const PointMotion p1 = point_motion(c.body, c.at);
-        const PointMotion p2 = point_motion(c.other, c.other_at);
-        points[i] = p1.p;
-        const Vector3 d = p1.p - p2.p, vrel = p1.v - p2.v, arel = p1.a0 - p2.a0;
-        directions.angular_count = 0;
-        if (c.type == ConstraintType::distance) {
-          double length = d.norm();
-          if (!std::isfinite(length)) length = d.stableNorm();  // past 1e154 the squares overflow
-          if (!(length > 1e-12 * std::max(1.0, c.length))) {
-            std::ostringstream m;
-            m.precision(3);
-            m << where() << ": its two points are " << length << " apart";
-            if (length == 0.0)
-              m << " (they coincide)";
-            else
-              m << ", too close beside its length " << c.length;
-            m << ", so the direction between them is undefined";
-            throw ConstraintError(m.str());
-          }
-          const Vector3 e = d / length;
-          directions.linear[0] = e;
-          directions.linear_count = 1;
-          const double along = e.dot(vrel);
-          b[row] = (vrel.squaredNorm() - along * along) / length + e.dot(arel);
-          errors[row] = length - c.length;
-          bases[i].col(0) = e;
-        } else {
-          directions.linear = {Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ()};
-          directions.linear_count = 3;
-          b.segment<3>(row) = arel;
-          errors.segment<3>(row) = d;
-          bases[i].setIdentity();
-        }
-        if (c.type == ConstraintType::hinge) {
-          const Vector3 axis = rotation(c.body).transpose() * c.axis;
-          Vector3 e1 = perpendiculars[i].p1, e2 = perpendiculars[i].p2;
-          if (c.other != kGround) {
-            e1 = rotation(c.other).transpose() * e1;
-            e2 = rotation(c.other).transpose() * e2;
-          }
-          const Vector3 wrel = p1.w - p2.w, alpha_rel = p1.alpha0 - p2.alpha0;
-          const Vector3 axis_rate = p1.w.cross(axis);
-          int k = 0;
-          for (const Vector3& e : {e1, e2}) {
-            const Vector3 m = axis.cross(e);
-            const Vector3 e_rate = p2.w.cross(e);
-            directions.angular[at(k)] = m;
-            b[row + 3 + k] = alpha_rel.dot(m) + wrel.dot(axis_rate.cross(e) + axis.cross(e_rate));
-            errors[row + 3 + k] = axis.dot(e);
-            hinge_moment[i][at(k)] = m;
-            ++k;
-          }
-          directions.angular_count = 2;
-        }
-        add_rows(c.body, p1, p1.p, 1.0, directions, row);
-        add_rows(c.other, p2, p2.p, -1.0, directions, row);
-        break;
-      }
-      case ConstraintType::rolling_disc: {
-        const Vector3 a = rotation(c.body).transpose() * c.axis;
-        const Vector3& normal = c.plane_normal;
-        const Vector3 u = a.cross(normal);
-        const double s = u.norm();
-        if (!(s > 1e-9))
-          throw ConstraintError(where() +
-                                ": the disc's axle is along the plane's normal, so its "
-                                "contact point is undefined");
-        const double an = a.dot(normal);
-        const Vector3 d = (a * an - normal) / s;  // from the centre to the contact, unit
-        const PointMotion centre = point_motion(c.body, c.at);
-        const Vector3 P = centre.p + c.radius * d;
-        points[i] = P;
-        // d moves over the disc: d dot from a dot = w x a (not w x d).
-        const Vector3 a_rate = centre.w.cross(a);
-        const Vector3 u_rate = a_rate.cross(normal);
-        const Vector3 d_rate =
-            (a_rate * an + a * a_rate.dot(normal)) / s - d * (u.dot(u_rate) / (s * s));
-        // d/dt of the disc point's velocity at the moving contact: a_C + alpha x (r d) +
-        // w x (r d dot).
-        const Vector3 acc =
-            centre.a0 + centre.alpha0.cross(c.radius * d) + centre.w.cross(c.radius * d_rate);
-        directions.linear = {normal, perpendiculars[i].p1, perpendiculars[i].p2};
-        directions.linear_count = 3;
-        directions.angular_count = 0;
-        add_rows(c.body, centre, P, 1.0, directions, row);
-        for (int r = 0; r < 3; ++r) b[row + r] = directions.linear[at(r)].dot(acc);
-        errors[row] = normal.dot(P) - c.plane_offset;
-        bases[i].col(0) = normal;
-        bases[i].col(1) = perpendiculars[i].p1;
-        bases[i].col(2) = perpendiculars[i].p2;
-        break;
-      }
+    const bool two_points = c.type != ConstraintType::rolling_disc;
+    const PointMotion p1 = point_motion(c.body, c.at);
+    const PointMotion p2 = two_points ? point_motion(c.other, c.other_at) : PointMotion{};
+    // The rows, written once for every scalar (src/constraint_rows.hpp), at z dot = 0: their
+    // accelerations are {b}.
+    detail::constraint_rows(c, {perpendiculars[i].p1, perpendiculars[i].p2}, end(c.body, p1),
+                            end(two_points ? c.other : kGround, p2), out);
+    const int count = out.linear_count + out.angular_count;
+    for (int r = 0; r < count; ++r) {
+      b[row + r] = out.acc[at(r)];
+      errors[row + r] = out.err[at(r)];
     }
+    directions.linear_count = out.linear_count;
+    directions.angular_count = out.angular_count;
+    for (int r = 0; r < out.linear_count; ++r) {
+      directions.linear[at(r)] = eq::eigen(out.linear[at(r)]);
+      bases[i].col(r) = directions.linear[at(r)];
+    }
+    for (int k = 0; k < out.angular_count; ++k) {
+      directions.angular[at(k)] = eq::eigen(out.angular[at(k)]);
+      hinge_moment[i][at(k)] = directions.angular[at(k)];
+    }
+    points[i] = eq::eigen(out.point);
+    add_rows(c.body, p1, points[i], 1.0, directions, row);
+    if (two_points) add_rows(c.other, p2, p2.p, -1.0, directions, row);
   }
 }
 
