@@ -26,15 +26,16 @@ namespace kanedyn::detail {
 /// ball: a spherical joint's [S] = ([R_K]^T; 0).
 enum class Subspace { none, angular, ball, linear, general, free };
 
-/// A row's motion at (q, z): K relative to F; w_rel = [G_K] z_K (body-K components); for a row
-/// whose first column of [G_K] turns with q (JointTypeInfo::turning_axis), that column and
-/// [G_K dot] z_K.
+/// Body K's joint at (q, z) over S: K relative to J (the frame F composed; a free body's own
+/// eps_K is in q, not here), w_rel = [G_K] z_K (body-K components), s'_K and s'_K dot (body-J
+/// components), and for a row whose first column of [G_K] turns with q
+/// (JointTypeInfo::turning_axis) that column g0 and [G_K dot] z_K (not written otherwise). A
+/// row's motion<S>() writes rel (K relative to F) and w_rel when it turns, and g0 and g_dot_z
+/// when its axis turns; joint_terms() the rest.
 template <typename S>
-struct RowMotion {
+struct JointTerms {
   eq::Euler<S> rel;
-  eq::Vec3<S> w_rel;
-  eq::Vec3<S> g0;
-  eq::Vec3<S> g_dot_z;
+  eq::Vec3<S> w_rel, g0, g_dot_z, slide, slide_rate;
 };
 
 // s v for a constant v: one multiply per entry (a dual number times a double).
@@ -86,7 +87,7 @@ struct JointRow<JointType::free> {  // the notes' own body
   static void rotation_columns(const Joint&, Matrix36& G) { G.leftCols<3>().setIdentity(); }
   static void translation_columns(const Joint&, Matrix36& T) { T.rightCols<3>().setIdentity(); }
   template <typename S>
-  static void motion(const Joint&, const S*, const S* z, RowMotion<S>& m) {
+  static void motion(const Joint&, const S*, const S* z, JointTerms<S>& m) {
     m.w_rel = {z[0], z[1], z[2]};  // w'_K itself
   }
 };
@@ -100,7 +101,7 @@ struct JointRow<JointType::weld> {
   static void rotation_columns(const Joint&, Matrix36&) {}
   static void translation_columns(const Joint&, Matrix36&) {}
   template <typename S>
-  static void motion(const Joint&, const S*, const S*, RowMotion<S>&) {}
+  static void motion(const Joint&, const S*, const S*, JointTerms<S>&) {}
 };
 
 template <>
@@ -114,7 +115,7 @@ struct JointRow<JointType::revolute> {
   static void rotation_columns(const Joint& jt, Matrix36& G) { G.col(0) = jt.axis; }
   static void translation_columns(const Joint&, Matrix36&) {}
   template <typename S>
-  static void motion(const Joint& jt, const S* q, const S* z, RowMotion<S>& m) {
+  static void motion(const Joint& jt, const S* q, const S* z, JointTerms<S>& m) {
     m.rel = turn(jt.axis, q[0]);
     m.w_rel = scaled(z[0], jt.axis);
   }
@@ -131,7 +132,7 @@ struct JointRow<JointType::prismatic> {
   static void rotation_columns(const Joint&, Matrix36&) {}
   static void translation_columns(const Joint& jt, Matrix36& T) { T.col(0) = jt.axis; }
   template <typename S>
-  static void motion(const Joint&, const S*, const S*, RowMotion<S>&) {}
+  static void motion(const Joint&, const S*, const S*, JointTerms<S>&) {}
 };
 
 template <>
@@ -144,7 +145,7 @@ struct JointRow<JointType::cylindrical> {
   static void rotation_columns(const Joint& jt, Matrix36& G) { G.col(0) = jt.axis; }
   static void translation_columns(const Joint& jt, Matrix36& T) { T.col(1) = jt.axis; }
   template <typename S>
-  static void motion(const Joint& jt, const S* q, const S* z, RowMotion<S>& m) {
+  static void motion(const Joint& jt, const S* q, const S* z, JointTerms<S>& m) {
     m.rel = turn(jt.axis, q[0]);
     m.w_rel = scaled(z[0], jt.axis);
   }
@@ -164,7 +165,7 @@ struct JointRow<JointType::universal> {
   // frame, is [R(a2, q2)] a1 in K components, and d/dt [R(a2, q2)] a1 = -(q2 dot a2) x
   // [R(a2, q2)] a1; a2 is fixed in K.
   template <typename S>
-  static void motion(const Joint& jt, const S* q, const S* z, RowMotion<S>& m) {
+  static void motion(const Joint& jt, const S* q, const S* z, JointTerms<S>& m) {
     const eq::Euler<S> second = turn(jt.axes[1], q[1]);
     const eq::Mat3<S> r2 = eq::rotation_matrix(second);
     const Vector3& a1 = jt.axes[0];
@@ -193,7 +194,7 @@ struct JointRow<JointType::spherical> {
   static void rotation_columns(const Joint&, Matrix36& G) { G.leftCols<3>().setIdentity(); }
   static void translation_columns(const Joint&, Matrix36&) {}
   template <typename S>
-  static void motion(const Joint&, const S* q, const S* z, RowMotion<S>& m) {
+  static void motion(const Joint&, const S* q, const S* z, JointTerms<S>& m) {
     m.rel = {{q[0], q[1], q[2], q[3]}};
     m.w_rel = {z[0], z[1], z[2]};  // the spec's joint_rate: K rel. J, body-K components
   }
@@ -215,7 +216,7 @@ struct JointRow<JointType::planar> {
     T.col(1) = Vector3::UnitY();
   }
   template <typename S>
-  static void motion(const Joint&, const S* q, const S* z, RowMotion<S>& m) {
+  static void motion(const Joint&, const S* q, const S* z, JointTerms<S>& m) {
     m.rel = turn(Vector3(Vector3::UnitZ()), q[2]);
     m.w_rel = {S{}, S{}, z[2]};
   }
@@ -234,7 +235,7 @@ struct JointRow<JointType::screw> {
   static void rotation_columns(const Joint& jt, Matrix36& G) { G.col(0) = jt.axis; }
   static void translation_columns(const Joint& jt, Matrix36& T) { T.col(0) = jt.pitch * jt.axis; }
   template <typename S>
-  static void motion(const Joint& jt, const S* q, const S* z, RowMotion<S>& m) {
+  static void motion(const Joint& jt, const S* q, const S* z, JointTerms<S>& m) {
     m.rel = turn(jt.axis, q[0]);
     m.w_rel = scaled(z[0], jt.axis);
   }
@@ -253,45 +254,44 @@ decltype(auto) visit_joint_row(JointType type, F&& f) {
   return f(JointRow<JointType::free>{});
 }
 
-/// Body K's joint at (q, z) over S, what every row shares added: K relative to J (the frame F
-/// composed; a free body's own eps_K is in q, not here), w_rel, [G_K]'s turning first column
-/// and [G_K dot] z_K, s'_K and s'_K dot (body-J components). slides_j: the sliding columns of
-/// [T_K] taken to J (Model::slide_axes_in_j).
-template <typename S>
-struct JointTerms {
-  eq::Euler<S> rel;
-  eq::Vec3<S> w_rel, g0, g_dot_z, slide, slide_rate;
-};
-
+/// Body K's joint at (q, z) over S, what every row shares added: the frame F, the slides
+/// s'_K = [T_K] q and their rates (slides_j: the sliding columns of [T_K] taken to J,
+/// Model::slide_axes_in_j), the turn and rates of a row that has none. Inlined by force: it
+/// runs once per body in the evaluation routes' outward pass and in every dual pass.
 template <typename S, typename Row>
-inline void row_terms(Row, const Joint& jt, const Matrix3& slides_j, const S* q, const S* z,
-                      JointTerms<S>& m) {
-  RowMotion<S> rm{no_turn<S>(), zero_vec<S>(), zero_vec<S>(), zero_vec<S>()};
-  Row::template motion<S>(jt, q, z, rm);
-  m.w_rel = rm.w_rel;
-  m.g0 = rm.g0;
-  m.g_dot_z = rm.g_dot_z;
-  m.slide = zero_vec<S>();
-  m.slide_rate = zero_vec<S>();
-  if constexpr (Row::info.fixed_translation) {
-    m.slide = {S(jt.translation.x()), S(jt.translation.y()), S(jt.translation.z())};
+[[gnu::always_inline]] inline void row_terms(Row, const Joint& jt, const Matrix3& slides_j,
+                                             const S* q, const S* z, JointTerms<S>& m) {
+  if constexpr (!Row::info.turns) {
+    m.rel = no_turn<S>();
+    m.w_rel = zero_vec<S>();
   }
-  if constexpr (Row::info.absolute) {  // s'_K and its rate are in q and z themselves
+  Row::template motion<S>(jt, q, z, m);
+  if constexpr (Row::info.absolute) {  // the notes' own: s'_K and its rate in q and z
+    m.rel = no_turn<S>();
     m.slide = {q[4], q[5], q[6]};
     m.slide_rate = {z[3], z[4], z[5]};
-    m.rel = no_turn<S>();
     return;
   }
-  for (int c = 0; c < Row::slide_count; ++c) {
-    const Vector3 t = slides_j.col(c);
-    const int speed = Row::first_slide + c;
-    m.slide = m.slide + scaled(q[speed + Row::slide_coordinate_offset], t);
-    m.slide_rate = m.slide_rate + scaled(z[speed], t);
+  if constexpr (Row::info.fixed_translation) {
+    m.slide = {S(jt.translation.x()), S(jt.translation.y()), S(jt.translation.z())};
+    m.slide_rate = zero_vec<S>();
+  } else if constexpr (Row::slide_count == 0) {
+    m.slide = zero_vec<S>();
+    m.slide_rate = zero_vec<S>();
+  } else {
+    for (int c = 0; c < Row::slide_count; ++c) {
+      const Vector3 t = slides_j.col(c);
+      const int speed = Row::first_slide + c;
+      const eq::Vec3<S> s = scaled(q[speed + Row::slide_coordinate_offset], t);
+      const eq::Vec3<S> sd = scaled(z[speed], t);
+      m.slide = c == 0 ? s : m.slide + s;
+      m.slide_rate = c == 0 ? sd : m.slide_rate + sd;
+    }
   }
   const Vector4& f = jt.frame;
   // A product with the identity is exact: skipping it keeps the bits.
   const bool identity = f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0 && f[3] == 1.0;
-  m.rel = identity ? rm.rel : compose(eq::Euler<S>{{S(f[0]), S(f[1]), S(f[2]), S(f[3])}}, rm.rel);
+  if (!identity) m.rel = compose(eq::Euler<S>{{S(f[0]), S(f[1]), S(f[2]), S(f[3])}}, m.rel);
 }
 
 template <typename S>

@@ -124,8 +124,7 @@ inline void rotation_columns(Row, const Joint& jt, const double* q, Matrix36& G)
   Row::rotation_columns(jt, G);
   if constexpr (Row::info.turning_axis) {
     constexpr double zeros[6] = {};
-    RowMotion<double> m{no_turn<double>(), zero_vec<double>(), zero_vec<double>(),
-                        zero_vec<double>()};
+    JointTerms<double> m;
     Row::template motion<double>(jt, q, zeros, m);
     G.col(0) = eq::eigen(m.g0);
   }
@@ -155,7 +154,10 @@ void joint_motion(const Model& model, int k, const VectorX& q, const double* z_k
     m.w_rel = eq::eigen(t.w_rel);
     m.slide = eq::eigen(t.slide);
     m.slide_rate = eq::eigen(t.slide_rate);
-    m.g_dot_z = eq::eigen(t.g_dot_z);
+    if constexpr (Row::info.turning_axis)
+      m.g_dot_z = eq::eigen(t.g_dot_z);
+    else
+      m.g_dot_z.setZero();
   });
 }
 
