@@ -2,6 +2,7 @@
 #include "jointed.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <stdexcept>
@@ -155,46 +156,41 @@ std::unique_ptr<JointedCase> every_joint_type(unsigned seed) {
   return c;
 }
 
-std::unique_ptr<JointedCase> planar_joints(unsigned seed) {
+// Five bodies of random_tree_model on the given joints in random frames, each with a joint
+// spring and a constant joint force (and a screw's random pitch).
+static std::unique_ptr<JointedCase> five_joints(const std::string& name, unsigned seed,
+                                                unsigned stream,
+                                                const std::array<JointType, 5>& types) {
   const kanedyn::GeneratedSystem g = kanedyn::random_tree_model(5, seed);
-  std::mt19937 rng(seed + 23);
-  const JointType types[5] = {JointType::planar, JointType::revolute, JointType::planar,
-                              JointType::planar, JointType::prismatic};
+  std::mt19937 rng(seed + stream);
   std::vector<Joint> joints;
   std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads;
-  for (int k = 0; k < 5; ++k) {
+  for (size_t k = 0; k < types.size(); ++k) {
     Joint j = joint(types[k], random_unit(rng));
     j.frame = random_turn(rng, M_PI);
-    loads.push_back(load(k, kanedyn::coordinate_count(types[k]), uniform(rng, 5, 50),
-                         uniform(rng, 0.1, 1), uniform(rng, -0.3, 0.3), uniform(rng, -2, 2)));
+    // Lengths per radian, of the bodies' size.
+    if (types[k] == JointType::screw) j.pitch = uniform(rng, -0.2, 0.2);
+    loads.push_back(load(static_cast<int>(k), kanedyn::coordinate_count(types[k]),
+                         uniform(rng, 5, 50), uniform(rng, 0.1, 1), uniform(rng, -0.3, 0.3),
+                         uniform(rng, -2, 2)));
     joints.push_back(j);
   }
-  auto c = std::make_unique<JointedCase>(
-      "planar-joints", with_bushings_on(g.model, {}, "planar-joints"), joints, loads);
+  auto c = std::make_unique<JointedCase>(name, with_bushings_on(g.model, {}, name), joints, loads);
   size_state(*c);
   return c;
 }
 
+std::unique_ptr<JointedCase> planar_joints(unsigned seed) {
+  return five_joints("planar-joints", seed, 23,
+                     {JointType::planar, JointType::revolute, JointType::planar, JointType::planar,
+                      JointType::prismatic});
+}
+
 // Screw joints (a turn about the axis and pitch times it along it) among others.
 std::unique_ptr<JointedCase> screw_joints(unsigned seed) {
-  const kanedyn::GeneratedSystem g = kanedyn::random_tree_model(5, seed);
-  std::mt19937 rng(seed + 29);
-  const JointType types[5] = {JointType::screw, JointType::revolute, JointType::screw,
-                              JointType::screw, JointType::prismatic};
-  std::vector<Joint> joints;
-  std::vector<std::shared_ptr<const kanedyn::ForceElement>> loads;
-  for (int k = 0; k < 5; ++k) {
-    Joint j = joint(types[k], random_unit(rng));
-    j.frame = random_turn(rng, M_PI);
-    j.pitch = uniform(rng, -0.2, 0.2);  // lengths per radian, of the bodies' size
-    loads.push_back(load(k, kanedyn::coordinate_count(types[k]), uniform(rng, 5, 50),
-                         uniform(rng, 0.1, 1), uniform(rng, -0.3, 0.3), uniform(rng, -2, 2)));
-    joints.push_back(j);
-  }
-  auto c = std::make_unique<JointedCase>(
-      "screw-joints", with_bushings_on(g.model, {}, "screw-joints"), joints, loads);
-  size_state(*c);
-  return c;
+  return five_joints("screw-joints", seed, 29,
+                     {JointType::screw, JointType::revolute, JointType::screw, JointType::screw,
+                      JointType::prismatic});
 }
 
 void random_joint_state(JointedCase& c, std::mt19937& rng) {
