@@ -248,6 +248,9 @@ struct Quotient {
   /// L m: the quotient's coordinates of each column of m.
   MatrixX apply(const MatrixX& m) const {
     MatrixX out(static_cast<Eigen::Index>(kept.size()), m.cols());
+    // No columns (B of a model without inputs): a row of no storage would be an offset from a
+    // null pointer.
+    if (m.cols() == 0) return out;
     for (size_t i = 0; i < kept.size(); ++i) out.row(static_cast<Eigen::Index>(i)) = m.row(kept[i]);
     if (!pivots.empty()) {
       MatrixX mp(static_cast<Eigen::Index>(pivots.size()), m.cols());
@@ -306,7 +309,10 @@ Quotient quotient(const Model& model, const Linearization& lin) {
     const int r = static_cast<int>(out.kept.size());
     MatrixX GP(k, k), GR(r, k);
     for (int j = 0; j < k; ++j) GP.row(j) = G.row(out.pivots[at(j)]);
-    for (int i = 0; i < r; ++i) GR.row(i) = G.row(out.kept[at(i)]);
+    // With no directions G has no columns, and a row of no storage would be an offset from a
+    // null pointer.
+    if (k > 0)
+      for (int i = 0; i < r; ++i) GR.row(i) = G.row(out.kept[at(i)]);
     const Eigen::PartialPivLU<MatrixX> lu(GP);
     // The rates along the directions: the pivots' rows of the state's rate.
     VectorX rate_p(k);
